@@ -1,0 +1,33 @@
+# Two commands on a fresh machine (Python 3.11+ and pip): `make run` and `make test`.
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+SCENE ?= grid
+
+.PHONY: run test test-all lint bench install clean
+
+$(BIN)/oscillators: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	touch $@
+
+install: $(BIN)/oscillators
+
+run: install  ## install, then serve the web app on the default scene
+	$(BIN)/oscillators serve $(SCENE)
+
+test: install  ## install, then run the test suite (includes one real-browser test)
+	bash scripts/ensure-chromium.sh
+	$(BIN)/ruff check sim app tests benchmarks
+	$(BIN)/python -m pytest
+
+test-all: install  ## every test, slow ones included
+	bash scripts/ensure-chromium.sh
+	$(BIN)/python -m pytest -m ''
+
+bench: install
+	$(BIN)/oscillators bench
+
+clean:
+	rm -rf $(VENV) build *.egg-info

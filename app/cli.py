@@ -1,0 +1,248 @@
+"""The ``oscillators`` command: one entry point with subcommands.
+
+    oscillators scenes                      list the presets and their parameters
+    oscillators run SCENE --steps N         headless run with progress and an energy summary
+    oscillators bench                       kernel speed against plain numpy (interference scene)
+    oscillators serve [SCENE]               the web app (viser)
+    oscillators record SCENE                a rerun .rrd recording
+    oscillators accuracy / stability        the speed/accuracy study and stability map
+
+Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
+``--set nx=40 --set gravity=9.81 --set damping=0.5``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+EPILOG = """examples:
+  oscillators scenes
+  oscillators run chain --integrator verlet --dt 0.01 --steps 2000
+  oscillators run grid --set nx=40 --set ny=30 --duration 20
+  oscillators run catenary --duration 30            # watch it settle under gravity
+  oscillators serve grid                            # the web app on http://127.0.0.1:8080
+  oscillators bench --steps 200                     # steps per second of every integrator
+
+units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in N s/m.
+"""
+
+
+def parse_overrides(pairs: Sequence[str] | None) -> dict[str, Any]:
+    """``["nx=40", "gravity=9.81", "linear=true", "gravity=0,-9.81"]`` -> keyword arguments."""
+    overrides: dict[str, Any] = {}
+    for pair in pairs or []:
+        if "=" not in pair:
+            raise SystemExit(f"error: --set takes key=value, got {pair!r}")
+        key, text = (part.strip() for part in pair.split("=", 1))
+        overrides[key] = _parse_value(text)
+    return overrides
+
+
+def _parse_value(text: str) -> Any:
+    lowered = text.lower()
+    if lowered in ("true", "yes", "on"):
+        return True
+    if lowered in ("false", "no", "off"):
+        return False
+    if "," in text:
+        return tuple(float(part) for part in text.split(","))
+    try:
+        number = float(text)
+    except ValueError:
+        return text
+    return int(number) if number.is_integer() and "." not in text and "e" not in lowered else number
+
+
+def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | None = None) -> None:
+    """SCENE (preset name or .toml file), --integrator, --dt, --set key=value."""
+    if default_scene is None:
+        parser.add_argument("scene", help="preset name (see `oscillators scenes`) or a .toml file")
+    else:
+        parser.add_argument(
+            "scene", nargs="?", default=default_scene,
+            help=f"preset name or a .toml scene file (default: {default_scene})",
+        )
+    parser.add_argument(
+        "--integrator", choices=["euler", "heun", "verlet", "rk4"],
+        help="time integrator (default: the scene's)",
+    )
+    parser.add_argument("--dt", type=float, help="time step in seconds (default: the scene's)")
+    parser.add_argument(
+        "--set", dest="overrides", action="append", metavar="KEY=VALUE",
+        help="override a scene parameter: nx, ny, spacing, mass, stiffness, rest_length, damping, "
+        "drag, gravity (g or gx,gy[,gz]), linear, dim; repeatable",
+    )
+
+
+def scene_from_arguments(arguments: argparse.Namespace):
+    """Build the Scene named by the parsed arguments (preset + overrides, or a file)."""
+    from sim import scenes
+
+    overrides = parse_overrides(arguments.overrides)
+    if arguments.scene.endswith(".toml"):
+        scene = scenes.load(arguments.scene)
+        if overrides:
+            raise SystemExit("error: --set applies to presets; edit the .toml file instead")
+    else:
+        scene = scenes.build(arguments.scene, **overrides)
+    return scene
+
+
+def simulation_from_arguments(arguments: argparse.Namespace):
+    from sim import Simulation
+
+    scene = scene_from_arguments(arguments)
+    return Simulation(scene, integrator=arguments.integrator, dt=arguments.dt)
+
+
+# --- subcommands -----------------------------------------------------------------------------------
+
+
+def command_scenes(arguments: argparse.Namespace) -> int:
+    from sim import scenes
+
+    for name in scenes.names():
+        scene = scenes.build(name)
+        print(f"{name:13s} {scene.description}")
+        print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s")
+    print("\noverride any parameter with --set key=value; see `oscillators run --help`.")
+    return 0
+
+
+def command_run(arguments: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from sim import BlowUpError
+
+    simulation = simulation_from_arguments(arguments)
+    if arguments.duration is not None:
+        steps = int(round(arguments.duration / simulation.dt))
+    else:
+        steps = arguments.steps
+    limit = simulation.stability()
+    print(f"{simulation.scene.summary()}")
+    print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}")
+    start_energy = simulation.energy()
+    chunk = max(1, steps // 200)
+    started = time.perf_counter()
+    status = 0
+    with tqdm(total=steps, unit="step", disable=arguments.quiet, dynamic_ncols=True) as bar:
+        done = 0
+        try:
+            while done < steps:
+                n = min(chunk, steps - done)
+                simulation.step(n)
+                done += n
+                bar.update(n)
+        except BlowUpError as error:
+            bar.close()
+            print(f"\nstopped: {error}", file=sys.stderr)
+            status = 3
+    elapsed = time.perf_counter() - started
+    end_energy = simulation.energy()
+    summary = {
+        "scene": simulation.scene.name, "integrator": simulation.integrator, "dt": simulation.dt,
+        "steps": simulation.step_count, "time": simulation.time, "wall_seconds": elapsed,
+        "steps_per_second": simulation.step_count / elapsed if elapsed > 0 else None,
+        "energy_start": start_energy.as_dict(), "energy_end": end_energy.as_dict(),
+    }
+    if arguments.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(f"ran {simulation.step_count} steps to t = {simulation.time:.4g} s in {elapsed:.2f} s "
+              f"({summary['steps_per_second'] or 0:.0f} steps/s)")
+        print(f"{'energy (J)':12s} {'start':>12s} {'end':>12s}")
+        for key in ("kinetic", "spring", "gravity", "potential", "dissipated", "total"):
+            print(f"{key:12s} {start_energy[key]:12.6g} {end_energy[key]:12.6g}")
+        balance_error = end_energy.balance - start_energy.balance
+        print(f"energy balance drift (total + dissipated): {balance_error:.3g} J")
+    return status
+
+
+def command_bench(arguments: argparse.Namespace) -> int:
+    from app.bench import main as bench_main
+
+    return bench_main(arguments)
+
+
+# Subcommands implemented in other modules register themselves through `register(subparsers)`.
+_PLUGIN_MODULES = ("app.web.serve", "app.recording.cli", "app.study.cli")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="oscillators",
+        description="Coupled oscillators: watch waves emerge from a lattice of masses and springs.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    scenes_parser = subparsers.add_parser("scenes", help="list the preset scenes")
+    scenes_parser.set_defaults(handler=command_scenes)
+
+    run_parser = subparsers.add_parser(
+        "run", help="run a scene headless and print an energy summary",
+        description="Run a scene without a viewer; prints progress and the energy account.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_scene_arguments(run_parser)
+    length = run_parser.add_mutually_exclusive_group()
+    length.add_argument("--steps", type=int, default=1000, help="number of steps (default 1000)")
+    length.add_argument("--duration", type=float, help="simulated seconds instead of --steps")
+    run_parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    run_parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    run_parser.set_defaults(handler=command_run)
+
+    bench_parser = subparsers.add_parser(
+        "bench", help="steps per second of each integrator against plain numpy",
+        description="Benchmark the numba kernels against the same step in vectorised numpy, on "
+        "the interference scene (682x383) by default. Prints steps/s and the ratio.",
+    )
+    bench_parser.add_argument("--scene", default="interference")
+    bench_parser.add_argument("--seconds", type=float, default=2.0,
+                              help="time to spend on each measurement (default 2 s)")
+    bench_parser.add_argument("--set", dest="overrides", action="append", metavar="KEY=VALUE")
+    bench_parser.add_argument("--json", action="store_true")
+    bench_parser.set_defaults(handler=command_bench)
+
+    for module_name in _PLUGIN_MODULES:
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as error:
+            if error.name and module_name.startswith(error.name):
+                continue  # that part of the app is not installed yet
+            raise
+        module.register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    arguments = parser.parse_args(argv)
+    if not getattr(arguments, "handler", None):
+        parser.print_help()
+        return 0
+    from sim import ModelError, SceneError
+
+    try:
+        return int(arguments.handler(arguments) or 0)
+    except (ModelError, SceneError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    sys.exit(main())

@@ -1,0 +1,27 @@
+"""coupled-oscillators simulation core: a lattice of point masses joined by springs.
+
+The physics knows nothing of any viewer.  Main entry points::
+
+    import sim
+    sim.scenes.names()                      # the presets
+    scene = sim.scenes.build("grid", nx=20) # a preset with overrides
+    s = sim.Simulation(scene, integrator="rk4", dt=0.01)
+    s.step(100); s.energy(); s.strains(); s.stable_dt()
+
+Modules: ``model`` (immutable lattice description), ``state`` (positions, velocities, time),
+``kernels`` and ``stepping`` (numba code), ``integrators``, ``observables``, ``simulation``,
+``scenes`` (presets and files), ``runner`` (the loop that viewers and recorders subscribe to).
+"""
+
+from sim import scenes
+from sim.integrators import INTEGRATORS, ORDERS, IntegratorError
+from sim.model import Model, ModelError
+from sim.observables import Energy, StabilityLimit
+from sim.scenes import Scene, SceneError
+from sim.simulation import BlowUpError, Simulation
+from sim.state import State
+
+__all__ = [
+    "INTEGRATORS", "ORDERS", "BlowUpError", "Energy", "IntegratorError", "Model", "ModelError",
+    "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "scenes",
+]

@@ -1,0 +1,301 @@
+"""The immutable description of a lattice: sizes, masses, springs, damping, gravity, flags.
+
+A ``Model`` says *what* is simulated and never changes; changing a parameter mid-run builds a new
+model with ``Model.replace``.  Geometry conventions (used everywhere in the project):
+
+* ``nx`` columns by ``ny`` rows of particles, spacing ``spacing`` (m); particle ``p = j * nx + i``
+  for column ``i`` and row ``j``, the order of the ``(ny, nx)`` arrays;
+* the lattice is centred on the origin: particle (i, j) rests at
+  ``((i - (nx - 1) / 2) * spacing, (j - (ny - 1) / 2) * spacing, 0)``; row 0 is at the bottom and
+  "down" is -y;
+* every particle has a spring to each of its 4 nearest neighbours; a neighbour missing at the
+  boundary is a fixed wall anchor one spacing away (Dirichlet boundary), so a 1x1 lattice is a
+  single particle held by 4 springs;
+* springs are listed horizontal ones first, row by row (``ny * (nx + 1)``, spring ``i`` of a row
+  joins particle ``i - 1`` or the left anchor to particle ``i`` or the right anchor), then vertical
+  ones (``(ny + 1) * nx``, spring ``j`` of a column joins row ``j - 1`` or the bottom anchor to row
+  ``j`` or the top anchor).  ``Model.springs`` gives both ends as indices into
+  ``concatenate([particles, anchors])``; anchors are numbered left (ny), right (ny), bottom (nx),
+  top (nx).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+
+class ModelError(ValueError):
+    """An invalid lattice parameter (the message says which one and why)."""
+
+
+def _finite_positive(name: str, value: Any, allow_zero: bool = False) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ModelError(f"{name} must be finite, got {number}")
+    if number < 0 or (number == 0 and not allow_zero):
+        bound = "zero or positive" if allow_zero else "positive"
+        raise ModelError(f"{name} must be {bound}, got {number}")
+    return number
+
+
+def _whole_number(name: str, value: Any, smallest: int = 1) -> int:
+    if isinstance(value, bool) or not float(value).is_integer():
+        raise ModelError(f"{name} must be a whole number, got {value!r}")
+    number = int(value)
+    if number < smallest:
+        raise ModelError(f"{name} must be at least {smallest}, got {number}")
+    return number
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Model:
+    """Immutable lattice description.  Build with ``Model.create`` (validates), not the constructor.
+
+    Attributes (SI units in the presets):
+        nx, ny: particles per row and per column.
+        dim: 2 (motion in the plane) or 3 (also out of the plane, z).
+        spacing: lattice spacing a (m), also the distance to the wall anchors.
+        masses: (ny, nx) particle masses (kg), read-only.
+        stiffness: spring constant k (N/m) of every spring.
+        rest_length: spring rest length L (m); L < a pre-tensions the lattice with T = k (a - L).
+        damping: dashpot coefficient c (N s/m) beside every spring, on the along-spring velocity.
+        drag: drag coefficient (N s/m) on every particle's absolute velocity.
+        gravity: (3,) acceleration vector (m/s^2); the z component only acts when dim == 3.
+        linear: use the springs linearised about the rest lattice instead of the full law.
+    """
+
+    nx: int
+    ny: int
+    dim: int
+    spacing: float
+    masses: np.ndarray
+    stiffness: float
+    rest_length: float
+    damping: float
+    drag: float
+    gravity: tuple[float, float, float]
+    linear: bool
+
+    @classmethod
+    def create(
+        cls,
+        nx: int = 1,
+        ny: int = 1,
+        *,
+        dim: int = 2,
+        spacing: float = 1.0,
+        mass: float | np.ndarray = 1.0,
+        stiffness: float = 1.0,
+        rest_length: float | None = None,
+        damping: float = 0.0,
+        drag: float = 0.0,
+        gravity: float | tuple[float, ...] | np.ndarray = 0.0,
+        linear: bool = False,
+    ) -> Model:
+        """Validate the parameters and build a model.
+
+        ``mass`` is a scalar or an (ny, nx) array; ``rest_length`` defaults to ``spacing``
+        (unstressed); ``gravity`` is a vector of 2 or 3 components, or a scalar g meaning
+        (0, -g, 0) ("downwards").  Raises ``ModelError`` with a clear message on invalid values.
+        """
+        nx = _whole_number("nx", nx)
+        ny = _whole_number("ny", ny)
+        if dim not in (2, 3) or isinstance(dim, bool):
+            raise ModelError(f"dim must be 2 (in-plane motion) or 3 (also out of plane), got {dim!r}")
+        spacing = _finite_positive("spacing", spacing)
+        stiffness = _finite_positive("stiffness", stiffness)
+        rest_length = spacing if rest_length is None else _finite_positive("rest_length", rest_length)
+        damping = _finite_positive("damping", damping, allow_zero=True)
+        drag = _finite_positive("drag", drag, allow_zero=True)
+        masses = _mass_array(mass, nx, ny)
+        gravity_vector = _gravity_vector(gravity)
+        if not isinstance(linear, (bool, np.bool_)):
+            raise ModelError(f"linear must be true or false, got {linear!r}")
+        return cls(
+            nx=nx, ny=ny, dim=int(dim), spacing=spacing, masses=masses, stiffness=stiffness,
+            rest_length=rest_length, damping=damping, drag=drag, gravity=gravity_vector,
+            linear=bool(linear),
+        )
+
+    def replace(self, **changes: Any) -> Model:
+        """A new validated model with some parameters changed (``mass=`` replaces the masses)."""
+        parameters = self.parameters()
+        parameters["mass"] = self.masses
+        parameters.update(changes)
+        return Model.create(**parameters)
+
+    def parameters(self) -> dict[str, Any]:
+        """The scalar parameters as keyword arguments of ``create`` (masses excluded)."""
+        return dict(
+            nx=self.nx, ny=self.ny, dim=self.dim, spacing=self.spacing, stiffness=self.stiffness,
+            rest_length=self.rest_length, damping=self.damping, drag=self.drag,
+            gravity=self.gravity, linear=self.linear,
+        )
+
+    # --- derived quantities ---------------------------------------------------------------------
+
+    @property
+    def n_particles(self) -> int:
+        return self.nx * self.ny
+
+    @property
+    def n_springs(self) -> int:
+        return self.ny * (self.nx + 1) + (self.ny + 1) * self.nx
+
+    @property
+    def n_anchors(self) -> int:
+        return 2 * (self.nx + self.ny)
+
+    @property
+    def tension(self) -> float:
+        """Spring tension T = k (a - L) in the rest lattice (N); negative means compression."""
+        return self.stiffness * (self.spacing - self.rest_length)
+
+    @property
+    def tension_stiffness(self) -> float:
+        """Stiffness across a spring in the linearised model, T / a (N/m)."""
+        return self.tension / self.spacing
+
+    @property
+    def is_damped(self) -> bool:
+        return self.damping > 0 or self.drag > 0
+
+    @property
+    def has_gravity(self) -> bool:
+        return any(component != 0.0 for component in self.gravity[: self.dim])
+
+    @property
+    def uniform_mass(self) -> bool:
+        return bool(np.all(self.masses == self.masses.flat[0]))
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """Rest position (x, y) of particle (0, 0), the bottom-left one (m)."""
+        return (-(self.nx - 1) / 2 * self.spacing, -(self.ny - 1) / 2 * self.spacing)
+
+    @cached_property
+    def inverse_masses(self) -> np.ndarray:
+        """(ny, nx) array of 1 / m (1/kg), what the kernels use."""
+        inverse = 1.0 / self.masses
+        inverse.setflags(write=False)
+        return inverse
+
+    @cached_property
+    def rest_positions(self) -> np.ndarray:
+        """(n_particles, dim) rest positions (m), read-only."""
+        origin_x, origin_y = self.origin
+        columns, rows = np.meshgrid(np.arange(self.nx), np.arange(self.ny))
+        positions = np.zeros((self.n_particles, self.dim))
+        positions[:, 0] = origin_x + columns.ravel() * self.spacing
+        positions[:, 1] = origin_y + rows.ravel() * self.spacing
+        positions.setflags(write=False)
+        return positions
+
+    @cached_property
+    def anchor_positions(self) -> np.ndarray:
+        """(n_anchors, dim) wall anchor positions (m): left, right, bottom, top."""
+        origin_x, origin_y = self.origin
+        a = self.spacing
+        rows_y = origin_y + np.arange(self.ny) * a
+        columns_x = origin_x + np.arange(self.nx) * a
+        anchors = np.zeros((self.n_anchors, self.dim))
+        anchors[: self.ny, 0] = origin_x - a
+        anchors[: self.ny, 1] = rows_y
+        anchors[self.ny : 2 * self.ny, 0] = origin_x + self.nx * a
+        anchors[self.ny : 2 * self.ny, 1] = rows_y
+        bottom = slice(2 * self.ny, 2 * self.ny + self.nx)
+        top = slice(2 * self.ny + self.nx, 2 * self.ny + 2 * self.nx)
+        anchors[bottom, 0] = columns_x
+        anchors[bottom, 1] = origin_y - a
+        anchors[top, 0] = columns_x
+        anchors[top, 1] = origin_y + self.ny * a
+        anchors.setflags(write=False)
+        return anchors
+
+    @cached_property
+    def springs(self) -> np.ndarray:
+        """(n_springs, 2) end indices into concatenate([particles, anchors]), in strain order."""
+        nx, ny, n = self.nx, self.ny, self.n_particles
+        left_anchor = n + np.arange(ny)
+        right_anchor = n + ny + np.arange(ny)
+        bottom_anchor = n + 2 * ny + np.arange(nx)
+        top_anchor = n + 2 * ny + nx + np.arange(nx)
+        grid = np.arange(n).reshape(ny, nx)
+        left_end = np.concatenate([left_anchor[:, None], grid], axis=1)  # (ny, nx + 1)
+        right_end = np.concatenate([grid, right_anchor[:, None]], axis=1)
+        lower_end = np.concatenate([bottom_anchor[None, :], grid], axis=0)  # (ny + 1, nx)
+        upper_end = np.concatenate([grid, top_anchor[None, :]], axis=0)
+        springs = np.concatenate(
+            [
+                np.stack([left_end.ravel(), right_end.ravel()], axis=1),
+                np.stack([lower_end.ravel(), upper_end.ravel()], axis=1),
+            ]
+        )
+        springs.setflags(write=False)
+        return springs
+
+    def describe(self) -> str:
+        """One line a person can read."""
+        extras = []
+        if self.damping:
+            extras.append(f"dashpots c={self.damping:g}")
+        if self.drag:
+            extras.append(f"drag {self.drag:g}")
+        if self.has_gravity:
+            extras.append("gravity (" + ", ".join(f"{g:g}" for g in self.gravity[: self.dim]) + ")")
+        if self.linear:
+            extras.append("linearised springs")
+        masses = (
+            f"m={self.masses.flat[0]:g}"
+            if self.uniform_mass
+            else f"m in [{self.masses.min():g}, {self.masses.max():g}]"
+        )
+        text = (
+            f"{self.nx}x{self.ny} lattice in {self.dim}-D, a={self.spacing:g}, {masses}, "
+            f"k={self.stiffness:g}, L={self.rest_length:g}"
+        )
+        return text + ("; " + ", ".join(extras) if extras else "")
+
+
+def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
+    array = np.asarray(mass, dtype=float) if not isinstance(mass, str) else None
+    if array is None or array.dtype.kind not in "fiu":
+        raise ModelError(f"mass must be a number or an (ny, nx) array of numbers, got {mass!r}")
+    if array.ndim == 0:
+        array = np.full((ny, nx), float(array))
+    elif array.shape == (ny * nx,):
+        array = array.reshape(ny, nx).copy()
+    elif array.shape != (ny, nx):
+        raise ModelError(
+            f"mass array must have shape (ny, nx) = ({ny}, {nx}), got {array.shape}"
+        )
+    else:
+        array = array.copy()
+    if not np.all(np.isfinite(array)):
+        raise ModelError("every mass must be finite (found NaN or infinity)")
+    if np.any(array <= 0):
+        worst = float(array.min())
+        raise ModelError(f"every mass must be positive, found {worst:g}")
+    array.setflags(write=False)
+    return array
+
+
+def _gravity_vector(gravity: float | tuple[float, ...] | np.ndarray) -> tuple[float, float, float]:
+    array = np.asarray(gravity, dtype=float)
+    if array.ndim == 0:
+        vector = (0.0, -float(array), 0.0)
+    elif array.shape in ((2,), (3,)):
+        vector = tuple(float(component) for component in array) + (0.0,) * (3 - array.shape[0])
+    else:
+        raise ModelError(f"gravity must be a number (downwards) or a 2- or 3-vector, got {gravity!r}")
+    if not all(math.isfinite(component) for component in vector):
+        raise ModelError(f"gravity must be finite, got {vector}")
+    return vector  # type: ignore[return-value]

@@ -1,0 +1,407 @@
+"""Observables: functions of a model and a state (energies, spring strains, normal modes, stability).
+
+Nothing here advances time.  Conventions:
+
+* energies are in joules and measured from the rest lattice: the spring energy is the stored
+  energy minus that of the (possibly pre-tensioned) rest lattice, the gravitational energy is
+  -sum m g . (r - r_rest); so an undisturbed lattice has zero potential energy;
+* the strain of a spring is (length - L) / L, positive when stretched; in the linearised model the
+  length is a + (along-spring displacement difference);
+* the stability limit comes from the normal modes of the linearised lattice about its rest state
+  (the highest natural frequency, computed, not guessed) and each integrator's amplification matrix.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from sim.model import Model
+from sim.state import State
+
+
+@dataclasses.dataclass(frozen=True)
+class Energy:
+    """Energy account of a state (J).  ``total = kinetic + potential``; ``balance`` adds what the
+    dampers took out, and is conserved by the exact dynamics."""
+
+    kinetic: float
+    spring: float
+    gravity: float
+    dissipated: float
+
+    @property
+    def potential(self) -> float:
+        return self.spring + self.gravity
+
+    @property
+    def total(self) -> float:
+        return self.kinetic + self.potential
+
+    @property
+    def balance(self) -> float:
+        return self.total + self.dissipated
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(
+            kinetic=self.kinetic, spring=self.spring, gravity=self.gravity,
+            potential=self.potential, dissipated=self.dissipated, total=self.total,
+        )
+
+    def __getitem__(self, key: str) -> float:
+        return self.as_dict()[key]
+
+
+def _padded_displacements(model: Model, positions: np.ndarray) -> np.ndarray:
+    """(dim, ny + 2, nx + 2) displacements from rest with the fixed wall ring (zeros) around them."""
+    rest = model.rest_positions.T.reshape(model.dim, model.ny, model.nx)
+    padded = np.zeros((model.dim, model.ny + 2, model.nx + 2))
+    padded[:, 1:-1, 1:-1] = positions - rest
+    return padded
+
+
+def spring_differences(model: Model, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Displacement differences across every spring (second end minus first end), (dim, ...):
+    horizontal springs (dim, ny, nx + 1) and vertical springs (dim, ny + 1, nx)."""
+    padded = _padded_displacements(model, positions)
+    horizontal = padded[:, 1:-1, 1:] - padded[:, 1:-1, :-1]
+    vertical = padded[:, 1:, 1:-1] - padded[:, :-1, 1:-1]
+    return horizontal, vertical
+
+
+def spring_lengths(model: Model, positions: np.ndarray) -> np.ndarray:
+    """(n_springs,) current spring lengths (m) in ``Model.springs`` order; in the linearised model,
+    the linearised length a + along-spring stretch."""
+    horizontal, vertical = spring_differences(model, positions)
+    a = model.spacing
+    if model.linear:
+        return np.concatenate([(a + horizontal[0]).ravel(), (a + vertical[1]).ravel()])
+    horizontal[0] += a
+    vertical[1] += a
+    return np.concatenate(
+        [np.sqrt((horizontal**2).sum(axis=0)).ravel(), np.sqrt((vertical**2).sum(axis=0)).ravel()]
+    )
+
+
+def strains(model: Model, positions: np.ndarray) -> np.ndarray:
+    """(n_springs,) strain (length - L) / L of every spring, in ``Model.springs`` order."""
+    return (spring_lengths(model, positions) - model.rest_length) / model.rest_length
+
+
+def spring_energy(model: Model, positions: np.ndarray) -> float:
+    """Elastic energy stored in the springs, relative to the rest lattice (J)."""
+    k = model.stiffness
+    if model.linear:
+        horizontal, vertical = spring_differences(model, positions)
+        along = (horizontal[0] ** 2).sum() + (vertical[1] ** 2).sum()
+        across = (horizontal[1:] ** 2).sum() + (vertical[0] ** 2).sum()
+        if model.dim == 3:
+            across += (vertical[2] ** 2).sum()
+        return float(0.5 * k * along + 0.5 * model.tension_stiffness * across)
+    stretch = spring_lengths(model, positions) - model.rest_length
+    rest_stretch = model.spacing - model.rest_length
+    return float(0.5 * k * (np.dot(stretch, stretch) - model.n_springs * rest_stretch**2))
+
+
+def kinetic_energy(model: Model, velocities: np.ndarray) -> float:
+    """Kinetic energy 1/2 sum m |v|^2 (J); velocities (dim, ny, nx)."""
+    return float(0.5 * (model.masses * (velocities**2).sum(axis=0)).sum())
+
+
+def gravity_energy(model: Model, positions: np.ndarray) -> float:
+    """Gravitational potential energy -sum m g . (r - r_rest) (J); zero without gravity."""
+    if not model.has_gravity:
+        return 0.0
+    rest = model.rest_positions.T.reshape(model.dim, model.ny, model.nx)
+    total = 0.0
+    for component in range(model.dim):
+        if model.gravity[component] != 0.0:
+            displacement = positions[component] - rest[component]
+            total -= model.gravity[component] * float((model.masses * displacement).sum())
+    return total
+
+
+def energy(model: Model, state: State) -> Energy:
+    """Full energy account of ``state``."""
+    return Energy(
+        kinetic=kinetic_energy(model, state.velocities),
+        spring=spring_energy(model, state.positions),
+        gravity=gravity_energy(model, state.positions),
+        dissipated=state.dissipated,
+    )
+
+
+# --- normal modes and stability -------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class StabilityLimit:
+    """The largest stable time step of an integrator on a model.
+
+    ``dt`` is None when no step is stable (explicit Euler and Heun on an undamped lattice).
+    ``omega_max`` is the highest natural frequency (rad/s) of the linearised undamped lattice.
+    ``exact`` is False when the limit is an estimate (damping on a lattice with unequal masses).
+    """
+
+    integrator: str
+    dt: float | None
+    omega_max: float
+    exact: bool
+    reason: str
+
+    def __str__(self) -> str:
+        return self.reason
+
+
+@dataclasses.dataclass(frozen=True)
+class ModeSet:
+    """Natural modes of the linearised lattice: squared frequencies (rad^2/s^2) and damping rates
+    beta (1/s), each mode obeying u'' + beta u' + omega^2 u = 0.  ``exact`` is False when the
+    damping rates are Rayleigh-quotient estimates (damping that the modes do not diagonalise)."""
+
+    omega_squared: np.ndarray
+    damping_rate: np.ndarray
+    exact: bool
+
+
+def _polarisations(model: Model) -> list[tuple[float, float, float, float]]:
+    """(stiffness across columns, across rows, dashpot across columns, across rows) for each
+    displacement component: x moves along horizontal springs, y along vertical ones, z across all."""
+    k, tension, c = model.stiffness, model.tension_stiffness, model.damping
+    polarisations = [(k, tension, c, 0.0), (tension, k, 0.0, c)]
+    if model.dim == 3:
+        polarisations.append((tension, tension, 0.0, 0.0))
+    return polarisations
+
+
+def _second_difference_eigenvalues(n: int) -> np.ndarray:
+    """Eigenvalues 4 sin^2(p pi / (2 (n + 1))), p = 1..n, of the Dirichlet second difference."""
+    p = np.arange(1, n + 1)
+    return 4.0 * np.sin(p * np.pi / (2.0 * (n + 1))) ** 2
+
+
+def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float):
+    """Dense (n, n) stiffness matrix of one displacement component (5-point, Dirichlet)."""
+    n = nx * ny
+    matrix = np.zeros((n, n))
+    index = np.arange(n).reshape(ny, nx)
+    diagonal = 2.0 * across_columns + 2.0 * across_rows
+    matrix[np.arange(n), np.arange(n)] = diagonal
+    left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
+    matrix[left, right] = matrix[right, left] = -across_columns
+    lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
+    matrix[lower, upper] = matrix[upper, lower] = -across_rows
+    return matrix
+
+
+def _apply_scalar_stiffness(field: np.ndarray, across_columns: float, across_rows: float):
+    """K u for one displacement component field (ny, nx) with fixed walls, matrix-free."""
+    padded = np.pad(field, 1)
+    return (
+        across_columns * (2 * field - padded[1:-1, :-2] - padded[1:-1, 2:])
+        + across_rows * (2 * field - padded[:-2, 1:-1] - padded[2:, 1:-1])
+    )
+
+
+def _largest_eigenvalue_lanczos(apply, n: int, iterations: int = 300, seed: int = 0) -> float:
+    """Largest eigenvalue of a symmetric operator by Lanczos (no reorthogonalisation: the extreme
+    Ritz value converges regardless)."""
+    rng = np.random.default_rng(seed)
+    vector = rng.standard_normal(n)
+    vector /= np.linalg.norm(vector)
+    previous = np.zeros(n)
+    alphas: list[float] = []
+    betas: list[float] = []
+    beta = 0.0
+    for _ in range(min(iterations, n)):
+        w = apply(vector) - beta * previous
+        alpha = float(np.dot(w, vector))
+        w -= alpha * vector
+        alphas.append(alpha)
+        beta = float(np.linalg.norm(w))
+        if beta < 1e-14 * max(1.0, abs(alpha)):
+            break
+        betas.append(beta)
+        previous, vector = vector, w / beta
+    size = len(alphas)
+    tridiagonal = np.diag(alphas) + np.diag(betas[: size - 1], 1) + np.diag(betas[: size - 1], -1)
+    return float(np.linalg.eigvalsh(tridiagonal)[-1])
+
+
+_DENSE_LIMIT = 1600  # particles up to which unequal-mass lattices are solved with a dense eigh
+
+
+def modes(model: Model, sample: int = 48) -> ModeSet:
+    """The natural modes that decide stability.
+
+    Equal masses: exact separable sine modes (for large lattices a sample that keeps the highest
+    and lowest wavenumbers in each direction).  Unequal masses: dense eigen-decomposition up to
+    ``_DENSE_LIMIT`` particles, else the top mode by Lanczos; damping rates are then estimated by
+    the Rayleigh quotient of the damping matrix on each mode.
+    """
+    omega_squared: list[np.ndarray] = []
+    damping_rate: list[np.ndarray] = []
+    exact = True
+    nx, ny = model.nx, model.ny
+    if model.uniform_mass:
+        mass = float(model.masses.flat[0])
+        columns = _second_difference_eigenvalues(nx)
+        rows = _second_difference_eigenvalues(ny)
+        columns = _keep_extremes(columns, sample)
+        rows = _keep_extremes(rows, sample)
+        for k_columns, k_rows, c_columns, c_rows in _polarisations(model):
+            p, q = np.meshgrid(columns, rows)
+            omega_squared.append(((k_columns * p + k_rows * q) / mass).ravel())
+            damping_rate.append(((c_columns * p + c_rows * q + model.drag) / mass).ravel())
+        return ModeSet(np.concatenate(omega_squared), np.concatenate(damping_rate), True)
+
+    inverse_sqrt_mass = 1.0 / np.sqrt(model.masses)
+    n = model.n_particles
+    for k_columns, k_rows, c_columns, c_rows in _polarisations(model):
+        if n <= _DENSE_LIMIT:
+            scale = inverse_sqrt_mass.ravel()
+            stiffness = _scalar_stiffness_matrix(nx, ny, k_columns, k_rows) * np.outer(scale, scale)
+            values, vectors = np.linalg.eigh(stiffness)
+            damping = _scalar_stiffness_matrix(nx, ny, c_columns, c_rows) * np.outer(scale, scale)
+            damping += np.diag(model.drag * scale**2)
+            rates = np.einsum("im,ij,jm->m", vectors, damping, vectors)
+            omega_squared.append(values)
+            damping_rate.append(rates)
+            if model.is_damped and not (c_columns == 0 and c_rows == 0):
+                exact = False
+            if model.drag > 0:
+                exact = False
+        else:
+
+            def apply(vector, k_columns=k_columns, k_rows=k_rows):
+                field = vector.reshape(ny, nx) * inverse_sqrt_mass
+                return (_apply_scalar_stiffness(field, k_columns, k_rows) * inverse_sqrt_mass).ravel()
+
+            top = _largest_eigenvalue_lanczos(apply, n)
+            omega_squared.append(np.array([top]))
+            lightest = float(model.masses.min())
+            rate = (2 * (c_columns + c_rows) * 2 + model.drag) / lightest
+            damping_rate.append(np.array([rate if model.is_damped else 0.0]))
+            exact = exact and not model.is_damped
+    return ModeSet(np.concatenate(omega_squared), np.concatenate(damping_rate), exact)
+
+
+def _keep_extremes(values: np.ndarray, sample: int) -> np.ndarray:
+    if values.size <= 3 * sample:
+        return values
+    middle = values[sample:-sample]
+    step = max(1, middle.size // sample)
+    return np.concatenate([values[:sample], middle[::step], values[-sample:]])
+
+
+def highest_frequency(model: Model) -> float:
+    """Highest natural angular frequency omega_max (rad/s) of the linearised undamped lattice."""
+    return math.sqrt(max(float(modes(model).omega_squared.max()), 0.0))
+
+
+def amplification_matrices(integrator: str, omega_squared, damping_rate, dt: float) -> np.ndarray:
+    """(n_modes, s, s) matrices G with z_{n+1} = G z_n when ``integrator`` (as implemented in
+    ``sim.stepping``) integrates u'' + beta u' + omega^2 u = 0 with step ``dt``.  The state z is
+    (u, u') for one-step methods and (u, u', cached acceleration) for velocity Verlet."""
+    omega_squared = np.asarray(omega_squared, dtype=float)
+    beta = np.asarray(damping_rate, dtype=float)
+    count = omega_squared.shape[0]
+    if integrator == "verlet":
+        # v_pred = w + h a; w_half = w + h/2 a; u' = u + h w_half;
+        # a' = -omega^2 u' - beta v_pred; w' = w_half + h/2 a'
+        h = dt
+        matrices = np.zeros((count, 3, 3))
+        u_new = np.stack([np.ones(count), np.full(count, h), np.full(count, h * h / 2)], axis=1)
+        v_pred = np.stack([np.zeros(count), np.ones(count), np.full(count, h)], axis=1)
+        a_new = -omega_squared[:, None] * u_new - beta[:, None] * v_pred
+        w_half = np.stack([np.zeros(count), np.ones(count), np.full(count, h / 2)], axis=1)
+        matrices[:, 0, :] = u_new
+        matrices[:, 1, :] = w_half + (h / 2) * a_new
+        matrices[:, 2, :] = a_new
+        return matrices
+    system = np.zeros((count, 2, 2))
+    system[:, 0, 1] = 1.0
+    system[:, 1, 0] = -omega_squared
+    system[:, 1, 1] = -beta
+    step = dt * system
+    identity = np.broadcast_to(np.eye(2), step.shape)
+    terms = {"euler": 1, "heun": 2, "rk4": 4}[integrator]
+    result = identity.copy()
+    power = identity.copy()
+    for order in range(1, terms + 1):
+        power = power @ step / order
+        result = result + power
+    return result
+
+
+def _all_stable(integrator: str, mode_set: ModeSet, dt: float) -> bool:
+    matrices = amplification_matrices(
+        integrator, mode_set.omega_squared, mode_set.damping_rate, dt
+    )
+    radius = np.abs(np.linalg.eigvals(matrices)).max()
+    return bool(radius <= 1.0 + 1e-12)
+
+
+def stability_limit(model: Model, integrator: str) -> StabilityLimit:
+    """Largest time step for which ``integrator`` is stable on ``model`` (see ``StabilityLimit``)."""
+    mode_set = modes(model)
+    positive = mode_set.omega_squared[mode_set.omega_squared > 0]
+    omega_max = math.sqrt(float(positive.max())) if positive.size else 0.0
+    buckling = bool((mode_set.omega_squared < 0).any())
+    note = (
+        " The lattice is under compression (rest length > spacing) and buckles whatever the step."
+        if buckling
+        else ""
+    )
+    name = {"euler": "explicit Euler", "heun": "Heun", "verlet": "velocity Verlet", "rk4": "RK4"}[
+        integrator
+    ]
+    if omega_max == 0.0:
+        return StabilityLimit(integrator, math.inf, 0.0, True, "no oscillating modes: any step")
+    if not model.is_damped:
+        if integrator in ("euler", "heun"):
+            return StabilityLimit(
+                integrator, None, omega_max, True,
+                f"{name} has no stable step on an undamped lattice: its energy grows at every dt "
+                f"(highest natural frequency {omega_max:.4g} rad/s).{note}",
+            )
+        factor = 2.0 if integrator == "verlet" else 2.0 * math.sqrt(2.0)
+        dt = factor / omega_max
+        return StabilityLimit(
+            integrator, dt, omega_max, True,
+            f"{name} is stable for dt <= {factor:.4g}/omega_max = {dt:.6g} s "
+            f"(omega_max = {omega_max:.6g} rad/s).{note}",
+        )
+    # Damped: bisect on the amplification matrices of all (sampled) modes.
+    tiny = 1e-9 / omega_max
+    kept = ModeSet(
+        np.maximum(mode_set.omega_squared, 0.0), mode_set.damping_rate, mode_set.exact
+    )
+    if not _all_stable(integrator, kept, tiny):
+        return StabilityLimit(
+            integrator, None, omega_max, mode_set.exact,
+            f"{name} has no stable step here: some modes are undamped "
+            f"(omega_max = {omega_max:.4g} rad/s).{note}",
+        )
+    fastest = max(omega_max, float(kept.damping_rate.max()))
+    low, high = tiny, 8.0 / fastest
+    while _all_stable(integrator, kept, high):
+        low, high = high, 2 * high
+        if high > 1e6 / fastest:
+            break
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        if _all_stable(integrator, kept, middle):
+            low = middle
+        else:
+            high = middle
+        if high - low < 1e-10 * high:
+            break
+    estimate = "" if mode_set.exact else " (estimate: damping on unequal masses)"
+    return StabilityLimit(
+        integrator, low, omega_max, mode_set.exact,
+        f"{name} is stable for dt <= {low:.6g} s with this damping{estimate} "
+        f"(omega_max = {omega_max:.6g} rad/s).{note}",
+    )

@@ -1,0 +1,247 @@
+"""The runner owns the simulation loop; viewers and recorders subscribe to its frames.
+
+Nothing here knows about viser or rerun.  Two ways to drive it:
+
+* synchronously: ``runner.advance(steps, every=k)`` runs in the caller's thread and publishes a
+  ``Frame`` every k steps (the ``record`` command, tests, benchmarks);
+* in a background thread: ``runner.start()``; then ``play()`` / ``pause()`` / ``single_step()``;
+  the loop advances ``steps_per_frame`` steps per frame at no more than ``max_fps`` frames per
+  second (the web app).
+
+Anyone may ``post(command)``: a callable taking the ``Simulation``, run by the loop between steps
+(never in the middle of one).  ``post`` returns a ``concurrent.futures.Future`` with the command's
+result or exception.  A blow-up pauses the loop, keeps the state before the bad step and publishes
+a frame whose ``error`` says what happened.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import queue
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from sim.model import Model
+from sim.observables import Energy
+from sim.simulation import BlowUpError, Simulation
+
+
+@dataclasses.dataclass(frozen=True)
+class Frame:
+    """A snapshot for subscribers.  Arrays are copies owned by the frame.
+
+    positions: (n_particles, dim) m; velocities: (n_particles, dim) m/s or None if no subscriber
+    asked; strains: (n_springs,) or None if no subscriber asked; energy: the energy account;
+    error: the blow-up message if the run just stopped on one, else None.
+    """
+
+    step: int
+    time: float
+    integrator: str
+    dt: float
+    model: Model
+    positions: np.ndarray
+    energy: Energy
+    velocities: np.ndarray | None = None
+    strains: np.ndarray | None = None
+    error: str | None = None
+    playing: bool = False
+
+
+@dataclasses.dataclass
+class _Subscriber:
+    callback: Callable[[Frame], Any]
+    strains: bool
+    velocities: bool
+
+
+class Runner:
+    """Owns a ``Simulation`` and its loop; see the module docstring."""
+
+    def __init__(
+        self, simulation: Simulation, steps_per_frame: int = 1, max_fps: float = 60.0
+    ) -> None:
+        self.simulation = simulation
+        self.steps_per_frame = steps_per_frame
+        self.max_fps = max_fps
+        self.error: str | None = None
+        self._subscribers: list[_Subscriber] = []
+        self._commands: queue.Queue[tuple[Callable[[Simulation], Any], concurrent.futures.Future]]
+        self._commands = queue.Queue()
+        self._playing = False
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._running = False
+        self._lock = threading.Lock()
+        self.frames_published = 0
+
+    # --- subscribers -----------------------------------------------------------------------------
+
+    def subscribe(
+        self, callback: Callable[[Frame], Any], *, strains: bool = False, velocities: bool = False
+    ) -> Callable[[], None]:
+        """Call ``callback(frame)`` for every published frame; ask for strains / velocities only
+        if you show them.  Returns a function that unsubscribes."""
+        subscriber = _Subscriber(callback, strains, velocities)
+        with self._lock:
+            self._subscribers.append(subscriber)
+
+        def unsubscribe() -> None:
+            with self._lock:
+                if subscriber in self._subscribers:
+                    self._subscribers.remove(subscriber)
+
+        return unsubscribe
+
+    def make_frame(self, error: str | None = None) -> Frame:
+        """A frame of the current state, with what the current subscribers asked for."""
+        with self._lock:
+            subscribers = list(self._subscribers)
+        simulation = self.simulation
+        return Frame(
+            step=simulation.step_count,
+            time=simulation.time,
+            integrator=simulation.integrator,
+            dt=simulation.dt,
+            model=simulation.model,
+            positions=simulation.state.particle_positions().copy(),
+            energy=simulation.energy(),
+            velocities=(
+                simulation.state.particle_velocities().copy()
+                if any(s.velocities for s in subscribers)
+                else None
+            ),
+            strains=simulation.strains() if any(s.strains for s in subscribers) else None,
+            error=error,
+            playing=self._playing,
+        )
+
+    def publish(self, error: str | None = None) -> Frame:
+        """Build a frame now and hand it to every subscriber; returns it."""
+        frame = self.make_frame(error)
+        with self._lock:
+            subscribers = list(self._subscribers)
+        for subscriber in subscribers:
+            subscriber.callback(frame)
+        self.frames_published += 1
+        return frame
+
+    # --- commands --------------------------------------------------------------------------------
+
+    def post(self, command: Callable[[Simulation], Any]) -> concurrent.futures.Future:
+        """Queue ``command(simulation)`` to run between steps; returns a Future of its result."""
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._commands.put((command, future))
+        self._wake.set()
+        if self._thread is None:
+            self.apply_commands()
+        return future
+
+    def apply_commands(self) -> int:
+        """Run the queued commands now (the loop does this between steps).  Returns how many."""
+        count = 0
+        while True:
+            try:
+                command, future = self._commands.get_nowait()
+            except queue.Empty:
+                return count
+            count += 1
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(command(self.simulation))
+            except Exception as error:  # a bad command must never stop the loop
+                future.set_exception(error)
+
+    # --- synchronous driving ----------------------------------------------------------------------
+
+    def advance(self, steps: int, every: int = 1, publish_first: bool = False) -> Frame:
+        """Run ``steps`` steps in this thread, publishing a frame every ``every`` steps and after
+        the last.  On a blow-up: publishes a frame with ``error`` and raises the BlowUpError."""
+        if every < 1:
+            raise ValueError("every must be at least 1")
+        frame = self.publish() if publish_first else None
+        done = 0
+        while done < steps:
+            self.apply_commands()
+            chunk = min(every, steps - done)
+            try:
+                self.simulation.step(chunk)
+            except BlowUpError as error:
+                self.error = str(error)
+                self.publish(error=self.error)
+                raise
+            done += chunk
+            frame = self.publish()
+        return frame if frame is not None else self.publish()
+
+    # --- background loop --------------------------------------------------------------------------
+
+    @property
+    def playing(self) -> bool:
+        return self._playing
+
+    def play(self) -> None:
+        self.error = None
+        self._playing = True
+        self._wake.set()
+
+    def pause(self) -> None:
+        self._playing = False
+        self._wake.set()
+
+    def single_step(self) -> concurrent.futures.Future:
+        """Advance exactly one step (while paused) and publish it."""
+        return self.post(lambda simulation: self._guarded_step(1))
+
+    def _guarded_step(self, steps: int) -> bool:
+        try:
+            self.simulation.step(steps)
+        except BlowUpError as error:
+            self._playing = False
+            self.error = str(error)
+            self.publish(error=self.error)
+            return False
+        return True
+
+    def start(self) -> None:
+        """Start the background loop (idempotent)."""
+        if self._thread is not None:
+            return
+        self._running = True
+        self._thread = threading.Thread(target=self._loop, name="simulation-runner", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the background loop and wait for it."""
+        self._running = False
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+            self._thread = None
+
+    def _loop(self) -> None:
+        last_frame = 0.0
+        while self._running:
+            changed = self.apply_commands() > 0
+            if self._playing:
+                if self._guarded_step(max(1, int(self.steps_per_frame))):
+                    changed = True
+            if changed:
+                now = time.perf_counter()
+                wait = 1.0 / self.max_fps - (now - last_frame)
+                if wait > 0:
+                    time.sleep(wait)
+                last_frame = time.perf_counter()
+                try:
+                    self.publish(error=None if self._playing or self.error is None else self.error)
+                except Exception:  # a failing subscriber must not kill the simulation
+                    pass
+            if not self._playing:
+                self._wake.wait(0.05)
+                self._wake.clear()

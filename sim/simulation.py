@@ -1,0 +1,273 @@
+"""``Simulation``: the scripting surface that ties a model, a state and an integrator together.
+
+    >>> import sim
+    >>> s = sim.Simulation(sim.scenes.build("chain"), integrator="verlet", dt=0.01)
+    >>> s.positions[2, 1] += 0.1      # displace the middle particle transversally
+    >>> s.step(1000)
+    >>> s.energy().total
+
+Blow-up detection: steps run in chunks; after each chunk the state is checked for non-finite
+values and runaway energy.  A bad chunk is rolled back and replayed one step at a time, so the
+``BlowUpError`` leaves the state exactly as it was before the step that went wrong.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from sim import observables
+from sim.integrators import LABELS, check_integrator_name, make_integrator
+from sim.model import Model, ModelError
+from sim.state import State
+
+RUNAWAY_FACTOR = 1e6
+"""Energy growth (relative to the energy when the state was last set) that counts as a blow-up."""
+
+
+class BlowUpError(RuntimeError):
+    """The integration went unstable.  The simulation keeps the state before the bad step.
+
+    Attributes: ``integrator``, ``dt``, ``step`` (index of the step that failed), ``time``,
+    ``stable_dt`` (the stability limit, None if there is none) and ``reason``.
+    """
+
+    def __init__(
+        self, integrator: str, dt: float, step: int, time: float, stable_dt: float | None,
+        reason: str,
+    ) -> None:
+        self.integrator = integrator
+        self.dt = dt
+        self.step = step
+        self.time = time
+        self.stable_dt = stable_dt
+        self.reason = reason
+        limit = (
+            f"the stability limit is dt = {stable_dt:.6g} s"
+            if stable_dt is not None
+            else "this integrator has no stable step on this lattice"
+        )
+        super().__init__(
+            f"{LABELS.get(integrator, integrator)} blew up at step {step} (t = {time:.6g} s, "
+            f"dt = {dt:.6g} s): {reason}; {limit}. The state before that step is kept."
+        )
+
+
+def _check_dt(dt: Any) -> float:
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ModelError(f"dt must be a number, got {dt!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise ModelError(f"dt must be a positive finite number of seconds, got {dt!r}")
+    return value
+
+
+class Simulation:
+    """A running lattice.  See the module docstring for an example.
+
+    ``positions`` / ``velocities`` are (n_particles, dim) float64 views that may be written into
+    (particle p = j * nx + i); ``time`` in seconds; ``energy()``, ``strains()``, ``stable_dt()``.
+    Parameters change mid-run through ``set_parameters`` / ``set_masses``; the integrator and dt
+    through the ``integrator`` and ``dt`` properties.  Nothing is lost by any of these changes.
+    """
+
+    chunk_steps = 32
+
+    def __init__(
+        self, scene: Any, integrator: str | None = None, dt: float | None = None
+    ) -> None:
+        from sim.scenes import Scene
+
+        if isinstance(scene, Model):
+            scene = Scene(name="custom", model=scene)
+        if not isinstance(scene, Scene):
+            raise TypeError(f"Simulation needs a sim.scenes.Scene or a sim.Model, got {scene!r}")
+        self.scene = scene
+        self._model = scene.model
+        self._integrator_name = check_integrator_name(integrator or scene.integrator)
+        self._dt = _check_dt(dt if dt is not None else scene.dt)
+        self.state = State.from_particle_arrays(
+            self._model, scene.initial_positions, scene.initial_velocities
+        )
+        self._integrator = make_integrator(self._integrator_name, self._model)
+        self._stability_cache: dict[str, observables.StabilityLimit] = {}
+        self._reference_energy: float | None = None
+
+    # --- state -----------------------------------------------------------------------------------
+
+    @property
+    def model(self) -> Model:
+        return self._model
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n_particles, dim) positions (m); a writable view of the state."""
+        self._state_touched()
+        return self.state.particle_positions()
+
+    @positions.setter
+    def positions(self, value: np.ndarray) -> None:
+        self._state_touched()
+        self.state.particle_positions()[...] = value
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(n_particles, dim) velocities (m/s); a writable view of the state."""
+        self._state_touched()
+        return self.state.particle_velocities()
+
+    @velocities.setter
+    def velocities(self, value: np.ndarray) -> None:
+        self._state_touched()
+        self.state.particle_velocities()[...] = value
+
+    @property
+    def rest_positions(self) -> np.ndarray:
+        return self._model.rest_positions
+
+    @property
+    def masses(self) -> np.ndarray:
+        """(n_particles,) masses (kg), read-only; change them with ``set_masses``."""
+        return self._model.masses.reshape(-1)
+
+    @property
+    def time(self) -> float:
+        return self.state.time
+
+    @property
+    def step_count(self) -> int:
+        return self.state.step
+
+    def _state_touched(self) -> None:
+        self.state.revision += 1
+        self._reference_energy = None
+
+    def peek_positions(self) -> np.ndarray:
+        """A copy of the positions (n_particles, dim) that does not count as an edit (for viewers)."""
+        return self.state.particle_positions().copy()
+
+    # --- integrator, step, parameters -------------------------------------------------------------
+
+    @property
+    def integrator(self) -> str:
+        return self._integrator_name
+
+    @integrator.setter
+    def integrator(self, name: str) -> None:
+        self._integrator_name = check_integrator_name(name)
+        self._integrator = make_integrator(self._integrator_name, self._model)
+
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    @dt.setter
+    def dt(self, value: float) -> None:
+        self._dt = _check_dt(value)
+
+    def set_parameters(self, **changes: Any) -> None:
+        """Change model parameters mid-run (any keyword of ``Model.create`` except nx, ny, dim),
+        e.g. ``stiffness``, ``rest_length``, ``damping``, ``drag``, ``gravity``, ``linear``, ``mass``.
+        The state is kept; invalid values raise ``ModelError`` and change nothing."""
+        for fixed in ("nx", "ny", "dim"):
+            if fixed in changes and changes[fixed] != getattr(self._model, fixed):
+                raise ModelError(f"{fixed} cannot change mid-run; build a new scene instead")
+        self._set_model(self._model.replace(**changes))
+
+    def set_masses(self, masses: float | np.ndarray) -> None:
+        """Replace the masses: a scalar, an (n_particles,) or an (ny, nx) array of kg."""
+        self._set_model(self._model.replace(mass=masses))
+
+    def _set_model(self, model: Model) -> None:
+        self._model = model
+        self._integrator = make_integrator(self._integrator_name, model)
+        self._stability_cache.clear()
+        self._reference_energy = None
+
+    def reset(self) -> None:
+        """Back to the scene's initial state (time 0) with the current parameters."""
+        fresh = State.from_particle_arrays(
+            self._model, self.scene.initial_positions, self.scene.initial_velocities
+        )
+        self.state.restore(fresh)
+        self.state.time = 0.0
+        self.state.step = 0
+        self.state.dissipated = 0.0
+        self._integrator.invalidate()
+        self._reference_energy = None
+
+    # --- observables ------------------------------------------------------------------------------
+
+    def energy(self) -> observables.Energy:
+        """Kinetic, spring, gravity, potential, dissipated and total energy (J)."""
+        return observables.energy(self._model, self.state)
+
+    def strains(self) -> np.ndarray:
+        """(n_springs,) strain of every spring, in ``model.springs`` order."""
+        return observables.strains(self._model, self.state.positions)
+
+    def stability(self, integrator: str | None = None) -> observables.StabilityLimit:
+        """Stability limit of an integrator (default: the current one) with an explanation."""
+        name = check_integrator_name(integrator or self._integrator_name)
+        if name not in self._stability_cache:
+            self._stability_cache[name] = observables.stability_limit(self._model, name)
+        return self._stability_cache[name]
+
+    def stable_dt(self, integrator: str | None = None) -> float | None:
+        """Largest stable dt (s) of the integrator on this model; None if no dt is stable."""
+        return self.stability(integrator).dt
+
+    # --- stepping ---------------------------------------------------------------------------------
+
+    def step(self, n: int = 1) -> None:
+        """Advance n steps.  Raises ``BlowUpError`` (state kept before the bad step) if the run
+        goes unstable; a dt above the stability limit is allowed and only detected while running."""
+        if isinstance(n, bool) or int(n) != n or n < 0:
+            raise ValueError(f"n must be a whole number of steps >= 0, got {n!r}")
+        remaining = int(n)
+        if self._reference_energy is None:
+            self._reference_energy = self._energy_scale()
+        while remaining > 0:
+            chunk = min(remaining, self.chunk_steps)
+            checkpoint = self.state.copy()
+            self._integrator.advance(self.state, chunk, self._dt)
+            problem = self._problem()
+            if problem is not None:
+                self.state.restore(checkpoint)
+                self._integrator.invalidate()
+                self._find_bad_step(chunk)
+            remaining -= chunk
+
+    def _find_bad_step(self, chunk: int) -> None:
+        for _ in range(chunk):
+            checkpoint = self.state.copy()
+            self._integrator.advance(self.state, 1, self._dt)
+            problem = self._problem()
+            if problem is not None:
+                self.state.restore(checkpoint)
+                self._integrator.invalidate()
+                raise BlowUpError(
+                    self._integrator_name, self._dt, checkpoint.step + 1, checkpoint.time,
+                    self.stable_dt(), problem,
+                )
+        # The chunk failed but single steps did not (cannot happen for a deterministic kernel).
+
+    def _energy_scale(self) -> float:
+        energy = self.energy()
+        spring_scale = 0.5 * self._model.stiffness * (1e-3 * self._model.spacing) ** 2
+        return max(abs(energy.kinetic) + abs(energy.potential), spring_scale * self._model.n_particles)
+
+    def _problem(self) -> str | None:
+        if not self.state.is_finite():
+            return "positions or velocities became infinite or NaN"
+        energy = self.energy()
+        size = abs(energy.kinetic) + abs(energy.spring)
+        if size > RUNAWAY_FACTOR * (self._reference_energy or 0.0):
+            return (
+                f"the energy ran away ({size:.3g} J, {RUNAWAY_FACTOR:.0e} times "
+                f"its value when the run started)"
+            )
+        return None
