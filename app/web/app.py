@@ -1,0 +1,300 @@
+"""``WebApp``: one viser server showing one shared, running lattice to every connected browser.
+
+Threads:
+
+* the runner thread (``LatticeRunner``) steps the simulation and publishes frames; the
+  subscriber only keeps the latest frame (cheap), so the simulation never waits for the network;
+* the frame pump thread draws the latest frame into the scene at no more than ``render_fps``
+  (inside ``server.atomic()``), updates the panel and moves the drag gizmo;
+* viser's event loop and thread pool run the GUI and scene callbacks, which only post commands.
+
+Interaction: a click casts the pointer ray onto the lattice plane z = 0 and selects the nearest
+particle (shift+click adds to the selection; clicks outside the lattice are ignored).  A
+transform gizmo sits on the selection; dragging it moves the selection (held in place while
+dragging if "hold while dragging" is on) and releasing lets go.  A client that disconnects
+mid-drag is released.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import numpy as np
+import viser
+
+import sim
+from app.web.control import LatticeRunner, SimulationControl
+from app.web.view import LatticeView
+from sim.runner import Frame
+
+LARGE_LATTICE = 50_000
+"""From this many particles on, the app uses the large-lattice pacing below."""
+
+
+def runner_pacing(model: sim.Model) -> tuple[int, float, float]:
+    """(steps per frame, simulation frames/s cap, render frames/s cap) for a lattice."""
+    if model.n_particles >= LARGE_LATTICE:
+        return 5, 25.0, 25.0
+    return 1, 60.0, 60.0
+
+
+class WebApp:
+    """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end."""
+
+    def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
+                 verbose: bool = False, play: bool = False) -> None:
+        steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation.model)
+        self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
+        self.control = SimulationControl(self.runner)
+        self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
+        self.server.gui.configure_theme(control_width="large", dark_mode=False)
+        self.view = LatticeView(self.server)
+        self.play_on_start = play
+        self.hold_while_dragging = True
+        self._latest: Frame | None = None
+        self._frame_ready = threading.Event()
+        self._pumping = False
+        self._pump: threading.Thread | None = None
+        self._unsubscribe: Any = None
+        self._subscription: tuple[bool, bool] | None = None
+        self._gizmo: viser.TransformControlsHandle | None = None
+        self._gizmo_layout: tuple | None = None
+        self._drag: dict[str, Any] | None = None
+        self._camera_layout: tuple | None = None
+        self.frames_delivered = 0
+        self.last_error: str | None = None
+
+        from app.web.panel import ControlPanel
+
+        self.panel = ControlPanel(self)
+        self._install_interaction()
+
+    # --- life cycle ------------------------------------------------------------------------------
+
+    @property
+    def url(self) -> str:
+        host = self.server.get_host()
+        shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+        return f"http://{shown}:{self.server.get_port()}"
+
+    def start(self) -> WebApp:
+        self._resubscribe()
+        self._pumping = True
+        self._pump = threading.Thread(target=self._pump_frames, name="web-frame-pump", daemon=True)
+        self._pump.start()
+        self.runner.start()
+        self.runner.post(lambda simulation: None)  # publish a first frame
+        if self.play_on_start:
+            self.runner.play()
+        return self
+
+    def stop(self) -> None:
+        self._pumping = False
+        self._frame_ready.set()
+        self.runner.stop()
+        if self._pump is not None:
+            self._pump.join(5.0)
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+        self.server.stop()
+
+    def __enter__(self) -> WebApp:
+        return self.start()
+
+    def __exit__(self, *_: object) -> None:
+        self.stop()
+
+    # --- frames ----------------------------------------------------------------------------------
+
+    def _resubscribe(self) -> None:
+        """Subscribe again if the view now needs strains / velocities it did not ask for."""
+        wanted = (self.view.wants_strains(), self.view.wants_velocities())
+        if wanted == self._subscription:
+            return
+        old = self._unsubscribe
+        self._unsubscribe = self.runner.subscribe(
+            self._receive, strains=wanted[0], velocities=wanted[1]
+        )
+        self._subscription = wanted
+        if old is not None:
+            old()
+
+    def _receive(self, frame: Frame) -> None:
+        self._latest = frame
+        self._frame_ready.set()
+
+    def refresh(self) -> None:
+        """Redraw everything from a fresh frame (after a view setting changed)."""
+        self.view.invalidate()
+        self._resubscribe()
+        self.runner.post(lambda simulation: None)
+
+    def _pump_frames(self) -> None:
+        last = 0.0
+        while self._pumping:
+            self._frame_ready.wait(0.25)
+            self._frame_ready.clear()
+            frame = self._latest
+            if not self._pumping or frame is None:
+                continue
+            wait = 1.0 / self.render_fps - (time.perf_counter() - last)
+            if wait > 0:
+                time.sleep(wait)
+                frame = self._latest or frame
+            last = time.perf_counter()
+            try:
+                self._show(frame)
+            except Exception as error:  # never let one bad frame stop the page
+                print(f"web view: could not draw a frame: {error!r}")
+
+    def _show(self, frame: Frame) -> None:
+        layout = (frame.model.nx, frame.model.ny, frame.model.spacing)
+        if layout != self._camera_layout:
+            self._frame_camera(frame.model)
+            self._camera_layout = layout
+            self.set_selection(np.zeros(0, dtype=np.int64))
+            self._resubscribe()
+        self.view.draw(frame)
+        self.frames_delivered += 1
+        if frame.error:
+            self.last_error = frame.error
+        self._follow_selection(frame)
+        self.panel.update(frame)
+
+    def _frame_camera(self, model: sim.Model) -> None:
+        width = (model.nx + 1) * model.spacing
+        height = (model.ny + 1) * model.spacing
+        distance = 1.1 * max(width, height * 1.4)
+        camera = self.server.initial_camera
+        camera.position = (0.0, 0.0, distance)
+        camera.look_at = (0.0, 0.0, 0.0)
+        camera.up = (0.0, 1.0, 0.0)
+        for client in self.server.get_clients().values():
+            client.camera.position = (0.0, 0.0, distance)
+            client.camera.look_at = (0.0, 0.0, 0.0)
+            client.camera.up_direction = (0.0, 1.0, 0.0)
+
+    # --- selection and dragging ------------------------------------------------------------------
+
+    def _install_interaction(self) -> None:
+        scene = self.server.scene
+        scene.set_up_direction("+y")
+
+        @scene.on_click()
+        def _(event: viser.SceneClickEvent) -> None:
+            self.click(event.ray_origin, event.ray_direction, add=False)
+
+        @scene.on_click(modifier="shift")
+        def _(event: viser.SceneClickEvent) -> None:
+            self.click(event.ray_origin, event.ray_direction, add=True)
+
+        @self.server.on_client_connect
+        def _(client: viser.ClientHandle) -> None:
+            model = self.runner.simulation.model
+            width = (model.nx + 1) * model.spacing
+            height = (model.ny + 1) * model.spacing
+            client.camera.position = (0.0, 0.0, 1.1 * max(width, height * 1.4))
+            client.camera.look_at = (0.0, 0.0, 0.0)
+            client.camera.up_direction = (0.0, 1.0, 0.0)
+
+        @self.server.on_client_disconnect
+        def _(client: viser.ClientHandle) -> None:
+            self.control.release(client.client_id)
+            if self._drag is not None and self._drag["owner"] == client.client_id:
+                self._drag = None
+
+    def pick(self, ray_origin: tuple[float, float, float],
+             ray_direction: tuple[float, float, float]) -> int | None:
+        """The particle under a pointer ray (cast onto z = 0), or None if it misses the lattice."""
+        positions = self.view.last_positions
+        model = self.view.model
+        if positions is None or model is None:
+            return None
+        origin = np.asarray(ray_origin, dtype=float)
+        direction = np.asarray(ray_direction, dtype=float)
+        if abs(direction[2]) < 1e-9:
+            return None
+        distance = -origin[2] / direction[2]
+        if distance <= 0:
+            return None
+        point = (origin + distance * direction)[:2]
+        gaps = np.hypot(positions[:, 0] - point[0], positions[:, 1] - point[1])
+        nearest = int(np.argmin(gaps))
+        return nearest if gaps[nearest] <= 0.5 * model.spacing else None
+
+    def click(self, ray_origin: tuple[float, float, float],
+              ray_direction: tuple[float, float, float], add: bool = False) -> int | None:
+        particle = self.pick(ray_origin, ray_direction)
+        if particle is None:
+            return None
+        if add:
+            chosen = np.union1d(self.view.selection, [particle])
+        else:
+            chosen = np.array([particle], dtype=np.int64)
+        self.set_selection(chosen)
+        return particle
+
+    def set_selection(self, indices: np.ndarray) -> None:
+        """Select particles (indices p = row * nx + column); shows them red and the gizmo."""
+        self.view.set_selection(indices)
+        self.panel.selection_changed(self.view.selection)
+        if self.view.selection.size == 0 and self._gizmo is not None:
+            self._gizmo.remove()
+            self._gizmo = None
+            self._gizmo_layout = None
+        self._frame_ready.set()
+        self.runner.post(lambda simulation: None)
+
+    def _follow_selection(self, frame: Frame) -> None:
+        selection = self.view.selection
+        if selection.size == 0 or self._drag is not None:
+            return
+        centre = np.zeros(3)
+        centre[: frame.model.dim] = frame.positions[selection].mean(axis=0)
+        layout = (frame.model.nx, frame.model.ny, frame.model.dim)
+        if self._gizmo is None or layout != self._gizmo_layout:
+            if self._gizmo is not None:
+                self._gizmo.remove()
+            self._gizmo = self._make_gizmo(frame.model, centre)
+            self._gizmo_layout = layout
+        elif np.linalg.norm(self._gizmo.position - centre) > 1e-4 * frame.model.spacing:
+            self._gizmo.position = tuple(centre)
+
+    def _make_gizmo(self, model: sim.Model, centre: np.ndarray) -> viser.TransformControlsHandle:
+        extent = max(model.nx, model.ny) * model.spacing
+        gizmo = self.server.scene.add_transform_controls(
+            "/selection_gizmo", scale=max(1.5 * model.spacing, 0.06 * extent),
+            active_axes=(True, True, model.dim == 3), disable_rotations=True,
+            depth_test=False, position=tuple(centre),
+        )
+
+        @gizmo.on_update
+        async def _(event: viser.TransformControlsEvent) -> None:
+            # async: runs on the event loop in order (start, updates, end); only posts commands
+            self.drag(event.phase, np.asarray(event.target.position, dtype=float),
+                      owner=event.client_id)
+
+        return gizmo
+
+    def drag(self, phase: str, gizmo_position: np.ndarray, owner: Any = None) -> None:
+        """Gizmo drag lifecycle: ``start`` remembers the selection's layout, ``update`` moves it
+        (held while dragging if ``hold_while_dragging``), ``end`` lets go."""
+        positions = self.view.last_positions
+        model = self.view.model
+        selection = self.view.selection
+        if positions is None or model is None or selection.size == 0:
+            return
+        dim = model.dim
+        if phase == "start" or self._drag is None:
+            offsets = positions[selection] - positions[selection].mean(axis=0)
+            self._drag = {"owner": owner, "offsets": offsets, "indices": selection.copy()}
+        drag = self._drag
+        targets = np.asarray(gizmo_position, dtype=float)[:dim] + drag["offsets"]
+        self.control.move_particles(
+            drag["indices"], targets, owner=owner, pin=self.hold_while_dragging and phase != "end"
+        )
+        if phase == "end":
+            self.control.release(owner)
+            self._drag = None

@@ -1,0 +1,243 @@
+"""What the web page can ask of the simulation, as commands posted to the runner.
+
+No viser here: the GUI and the scene callbacks call ``SimulationControl`` methods, which only
+``post`` commands to the runner (they run in the simulation thread between steps, never in the
+middle of one).  Every method returns the command's ``concurrent.futures.Future``, so tests (and
+callers that care) can wait for it.
+
+``LatticeRunner`` is ``sim.runner.Runner`` plus *pins*: particles held at a position while a
+browser drags them.  Pins belong to an owner (a client id), so a browser that disconnects
+mid-drag is released with ``release(owner)`` and nothing stays stuck.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import threading
+from collections.abc import Hashable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import sim
+from sim.runner import Runner
+
+MASS_PATTERNS = ("uniform", "ionic")
+"""Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
+
+
+class LatticeRunner(Runner):
+    """A ``Runner`` that can hold particles in place (pins) while they are dragged.
+
+    Pins are only touched from commands (the simulation thread), so they need no lock.  While any
+    pin exists the loop steps one step at a time and puts pinned particles back (velocity zero)
+    before each step and after the last, so a dragged particle follows the pointer exactly.
+    """
+
+    def __init__(self, simulation: sim.Simulation, steps_per_frame: int = 1,
+                 max_fps: float = 60.0) -> None:
+        super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps)
+        self.pins: dict[Hashable, dict[int, np.ndarray]] = {}
+        self.steps_taken = 0
+        self._steps_lock = threading.Lock()
+
+    def pinned_particles(self) -> dict[int, np.ndarray]:
+        """Every held particle index -> its target position (dim,) in m (later owners win)."""
+        merged: dict[int, np.ndarray] = {}
+        for held in self.pins.values():
+            merged.update(held)
+        return merged
+
+    def apply_pins(self, simulation: sim.Simulation) -> None:
+        """Put every held particle at its target, at rest (runs in the simulation thread)."""
+        pinned = self.pinned_particles()
+        if not pinned:
+            return
+        indices = np.fromiter(pinned, dtype=np.int64, count=len(pinned))
+        targets = np.stack([pinned[index] for index in pinned.keys()])
+        positions = simulation.positions
+        positions[indices] = targets
+        simulation.velocities[indices] = 0.0
+
+    def _guarded_step(self, steps: int) -> bool:
+        if not self.pins:
+            before = self.simulation.step_count
+            ok = super()._guarded_step(steps)
+            self._count_steps(self.simulation.step_count - before)
+            return ok
+        for _ in range(steps):
+            self.apply_pins(self.simulation)
+            if not super()._guarded_step(1):
+                return False
+            self._count_steps(1)
+        self.apply_pins(self.simulation)
+        return True
+
+    def _count_steps(self, steps: int) -> None:
+        with self._steps_lock:
+            self.steps_taken += max(0, steps)
+
+
+class SimulationControl:
+    """The page's commands.  Each method posts to the runner and returns a Future."""
+
+    def __init__(self, runner: LatticeRunner) -> None:
+        self.runner = runner
+
+    @property
+    def simulation(self) -> sim.Simulation:
+        return self.runner.simulation
+
+    # --- run -------------------------------------------------------------------------------------
+
+    def play(self) -> None:
+        self.runner.play()
+
+    def pause(self) -> None:
+        self.runner.pause()
+
+    def single_step(self) -> concurrent.futures.Future:
+        self.runner.pause()
+        return self.runner.single_step()
+
+    def reset(self) -> concurrent.futures.Future:
+        def command(simulation: sim.Simulation) -> None:
+            self.runner.pins.clear()
+            self.runner.error = None
+            simulation.reset()
+
+        return self.runner.post(command)
+
+    def set_steps_per_frame(self, steps: int) -> None:
+        self.runner.steps_per_frame = max(1, int(steps))
+
+    # --- integrator ------------------------------------------------------------------------------
+
+    def set_integrator(self, name: str) -> concurrent.futures.Future:
+        def command(simulation: sim.Simulation) -> None:
+            simulation.integrator = name
+
+        return self.runner.post(command)
+
+    def set_dt(self, dt: float) -> concurrent.futures.Future:
+        def command(simulation: sim.Simulation) -> None:
+            simulation.dt = float(dt)
+
+        return self.runner.post(command)
+
+    # --- physics ---------------------------------------------------------------------------------
+
+    def set_parameters(self, **changes: Any) -> concurrent.futures.Future:
+        """Any of ``Simulation.set_parameters``' keywords; a bad value leaves everything as is."""
+        return self.runner.post(lambda simulation: simulation.set_parameters(**changes))
+
+    def set_gravity(self, enabled: bool, strength: float = 9.81) -> concurrent.futures.Future:
+        """Gravity (m/s^2) pointing down (-y), or none."""
+        return self.set_parameters(gravity=float(strength) if enabled else 0.0)
+
+    def set_damping(self, enabled: bool, coefficient: float) -> concurrent.futures.Future:
+        """Dashpots beside every spring with coefficient ``coefficient`` (N s/m), or none."""
+        return self.set_parameters(damping=float(coefficient) if enabled else 0.0)
+
+    def set_stiffness(self, stiffness: float) -> concurrent.futures.Future:
+        return self.set_parameters(stiffness=float(stiffness))
+
+    def set_rest_length_ratio(self, ratio: float) -> concurrent.futures.Future:
+        """Rest length as a fraction of the spacing (below 1 pre-tensions the lattice)."""
+
+        def command(simulation: sim.Simulation) -> None:
+            simulation.set_parameters(rest_length=float(ratio) * simulation.model.spacing)
+
+        return self.runner.post(command)
+
+    def set_linear(self, linear: bool) -> concurrent.futures.Future:
+        return self.set_parameters(linear=bool(linear))
+
+    def set_mass_pattern(self, pattern: str, heavy: float = 4.0,
+                         light: float = 1.0) -> concurrent.futures.Future:
+        """``uniform`` (every mass = ``light``) or ``ionic`` (checkerboard heavy/light, kg)."""
+        if pattern not in MASS_PATTERNS:
+            raise ValueError(f"mass pattern must be one of {MASS_PATTERNS}, got {pattern!r}")
+
+        def command(simulation: sim.Simulation) -> None:
+            model = simulation.model
+            if pattern == "uniform":
+                simulation.set_masses(float(light))
+            else:
+                rows, columns = np.indices((model.ny, model.nx))
+                simulation.set_masses(np.where((rows + columns) % 2 == 0, heavy, light))
+
+        return self.runner.post(command)
+
+    def set_particle_masses(self, indices: Sequence[int],
+                            mass: float) -> concurrent.futures.Future:
+        """Give the particles ``indices`` the mass ``mass`` (kg); others keep theirs."""
+        chosen = np.asarray(list(indices), dtype=np.int64)
+
+        def command(simulation: sim.Simulation) -> None:
+            masses = np.array(simulation.masses, dtype=float)
+            masses[chosen] = float(mass)
+            simulation.set_masses(masses)
+
+        return self.runner.post(command)
+
+    # --- particles -------------------------------------------------------------------------------
+
+    def move_particles(
+        self, indices: Sequence[int], targets: np.ndarray, owner: Hashable | None = None,
+        pin: bool = False,
+    ) -> concurrent.futures.Future:
+        """Put particles ``indices`` at ``targets`` ((k, dim) or (k, 3) m), at rest.
+
+        With ``pin`` they are also held there (by ``owner``) until ``release(owner)``.
+        """
+        chosen = np.asarray(list(indices), dtype=np.int64)
+        targets = np.asarray(targets, dtype=float).reshape(len(chosen), -1)
+
+        def command(simulation: sim.Simulation) -> None:
+            dim = simulation.model.dim
+            where = targets[:, :dim]
+            if not np.all(np.isfinite(where)):
+                raise ValueError("target positions must be finite")
+            if chosen.size and (chosen.min() < 0 or chosen.max() >= simulation.model.n_particles):
+                raise IndexError("particle index out of range")
+            simulation.positions[chosen] = where
+            simulation.velocities[chosen] = 0.0
+            if pin:
+                held = self.runner.pins.setdefault(owner, {})
+                held.update({int(p): where[k].copy() for k, p in enumerate(chosen)})
+
+        return self.runner.post(command)
+
+    def release(self, owner: Hashable | None = None) -> concurrent.futures.Future:
+        """Let go of every particle held by ``owner``."""
+        return self.runner.post(lambda simulation: self.runner.pins.pop(owner, None) and None)
+
+    # --- scenes ----------------------------------------------------------------------------------
+
+    def replace_scene(self, scene: sim.Scene, integrator: str | None = None,
+                      dt: float | None = None) -> concurrent.futures.Future:
+        """Swap in a new simulation of ``scene`` (built here, swapped between steps)."""
+        simulation = sim.Simulation(scene, integrator=integrator, dt=dt)
+
+        def command(_: sim.Simulation) -> sim.Simulation:
+            self.runner.pins.clear()
+            self.runner.error = None
+            self.runner.simulation = simulation
+            return simulation
+
+        return self.runner.post(command)
+
+    def build_preset(self, name: str, **overrides: Any) -> concurrent.futures.Future:
+        """Replace the lattice by the preset ``name`` (``sim.scenes.build`` overrides)."""
+        return self.replace_scene(sim.scenes.build(name, **overrides))
+
+    def save(self, path: str | Path) -> concurrent.futures.Future:
+        """Save the current state as a scene file; the Future holds the .toml path."""
+        return self.runner.post(
+            lambda simulation: sim.scenes.save(sim.scenes.scene_from_simulation(simulation), path)
+        )
+
+    def load(self, path: str | Path) -> concurrent.futures.Future:
+        return self.replace_scene(sim.scenes.load(path))
