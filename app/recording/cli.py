@@ -1,0 +1,255 @@
+"""``oscillators record``: run a scene headless and write a rerun ``.rrd`` recording.
+
+Registered into ``app.cli`` through ``register(subparsers)``.  Exit codes: 0 done, 2 bad input
+or unwritable destination (before any step is run), 3 the run blew up (the file is still valid
+and ends with the error), 130 interrupted by SIGINT/SIGTERM (what was recorded is kept).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import signal
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from app.recording.field import FIELD_MODES, video_available
+from app.recording.recorder import (
+    DETAIL_LIMIT,
+    QUANTITIES,
+    Recorder,
+    RecordingError,
+    RecordingOptions,
+)
+
+EPILOG = f"""examples:
+  oscillators record grid                                  # -> recordings/grid.rrd, 1000 steps
+  oscillators record chain --duration 20 -o /tmp/chain.rrd
+  oscillators record catenary --integrator verlet --dt 0.005 --steps 4000 --every 4
+  oscillators record grid --compare euler,verlet,rk4 --dt 0.05 --steps 600
+  oscillators record interference --steps 1000             # field image as H.264 video
+  oscillators record interference --steps 200 --field raw  # lossless float32 field
+  oscillators record interference --field jpeg --positions 50 --quantity speed
+  oscillators record grid --set nx=40 --set ny=30 --set damping=0.5
+
+what is logged: lattices of up to {DETAIL_LIMIT} particles get every particle and every spring
+(coloured by strain) each recorded frame; larger ones get the displacement (or speed) of every
+particle as one image per frame (--field), positions only with --positions, no springs.
+Energies, dt and the integrator are logged every frame in every mode.
+
+open a recording with the viewer of the same version:
+  pip install rerun-sdk==0.41.0 && rerun recordings/grid.rrd
+  rerun --web-viewer recordings/grid.rrd          # the bundled web viewer, in a browser
+video fields: `pip install av` to record them; the native viewer decodes H.264 with ffmpeg
+(install it), the web viewer with the browser. Use --field jpeg if neither is available.
+layout of the file for analysis: docs/recording.md
+"""
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``record`` subcommand to ``oscillators``."""
+    from app.cli import add_scene_arguments
+
+    parser = subparsers.add_parser(
+        "record", help="run a scene headless and write a rerun .rrd recording",
+        description="Run a scene without a viewer and record it into a rerun .rrd file: "
+        "positions, springs coloured by strain (small lattices) or a field image (large ones), "
+        "energies, integrator and dt on the timelines `step` and `sim_time`.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_scene_arguments(parser)
+    parser.add_argument(
+        "-o", "--output", type=Path,
+        help="the .rrd file to write (default: recordings/SCENE.rrd, or SCENE-compare.rrd)",
+    )
+    length = parser.add_mutually_exclusive_group()
+    length.add_argument("--steps", type=int, default=1000, help="steps to run (default 1000)")
+    length.add_argument("--duration", type=float, help="simulated seconds instead of --steps")
+    parser.add_argument(
+        "--every", type=int, default=1, metavar="K",
+        help="record a frame every K steps (default 1: every step)",
+    )
+    parser.add_argument(
+        "--field", choices=("auto", "none", *FIELD_MODES), default="auto",
+        help="field image: auto (none for small lattices; video if PyAV is installed, else jpeg, "
+        "for large ones), jpeg (~35 MB per 1000 frames of interference), video (H.264, a few "
+        "MB), raw (float image, lossless, ~1 MB a frame) or none",
+    )
+    parser.add_argument(
+        "--quantity", choices=QUANTITIES, default="displacement",
+        help="what the field image shows: displacement |x - x_rest| (m) or speed |v| (m/s)",
+    )
+    parser.add_argument(
+        "--field-scale", type=float, metavar="VALUE",
+        help="field value at the top of the colour map (default: adapts to the run)",
+    )
+    parser.add_argument(
+        "--raw-dtype", choices=("float32", "float16"), default="float32",
+        help="precision of --field raw (float16 halves the size)",
+    )
+    parser.add_argument("--jpeg-quality", type=int, default=80, help="1-95 (default 80)")
+    parser.add_argument(
+        "--positions", default="auto", metavar="auto|all|none|N",
+        help="particle positions: auto (every frame for small lattices, none for large), all, "
+        "none, or N: every N-th recorded frame",
+    )
+    parser.add_argument(
+        "--compare", metavar="A,B,...",
+        help="record the same initial state under several integrators, e.g. euler,verlet,rk4 "
+        "(one entity tree per integrator, shared timelines)",
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(handler=command_record)
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C: stop stepping, keep what was recorded."""
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    def on_sigterm(signum: int, frame: Any) -> None:
+        raise _Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, on_sigterm)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
+def _signals_ignored() -> Iterator[None]:
+    """While the file is being finished, a second Ctrl-C must not leave it half-written."""
+    try:
+        previous = {number: signal.signal(number, signal.SIG_IGN)
+                    for number in (signal.SIGINT, signal.SIGTERM)}
+    except ValueError:
+        yield
+        return
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _integrators(text: str | None) -> list[str]:
+    from sim import INTEGRATORS
+
+    if not text:
+        return []
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    unknown = [name for name in names if name not in INTEGRATORS]
+    if unknown or not names:
+        choices = ", ".join(INTEGRATORS)
+        raise ValueError(f"--compare takes integrators among {choices}, got {text!r}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"--compare lists an integrator twice: {text!r}")
+    return names
+
+
+def command_record(arguments: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from app.cli import scene_from_arguments
+    from sim import BlowUpError, Simulation
+    from sim.runner import Runner
+
+    compare = _integrators(arguments.compare)
+    if compare and arguments.integrator:
+        raise ValueError("give either --integrator or --compare, not both")
+    if arguments.every < 1:
+        raise ValueError("--every must be at least 1")
+    scene = scene_from_arguments(arguments)
+    names = compare or [arguments.integrator or scene.integrator]
+    simulations = {name: Simulation(scene, integrator=name, dt=arguments.dt) for name in names}
+    dt = next(iter(simulations.values())).dt
+    if arguments.duration is not None:
+        steps = max(1, int(round(arguments.duration / dt)))
+    else:
+        steps = arguments.steps
+    if steps < 1:
+        raise ValueError("--steps must be at least 1")
+    output = arguments.output or Path("recordings") / (
+        f"{scene.name}-compare.rrd" if compare else f"{scene.name}.rrd"
+    )
+    options = RecordingOptions(
+        field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
+        positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,
+        raw_dtype=arguments.raw_dtype,
+    )
+    if arguments.field == "auto" and scene.model.n_particles > DETAIL_LIMIT:
+        if not video_available():
+            print("note: PyAV not installed, recording the field as JPEG (pip install av for "
+                  "H.264 video, ~10x smaller)", file=sys.stderr)
+    frames = steps // arguments.every + 2
+    trees = compare if compare else [None]
+    try:
+        recorder = Recorder(
+            output, scene, options=options, trees=trees, expected_frames=frames,
+            integrator=names[0], dt=dt,
+        )
+    except RecordingError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    runners = {name: Runner(simulation) for name, simulation in simulations.items()}
+    for name, runner in runners.items():
+        recorder.attach(runner, tree=name if compare else None)
+    print(scene.summary())
+    print(f"recording {', '.join(names)}, dt = {dt:g} s, {steps} steps, a frame every "
+          f"{arguments.every} -> {output}")
+    print(f"logging: {recorder.plan.describe()}")
+
+    status = 0
+    started = time.perf_counter()
+    alive = dict(runners)
+    chunk_steps = arguments.every * max(1, 50 // arguments.every)
+    bar = tqdm(total=steps * len(runners), unit="step", disable=arguments.quiet,
+               dynamic_ncols=True)
+    interrupted = False
+    try:
+        with _sigterm_as_interrupt():
+            for runner in runners.values():
+                runner.publish()  # the initial state, step 0
+            done = 0
+            while done < steps and alive:
+                count = min(chunk_steps, steps - done)
+                for name, runner in list(alive.items()):
+                    try:
+                        runner.advance(count, every=arguments.every)
+                    except BlowUpError as error:
+                        del alive[name]
+                        bar.write(f"{name}: stopped: {error}")
+                        # In a comparison a blow-up is a result; it fails the run only if alone.
+                        status = 3 if not alive or not compare else status
+                    bar.update(count)
+                done += count
+    except KeyboardInterrupt as signal_raised:
+        interrupted = True
+        kind = "SIGTERM" if isinstance(signal_raised, _Terminated) else "interrupt"
+        bar.write(f"{kind}: stopping, keeping what was recorded")
+        status = 130
+    except RecordingError as error:
+        bar.write(f"error: {error}")
+        status = 1
+    finally:
+        bar.close()
+        with _signals_ignored():
+            try:
+                path = recorder.close(interrupted=interrupted)
+            except RecordingError as error:
+                print(f"error: {error}", file=sys.stderr)
+                return 1
+    elapsed = time.perf_counter() - started
+    size = path.stat().st_size
+    print(f"wrote {path} ({size / 2**20:.1f} MB, {recorder.frames_logged} frames, "
+          f"{elapsed:.1f} s); open it with: rerun {path}")
+    return status

@@ -1,0 +1,176 @@
+"""Field images for large lattices: one pixel per particle, colour-mapped or raw.
+
+A lattice of ``nx`` by ``ny`` particles becomes an image of ``ny`` rows by ``nx`` columns whose
+pixel (row r, column c) is particle ``(i=c, j=ny-1-r)``: the image is the lattice seen from the
+front, top row first (image rows run downwards, lattice rows upwards).  The quantity is the
+displacement magnitude ``|x - x_rest|`` (m) or the speed ``|v|`` (m/s) of every particle.
+
+Three encodings, one class each, all with ``log(stream, entity, field)`` for a ``(ny, nx)`` float
+array (the caller sets the time first) and ``finish(stream, entity)`` at the end:
+
+* ``JpegField``: colour-mapped RGB, JPEG-compressed (``rr.EncodedImage``), ~30 kB a frame;
+* ``VideoField``: colour-mapped, H.264 through PyAV into ``rr.VideoStream``, a few kB a frame;
+  the frame is padded to even sizes (H.264 4:2:0 needs them) by repeating the last row/column;
+* ``RawField``: the values themselves as a float32 (or float16) ``rr.DepthImage`` (lossless
+  apart from the float conversion); the viewer colour-maps it.
+"""
+
+from __future__ import annotations
+
+import io
+from fractions import Fraction
+from typing import Protocol
+
+import numpy as np
+import rerun as rr
+
+FIELD_MODES = ("jpeg", "video", "raw")
+COLORMAP = "inferno"
+
+
+def video_available() -> bool:
+    """True if PyAV with an H.264 encoder is installed (``pip install av``)."""
+    try:
+        import av
+    except ImportError:
+        return False
+    return "libx264" in av.codecs_available
+
+
+def colour_table(name: str = COLORMAP) -> np.ndarray:
+    """(256, 3) uint8 RGB lookup table of a matplotlib colour map."""
+    from matplotlib import colormaps
+
+    table = colormaps[name](np.linspace(0.0, 1.0, 256))[:, :3]
+    return np.round(table * 255).astype(np.uint8)
+
+
+def lattice_image(values: np.ndarray, nx: int, ny: int) -> np.ndarray:
+    """(n_particles,) per-particle values -> (ny, nx) image, top lattice row first."""
+    return np.flipud(values.reshape(ny, nx))
+
+
+def colour_map(field: np.ndarray, scale: float, table: np.ndarray) -> np.ndarray:
+    """(ny, nx) values in [0, scale] -> (ny, nx, 3) uint8 RGB (values above scale saturate)."""
+    indices = np.multiply(field, 255.0 / scale, dtype=np.float32)
+    np.clip(indices, 0.0, 255.0, out=indices)
+    return table[indices.astype(np.uint8)]
+
+
+class FieldEncoder(Protocol):
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+        ...
+
+    def finish(self, stream: rr.RecordingStream, entity: str) -> None:
+        ...
+
+
+class JpegField:
+    """Colour-mapped JPEG frames (``rr.EncodedImage``)."""
+
+    def __init__(self, quality: int = 80) -> None:
+        from PIL import Image
+
+        self._image_module = Image
+        self.quality = quality
+        self.table = colour_table()
+
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+        rgb = colour_map(field, scale, self.table)
+        buffer = io.BytesIO()
+        self._image_module.fromarray(rgb).save(buffer, format="JPEG", quality=self.quality)
+        stream.log(entity, rr.EncodedImage(contents=buffer.getvalue(), media_type="image/jpeg"))
+
+    def finish(self, stream: rr.RecordingStream, entity: str) -> None:
+        pass
+
+
+class VideoField:
+    """Colour-mapped frames encoded as an H.264 stream (``rr.VideoStream``, needs PyAV).
+
+    Every frame is encoded at once (``tune=zerolatency``, no B-frames) and its packet logged at
+    the frame's own time, so an interrupted recording loses nothing already logged.  A keyframe
+    every ``keyframe_interval`` frames keeps seeking in the viewer quick.
+    """
+
+    def __init__(self, crf: int = 23, preset: str = "veryfast", keyframe_interval: int = 60):
+        import av
+
+        self._av = av
+        self.crf = crf
+        self.preset = preset
+        self.keyframe_interval = keyframe_interval
+        self.table = colour_table()
+        self._codec = None
+        self._frame_index = 0
+
+    def _open(self, stream: rr.RecordingStream, entity: str, height: int, width: int) -> None:
+        codec = self._av.CodecContext.create("libx264", "w")
+        codec.width = width + width % 2
+        codec.height = height + height % 2
+        codec.pix_fmt = "yuv420p"
+        codec.time_base = Fraction(1, 30)
+        codec.framerate = 30
+        codec.gop_size = self.keyframe_interval
+        codec.max_b_frames = 0
+        codec.options = {"preset": self.preset, "crf": str(self.crf), "tune": "zerolatency"}
+        codec.open()
+        self._codec = codec
+        stream.log(entity, rr.VideoStream(codec=rr.VideoCodec.H264), static=True)
+
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+        height, width = field.shape
+        if self._codec is None:
+            self._open(stream, entity, height, width)
+        rgb = colour_map(field, scale, self.table)
+        if height % 2 or width % 2:
+            rgb = np.pad(rgb, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
+        frame = self._av.VideoFrame.from_ndarray(rgb, format="rgb24")
+        frame.pts = self._frame_index
+        self._frame_index += 1
+        for packet in self._codec.encode(frame):
+            stream.log(entity, rr.VideoStream.from_fields(sample=bytes(packet)))
+
+    def finish(self, stream: rr.RecordingStream, entity: str) -> None:
+        """Drain the encoder; with zerolatency there is normally nothing left."""
+        if self._codec is None:
+            return
+        for packet in self._codec.encode(None):
+            stream.log(entity, rr.VideoStream.from_fields(sample=bytes(packet)))
+        self._codec = None
+
+
+class RawField:
+    """The field values themselves as a depth image (``rr.DepthImage``, meter = 1)."""
+
+    def __init__(self, dtype: str = "float32") -> None:
+        if dtype not in ("float16", "float32"):
+            raise ValueError(f"raw field dtype must be float16 or float32, got {dtype!r}")
+        self.dtype = np.dtype(dtype)
+
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+        stream.log(
+            entity,
+            rr.DepthImage(
+                np.ascontiguousarray(field, dtype=self.dtype), meter=1.0,
+                colormap=rr.components.Colormap.Inferno, depth_range=(0.0, scale),
+            ),
+        )
+
+    def finish(self, stream: rr.RecordingStream, entity: str) -> None:
+        pass
+
+
+def make_field_encoder(mode: str, jpeg_quality: int = 80, raw_dtype: str = "float32"):
+    """The encoder for ``mode`` in FIELD_MODES."""
+    if mode == "jpeg":
+        return JpegField(jpeg_quality)
+    if mode == "video":
+        if not video_available():
+            raise RuntimeError(
+                "--field video needs PyAV with libx264: pip install av (or use --field jpeg)"
+            )
+        return VideoField()
+    if mode == "raw":
+        return RawField(raw_dtype)
+    raise ValueError(f"field mode must be one of {FIELD_MODES}, got {mode!r}")
