@@ -108,15 +108,16 @@ class Integrator:
 
 class Euler(Integrator):
     name = "euler"
+    work_arrays = 0
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.euler_steps(n, dt, *self._common(state), self.work[0])
+        state.dissipated += stepping.euler_steps(n, dt, *self._common(state))
         state.advance_clock(n, dt)
 
 
 class Heun(Integrator):
     name = "heun"
-    work_arrays = 4
+    work_arrays = 3
 
     def advance(self, state: State, n: int, dt: float) -> None:
         state.dissipated += stepping.heun_steps(n, dt, *self._common(state), *self.work)
@@ -149,7 +150,7 @@ class Verlet(Integrator):
 
 class RungeKutta4(Integrator):
     name = "rk4"
-    work_arrays = 5
+    work_arrays = 4
 
     def advance(self, state: State, n: int, dt: float) -> None:
         state.dissipated += stepping.rk4_steps(n, dt, *self._common(state), *self.work)

@@ -5,20 +5,35 @@ Each ``*_steps`` function advances a state by ``n`` steps of size ``dt`` entirel
 (J), integrated with the integrator's own quadrature so that kinetic + potential + dissipated is
 conserved to the integrator's order.
 
+Every force evaluation is one sweep over the rows (``sim.kernels.row_accelerations``) with the
+integrator's update of each row fused in right after that row's forces are known: a row that has
+been swept is never read again by the same sweep, so it may be overwritten in place.  Velocity
+Verlet also drifts each row just before its forces are needed.  One sweep thus touches each array
+once, which is what makes the step fast on large lattices.
+
 Arrays: ``position``, ``velocity`` and the work arrays are C-contiguous ``(dim, ny, nx)`` float
-arrays (m, m/s, m/s^2).  ``out_of_plane`` is None for planar scenes (dim == 2) and any value for
+arrays (m, m/s, m/s^2).  ``out_of_plane`` is None for planar scenes (dim == 2) and True for
 dim == 3; ``dashpot``, ``drag``, ``gravity`` are None when the scene has none of them, which
-selects a kernel without those terms (see ``sim.kernels``).  ``parameters`` is the tuple
+selects compiled code without those terms (see ``sim.kernels``).  ``parameters`` is the tuple
 ``(stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y)``.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
-from sim.kernels import linear_accelerations, nonlinear_accelerations
+from sim.kernels import row_accelerations, vertical_springs
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+
+@njit(**_JIT)
+def _components(out_of_plane, array):
+    """(x, y, z) component fields of a (dim, ny, nx) array; z is None for planar scenes."""
+    if out_of_plane is None:
+        return array[0], array[1], None
+    return array[0], array[1], array[2]
 
 
 @njit(**_JIT)
@@ -27,50 +42,48 @@ def accelerations(
     acceleration,
 ):
     """Write the acceleration of every particle into ``acceleration``; return dissipated power (W)."""
-    stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y = parameters
-    if out_of_plane is None:
-        if linear:
-            return linear_accelerations(
-                position[0], position[1], None, velocity[0], velocity[1], None, inverse_mass,
-                stiffness, tension_stiffness, spacing, origin_x, origin_y, dashpot, drag, gravity,
-                acceleration[0], acceleration[1], None,
-            )
-        return nonlinear_accelerations(
-            position[0], position[1], None, velocity[0], velocity[1], None, inverse_mass,
-            stiffness, rest_length, spacing, origin_x, origin_y, dashpot, drag, gravity,
-            acceleration[0], acceleration[1], None,
-        )
-    if linear:
-        return linear_accelerations(
-            position[0], position[1], position[2], velocity[0], velocity[1], velocity[2],
-            inverse_mass, stiffness, tension_stiffness, spacing, origin_x, origin_y, dashpot, drag,
-            gravity, acceleration[0], acceleration[1], acceleration[2],
-        )
-    return nonlinear_accelerations(
-        position[0], position[1], position[2], velocity[0], velocity[1], velocity[2],
-        inverse_mass, stiffness, rest_length, spacing, origin_x, origin_y, dashpot, drag, gravity,
-        acceleration[0], acceleration[1], acceleration[2],
-    )
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    dim, ny, nx = position.shape
+    below = np.empty((3, nx))
+    above = np.empty((3, nx))
+    horizontal = np.empty((3, nx + 1))
+    row = np.empty((3, nx))
+    power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+    for j in range(ny):
+        power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+                                   dashpot, drag, gravity, below, above, horizontal, row)
+        for c in range(dim):
+            for i in range(nx):
+                acceleration[c, j, i] = row[c, i]
+        below, above = above, below
+    return power
 
 
 @njit(**_JIT)
 def euler_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity, acceleration,
+    gravity,
 ):
-    """Explicit Euler: x += dt v(t); v += dt a(t).  First order."""
-    x = position.reshape(-1)
-    v = velocity.reshape(-1)
-    a = acceleration.reshape(-1)
+    """Explicit Euler: x += dt v(t); v += dt a(t).  First order; no work array needed."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    dim, ny, nx = position.shape
+    below = np.empty((3, nx))
+    above = np.empty((3, nx))
+    horizontal = np.empty((3, nx + 1))
+    row = np.empty((3, nx))
     dissipated = 0.0
     for _ in range(n):
-        power = accelerations(
-            linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-            gravity, acceleration,
-        )
-        for k in range(x.shape[0]):
-            x[k] += dt * v[k]
-            v[k] += dt * a[k]
+        power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        for j in range(ny):
+            power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+                                       dashpot, drag, gravity, below, above, horizontal, row)
+            for c in range(dim):
+                for i in range(nx):
+                    position[c, j, i] += dt * velocity[c, j, i]
+                    velocity[c, j, i] += dt * row[c, i]
+            below, above = above, below
         dissipated += dt * power
     return dissipated
 
@@ -78,34 +91,60 @@ def euler_steps(
 @njit(**_JIT)
 def heun_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity, acceleration, stage_position, stage_velocity, stage_acceleration,
+    gravity, first_acceleration, stage_position, stage_velocity,
 ):
     """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector."""
-    x = position.reshape(-1)
-    v = velocity.reshape(-1)
-    a = acceleration.reshape(-1)
-    xs = stage_position.reshape(-1)
-    vs = stage_velocity.reshape(-1)
-    a_stage = stage_acceleration.reshape(-1)
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    xs, ys, zs = _components(out_of_plane, stage_position)
+    vxs, vys, vzs = _components(out_of_plane, stage_velocity)
+    dim, ny, nx = position.shape
+    below = np.empty((3, nx))
+    above = np.empty((3, nx))
+    horizontal = np.empty((3, nx + 1))
+    row = np.empty((3, nx))
     half = 0.5 * dt
     dissipated = 0.0
     for _ in range(n):
-        power = accelerations(
-            linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-            gravity, acceleration,
-        )
-        for k in range(x.shape[0]):
-            xs[k] = x[k] + dt * v[k]
-            vs[k] = v[k] + dt * a[k]
-        power_stage = accelerations(
-            linear, out_of_plane, stage_position, stage_velocity, inverse_mass, parameters,
-            dashpot, drag, gravity, stage_acceleration,
-        )
-        for k in range(x.shape[0]):
-            x[k] += half * (v[k] + vs[k])
-            v[k] += half * (a[k] + a_stage[k])
+        # predictor sweep on (x, v): store a(x, v) and the Euler prediction
+        power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        for j in range(ny):
+            power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+                                       dashpot, drag, gravity, below, above, horizontal, row)
+            for c in range(dim):
+                for i in range(nx):
+                    first_acceleration[c, j, i] = row[c, i]
+                    stage_position[c, j, i] = position[c, j, i] + dt * velocity[c, j, i]
+                    stage_velocity[c, j, i] = velocity[c, j, i] + dt * row[c, i]
+            below, above = above, below
+        # corrector sweep on the prediction: trapezoid of the two slopes
+        power_stage = vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear, parameters,
+                                       dashpot, below)
+        for j in range(ny):
+            power_stage += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                             parameters, dashpot, drag, gravity, below, above,
+                                             horizontal, row)
+            for c in range(dim):
+                for i in range(nx):
+                    position[c, j, i] += half * (velocity[c, j, i] + stage_velocity[c, j, i])
+                    velocity[c, j, i] += half * (first_acceleration[c, j, i] + row[c, i])
+            below, above = above, below
         dissipated += half * (power + power_stage)
     return dissipated
+
+
+@njit(**_JIT)
+def _verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, damped):
+    """Half kick and drift of row j (and the predicted velocity v + dt a when damped)."""
+    dim, ny, nx = position.shape
+    half = 0.5 * dt
+    for c in range(dim):
+        for i in range(nx):
+            if damped:
+                predicted_velocity[c, j, i] = velocity[c, j, i] + dt * acceleration[c, j, i]
+            v = velocity[c, j, i] + half * acceleration[c, j, i]
+            velocity[c, j, i] = v
+            position[c, j, i] += dt * v
 
 
 @njit(**_JIT)
@@ -115,99 +154,110 @@ def verlet_steps(
 ):
     """Velocity Verlet: half kick, drift, new forces, half kick.  Second order, symplectic.
 
-    ``acceleration`` must hold a(x, v) of the current state on entry (``previous_power`` the power
-    that went with it) and holds the new one on exit, so each step costs one force evaluation.
+    ``acceleration`` must hold a(x, v) of the current state on entry (``previous_power`` the
+    power that went with it) and holds the new one on exit, so a step costs one force sweep.
     With velocity-dependent forces (damping), the new forces use the predicted velocity
     v + dt a, which keeps the scheme explicit and second order.  Returns (dissipated, power).
     """
-    x = position.reshape(-1)
-    v = velocity.reshape(-1)
-    a = acceleration.reshape(-1)
+    damped = dashpot is not None or drag is not None
+    x, y, z = _components(out_of_plane, position)
+    if damped:
+        vx, vy, vz = _components(out_of_plane, predicted_velocity)
+    else:
+        vx, vy, vz = _components(out_of_plane, velocity)
+    dim, ny, nx = position.shape
+    below = np.empty((3, nx))
+    above = np.empty((3, nx))
+    horizontal = np.empty((3, nx + 1))
+    row = np.empty((3, nx))
     half = 0.5 * dt
     dissipated = 0.0
     power = previous_power
-    damped = dashpot is not None or drag is not None
-    if damped:
-        v_predicted = predicted_velocity.reshape(-1)
-        for _ in range(n):
-            for k in range(x.shape[0]):
-                v_predicted[k] = v[k] + dt * a[k]
-                v[k] += half * a[k]
-                x[k] += dt * v[k]
-            new_power = accelerations(
-                linear, out_of_plane, position, predicted_velocity, inverse_mass, parameters,
-                dashpot, drag, gravity, acceleration,
-            )
-            for k in range(x.shape[0]):
-                v[k] += half * a[k]
-            dissipated += half * (power + new_power)
-            power = new_power
-    else:
-        for _ in range(n):
-            for k in range(x.shape[0]):
-                v[k] += half * a[k]
-                x[k] += dt * v[k]
-            accelerations(
-                linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot,
-                drag, gravity, acceleration,
-            )
-            for k in range(x.shape[0]):
-                v[k] += half * a[k]
+    for _ in range(n):
+        _verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
+        new_power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        for j in range(ny):
+            if j + 1 < ny:
+                _verlet_drift(j + 1, dt, position, velocity, acceleration, predicted_velocity,
+                              damped)
+            new_power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
+                                           parameters, dashpot, drag, gravity, below, above,
+                                           horizontal, row)
+            for c in range(dim):
+                for i in range(nx):
+                    acceleration[c, j, i] = row[c, i]
+                    velocity[c, j, i] += half * row[c, i]
+            below, above = above, below
+        dissipated += half * (power + new_power)
+        power = new_power
     return dissipated, power
 
 
 @njit(**_JIT)
 def rk4_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity, acceleration, stage_position, stage_velocity, sum_position, sum_velocity,
+    gravity, stage_position, stage_velocity, sum_position, sum_velocity,
 ):
-    """Classic fourth-order Runge-Kutta on (x, v), with three work arrays besides a."""
-    x = position.reshape(-1)
-    v = velocity.reshape(-1)
-    a = acceleration.reshape(-1)
-    xs = stage_position.reshape(-1)
-    vs = stage_velocity.reshape(-1)
-    xa = sum_position.reshape(-1)
-    va = sum_velocity.reshape(-1)
-    half = 0.5 * dt
+    """Classic fourth-order Runge-Kutta on (x, v): four fused sweeps, four work arrays."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    xs, ys, zs = _components(out_of_plane, stage_position)
+    vxs, vys, vzs = _components(out_of_plane, stage_velocity)
+    dim, ny, nx = position.shape
+    below = np.empty((3, nx))
+    above = np.empty((3, nx))
+    horizontal = np.empty((3, nx + 1))
+    row = np.empty((3, nx))
     sixth = dt / 6.0
     third = dt / 3.0
+    half = 0.5 * dt
     dissipated = 0.0
-    size = x.shape[0]
     for _ in range(n):
-        p1 = accelerations(
-            linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-            gravity, acceleration,
-        )
-        for k in range(size):
-            xs[k] = x[k] + half * v[k]
-            vs[k] = v[k] + half * a[k]
-            xa[k] = x[k] + sixth * v[k]
-            va[k] = v[k] + sixth * a[k]
-        p2 = accelerations(
-            linear, out_of_plane, stage_position, stage_velocity, inverse_mass, parameters,
-            dashpot, drag, gravity, acceleration,
-        )
-        for k in range(size):
-            xa[k] += third * vs[k]
-            va[k] += third * a[k]
-            xs[k] = x[k] + half * vs[k]
-            vs[k] = v[k] + half * a[k]
-        p3 = accelerations(
-            linear, out_of_plane, stage_position, stage_velocity, inverse_mass, parameters,
-            dashpot, drag, gravity, acceleration,
-        )
-        for k in range(size):
-            xa[k] += third * vs[k]
-            va[k] += third * a[k]
-            xs[k] = x[k] + dt * vs[k]
-            vs[k] = v[k] + dt * a[k]
-        p4 = accelerations(
-            linear, out_of_plane, stage_position, stage_velocity, inverse_mass, parameters,
-            dashpot, drag, gravity, acceleration,
-        )
-        for k in range(size):
-            x[k] = xa[k] + sixth * vs[k]
-            v[k] = va[k] + sixth * a[k]
+        # stage 1 on (x, v)
+        p1 = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        for j in range(ny):
+            p1 += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+                                    dashpot, drag, gravity, below, above, horizontal, row)
+            for c in range(dim):
+                for i in range(nx):
+                    sum_position[c, j, i] = position[c, j, i] + sixth * velocity[c, j, i]
+                    sum_velocity[c, j, i] = velocity[c, j, i] + sixth * row[c, i]
+                    stage_position[c, j, i] = position[c, j, i] + half * velocity[c, j, i]
+                    stage_velocity[c, j, i] = velocity[c, j, i] + half * row[c, i]
+            below, above = above, below
+        # stages 2 and 3 on the stage state, which is overwritten row by row with the next one
+        p2 = 0.0
+        p3 = 0.0
+        for stage in range(2):
+            step_to_next = half if stage == 0 else dt
+            power = vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot,
+                                     below)
+            for j in range(ny):
+                power += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                           parameters, dashpot, drag, gravity, below, above,
+                                           horizontal, row)
+                for c in range(dim):
+                    for i in range(nx):
+                        stage_v = stage_velocity[c, j, i]
+                        sum_position[c, j, i] += third * stage_v
+                        sum_velocity[c, j, i] += third * row[c, i]
+                        stage_position[c, j, i] = position[c, j, i] + step_to_next * stage_v
+                        stage_velocity[c, j, i] = velocity[c, j, i] + step_to_next * row[c, i]
+                below, above = above, below
+            if stage == 0:
+                p2 = power
+            else:
+                p3 = power
+        # stage 4 and the final combination
+        p4 = vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot, below)
+        for j in range(ny):
+            p4 += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                    parameters, dashpot, drag, gravity, below, above, horizontal,
+                                    row)
+            for c in range(dim):
+                for i in range(nx):
+                    position[c, j, i] = sum_position[c, j, i] + sixth * stage_velocity[c, j, i]
+                    velocity[c, j, i] = sum_velocity[c, j, i] + sixth * row[c, i]
+            below, above = above, below
         dissipated += sixth * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
     return dissipated
