@@ -1,0 +1,249 @@
+"""Subcommands of the study: ``oscillators accuracy``, ``stability`` and ``dispersion``.
+
+``app.cli`` imports this module and calls ``register(subparsers)``.  Each command prints a table
+(or JSON with ``--json``), can save a picture (``--plot PATH.png``) and shows a progress bar on
+stderr while it runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable
+from typing import Any
+
+ACCURACY_DESCRIPTION = """\
+Speed against accuracy.  Runs each integrator over a range of time steps on a scene, from its
+initial state to time T, and measures against a reference solution:
+
+  error      largest particle position error at T / size of the initial disturbance
+  energy     relative drift of the energy balance (kinetic + potential + dissipated)
+  phase      phase error (rad) of the dominant normal mode
+  wall time  of the stepping alone (compilation excluded; short runs repeated, fastest kept)
+
+Reference: the exact normal-mode solution when the springs are linearised (--set linear=true,
+lattices up to ~1500 particles); otherwise RK4 at (smallest dt)/8, whose own error is estimated
+by Richardson extrapolation against (smallest dt)/4 and printed.
+
+dt/limit is dt over the integrator's stability limit (Verlet: omega_max dt = 2, RK4: 2 sqrt 2;
+explicit Euler and Heun have none without damping: their energy grows at every dt).  The measured
+convergence order is the slope of log(error) against log(dt).  The recommendation is the fastest
+configuration whose error is within --tolerance; for each integrator the dt that should just meet
+the tolerance is also predicted from its measured order, run, and marked with *.
+"""
+
+ACCURACY_EPILOG = """\
+examples:
+  oscillators accuracy grid --set linear=true           # exact reference, default steps
+  oscillators accuracy grid --until 5 --tolerance 1e-4 --plot docs/images/work_precision.png
+  oscillators accuracy chain --integrators verlet rk4 --dts 0.02 0.01 0.005 --json
+  oscillators accuracy grid --set nx=40 --set ny=30     # bigger lattice: wall time matters more
+
+Python: from app.study.accuracy import accuracy_study  (returns the data; .as_dict() for JSON)
+"""
+
+STABILITY_DESCRIPTION = """\
+The largest stable time step of each integrator, found by bisection on real runs, next to the
+theoretical limit (Simulation.stable_dt(): velocity Verlet omega_max dt = 2, RK4 2 sqrt 2; explicit
+Euler and Heun are unstable at every dt without damping and stable only with enough damping).
+
+A run is unstable when it raises sim.BlowUpError, its energy runs away (x1e4), or its energy grows
+at every checkpoint (the slow, steady growth of Euler and Heun).  A tiny random perturbation
+(1e-6 spacing) excites every mode, so the fastest mode is always present.  The cases are the
+extremes of the issue: very stiff springs, mass ratios up to 1e6 (one heavy particle among light
+ones and the reverse), near-zero pre-tension, strong and over-damping, strong gravity, large
+drags (particles crossing their neighbours, through the zero-length spring singularity; a NaN
+that is not reported as a BlowUpError is flagged), 1x1, 1x1000 and 682x383 lattices.
+"""
+
+STABILITY_EPILOG = """\
+examples:
+  oscillators stability                               # every case (682x383 included: minutes)
+  oscillators stability --cases grid stiff heavy-among-light --plot stability.png
+  oscillators stability grid --set damping=5          # one scene of your own
+  oscillators stability --list                        # the cases and what they contain
+"""
+
+DISPERSION_DESCRIPTION = """\
+The continuum limit.  A long chain (one row, unstressed, linearised springs, fixed ends) is given
+a random displacement along the chain, integrated, and the space-time spectrum of its displacement
+is taken (sine transform in space, windowed FFT in time).  The frequency measured for each
+wavenumber q is compared with the discrete relation omega = 2 sqrt(k/m) |sin(q a / 2)| and the
+continuum line omega = c q, c = a sqrt(k/m).  The wave speed is also measured directly by tracking
+the front of a wide pulse.  For the ionic chain (masses M and m alternating) the acoustic and
+optical branches and the gap between sqrt(2k/M) and sqrt(2k/m) are measured.
+"""
+
+DISPERSION_EPILOG = """\
+examples:
+  oscillators dispersion --plot docs/images/dispersion.png
+  oscillators dispersion --particles 2000 --json
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the accuracy, stability and dispersion subcommands to the ``oscillators`` parser."""
+    from app.cli import add_scene_arguments
+
+    formatter = argparse.RawDescriptionHelpFormatter
+    accuracy = subparsers.add_parser(
+        "accuracy", help="error against wall time of every integrator (work-precision)",
+        description=ACCURACY_DESCRIPTION, epilog=ACCURACY_EPILOG, formatter_class=formatter,
+    )
+    add_scene_arguments(accuracy, default_scene="grid")
+    accuracy.add_argument(
+        "--integrators", nargs="+", metavar="NAME", default=None,
+        help="integrators to compare (default: euler heun verlet rk4)",
+    )
+    accuracy.add_argument(
+        "--dts", nargs="+", type=float, metavar="DT",
+        help="time steps in seconds (default: 0.9 of the RK4 limit down to 1/400 of it)",
+    )
+    accuracy.add_argument(
+        "--until", type=float, metavar="T",
+        help="time (s) at which the error is measured (default: 5 periods of the dominant mode)",
+    )
+    accuracy.add_argument(
+        "--tolerance", type=float, default=1e-3,
+        help="target relative position error for the recommendation (default 1e-3)",
+    )
+    accuracy.add_argument("--no-refine", action="store_true",
+                          help="do not run the dt predicted to just meet the tolerance")
+    _add_output_arguments(accuracy)
+    accuracy.set_defaults(handler=command_accuracy)
+
+    stability = subparsers.add_parser(
+        "stability", help="largest stable dt of every integrator, measured and theoretical",
+        description=STABILITY_DESCRIPTION, epilog=STABILITY_EPILOG, formatter_class=formatter,
+    )
+    stability.add_argument(
+        "scene", nargs="?", default=None,
+        help="preset or .toml file to study alone (default: the built-in extreme cases)",
+    )
+    stability.add_argument(
+        "--set", dest="overrides", action="append", metavar="KEY=VALUE",
+        help="override a parameter of SCENE (as in `oscillators run`); repeatable",
+    )
+    stability.add_argument("--cases", nargs="+", metavar="CASE",
+                           help="only these built-in cases (see --list)")
+    stability.add_argument("--list", action="store_true", help="list the built-in cases and exit")
+    stability.add_argument("--integrators", nargs="+", metavar="NAME", default=None)
+    stability.add_argument(
+        "--steps", type=int, default=400,
+        help="steps per trial run (default 400; fewer on lattices above 100,000 particles)",
+    )
+    stability.add_argument(
+        "--precision", type=float, default=0.005,
+        help="relative width at which the bisection stops (default 0.005)",
+    )
+    _add_output_arguments(stability)
+    stability.set_defaults(handler=command_stability)
+
+    dispersion = subparsers.add_parser(
+        "dispersion", help="wave speed and dispersion relation measured on long chains",
+        description=DISPERSION_DESCRIPTION, epilog=DISPERSION_EPILOG, formatter_class=formatter,
+    )
+    dispersion.add_argument("--particles", type=int, default=400,
+                            help="particles in the chain (default 400)")
+    dispersion.add_argument("--stiffness", type=float, default=35.0, help="k in N/m (default 35)")
+    dispersion.add_argument("--mass", type=float, default=1.0, help="m in kg (default 1)")
+    dispersion.add_argument("--heavy", type=float, default=4.0,
+                            help="heavy mass M of the ionic chain in kg (default 4)")
+    _add_output_arguments(dispersion)
+    dispersion.set_defaults(handler=command_dispersion)
+
+
+def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument("--plot", metavar="PATH.png", help="save the picture to this PNG file")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _progress_bar(total: int, quiet: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="run", disable=quiet, dynamic_ncols=True, file=sys.stderr)
+
+
+def _advance(bar) -> Callable[[str], None]:
+    def progress(label: str) -> None:
+        if bar.total is not None and bar.n >= bar.total:
+            bar.total = bar.n + 1
+        bar.set_description(label)
+        bar.update(1)
+
+    return progress
+
+
+def _emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> None:
+    if arguments.json:
+        print(json.dumps(data, indent=2))
+    else:
+        print(text)
+        if arguments.plot:
+            print(f"picture saved to {arguments.plot}")
+
+
+def command_accuracy(arguments: argparse.Namespace) -> int:
+    import sim
+    from app.cli import scene_from_arguments
+    from app.study.accuracy import accuracy_study, format_report, plot_work_precision
+
+    scene = scene_from_arguments(arguments)
+    if arguments.integrator and not arguments.integrators:
+        arguments.integrators = [arguments.integrator]
+    integrators = arguments.integrators or list(sim.INTEGRATORS)
+    dts = arguments.dts or ([arguments.dt] if arguments.dt else None)
+    planned = len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
+    with _progress_bar(planned, arguments.quiet) as bar:
+        study = accuracy_study(
+            scene, integrators=integrators, dts=dts, until=arguments.until,
+            tolerance=arguments.tolerance, refine=not arguments.no_refine,
+            progress=_advance(bar),
+        )
+        bar.total = bar.n
+    if arguments.plot:
+        plot_work_precision(study, arguments.plot)
+    _emit(arguments, study.as_dict(), format_report(study))
+    return 0
+
+
+def command_stability(arguments: argparse.Namespace) -> int:
+    from app.study import stability
+
+    if arguments.list:
+        for case in stability.default_cases():
+            print(f"{case.name:22s} {case.description}")
+        return 0
+    if arguments.scene is not None:
+        from app.cli import scene_from_arguments
+
+        scene = scene_from_arguments(arguments)
+        cases = [stability.Case(scene.name, "the scene given on the command line", scene)]
+    else:
+        cases = stability.default_cases(arguments.cases)
+    integrators = arguments.integrators or None
+    with _progress_bar(None, arguments.quiet) as bar:
+        study = stability.stability_study(
+            cases, integrators=integrators, steps=arguments.steps,
+            precision=arguments.precision, progress=_advance(bar),
+        )
+    if arguments.plot:
+        stability.plot_stability(study, arguments.plot)
+    _emit(arguments, study.as_dict(), stability.format_report(study))
+    return 0
+
+
+def command_dispersion(arguments: argparse.Namespace) -> int:
+    from app.study import dispersion
+
+    with _progress_bar(None, arguments.quiet) as bar:
+        study = dispersion.dispersion_study(
+            particles=arguments.particles, stiffness=arguments.stiffness, mass=arguments.mass,
+            heavy=arguments.heavy, progress=_advance(bar),
+        )
+    if arguments.plot:
+        dispersion.plot_dispersion(study, arguments.plot)
+    _emit(arguments, study.as_dict(), dispersion.format_report(study))
+    return 0

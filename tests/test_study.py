@@ -1,0 +1,134 @@
+"""Accuracy study: physics against physics.
+
+The exact normal-mode solution is checked against the numba kernels, the measured convergence
+orders against theory, and the recommendation against its promise (fast, never less accurate than
+asked).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import sim
+from app.study.accuracy import accuracy_study, recommend
+from app.study.linear import ExactLinearSolution, NotExactError
+
+# Per-integrator steps (s) in the asymptotic range on the linearised 12x8 grid, T = 2 s
+# (omega_max = 11.75 rad/s): small enough that Euler's growth exp(omega^2 dt T / 2) stays near 1,
+# large enough that RK4 stays above round-off.
+CONVERGENCE_DTS = {
+    "euler": [4e-4, 2e-4, 1e-4, 5e-5],
+    "heun": [4e-3, 2e-3, 1e-3, 5e-4],
+    "verlet": [1e-2, 5e-3, 2.5e-3, 1.25e-3],
+    "rk4": [2e-2, 1e-2, 5e-3, 2.5e-3],
+}
+
+
+@pytest.fixture(scope="module")
+def linear_grid_study():
+    scene = sim.scenes.build("grid", linear=True)
+    return accuracy_study(scene, dts=CONVERGENCE_DTS, until=2.0, tolerance=1e-2,
+                          minimum_seconds=0.0)
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [dict(), dict(damping=0.5), dict(gravity=9.81, rest_length=0.9),
+     dict(drag=0.3, dim=3, rest_length=0.8)],
+    ids=["undamped", "dashpots", "gravity+tension", "drag+3d"],
+)
+def test_exact_solution_matches_a_fine_rk4_run(overrides):
+    scene = sim.scenes.build("grid", nx=6, ny=4, linear=True, **overrides)
+    simulation = sim.Simulation(scene, integrator="rk4", dt=1e-3)
+    exact = ExactLinearSolution(
+        scene.model, simulation.state.positions, simulation.state.velocities
+    )
+    simulation.step(1500)
+    positions, velocities = exact.state_at(simulation.time)
+    assert np.abs(simulation.state.positions - positions).max() < 1e-8
+    assert np.abs(simulation.state.velocities - velocities).max() < 1e-7
+
+
+def test_exact_solution_refuses_nonlinear_springs():
+    scene = sim.scenes.build("grid")
+    with pytest.raises(NotExactError, match="linear"):
+        ExactLinearSolution(scene.model, scene.model.rest_positions.T, scene.initial_velocities.T)
+
+
+def test_reference_is_exact_for_linear_scene(linear_grid_study):
+    assert linear_grid_study.reference.kind == "exact normal modes"
+    assert linear_grid_study.reference.error == 0.0
+
+
+@pytest.mark.parametrize("integrator", sim.INTEGRATORS)
+def test_measured_convergence_order_matches_theory(linear_grid_study, integrator):
+    measured = linear_grid_study.orders[integrator]
+    assert measured is not None
+    assert abs(measured - sim.ORDERS[integrator]) < 0.2, (integrator, measured)
+
+
+def test_phase_and_energy_errors_shrink_with_dt(linear_grid_study):
+    for integrator in sim.INTEGRATORS:
+        runs = linear_grid_study.runs_of(integrator)
+        phases = [abs(run.phase_error) for run in runs]
+        drifts = [abs(run.energy_drift) for run in runs]
+        assert phases == sorted(phases), integrator
+        assert drifts == sorted(drifts), integrator
+
+
+def test_nonlinear_reference_reports_its_own_error():
+    scene = sim.scenes.build("grid", nx=6, ny=4)
+    study = accuracy_study(scene, integrators=["verlet", "rk4"], dts=[0.02, 0.01], until=1.0,
+                           minimum_seconds=0.0)
+    assert study.reference.kind == "RK4 (Richardson)"
+    assert 0 < study.reference.error < 1e-9
+    # the study's verdict must not change if the reference is refined further
+    rk4 = study.runs_of("rk4")
+    assert rk4[0].error < rk4[1].error / 10
+
+
+def test_recommendation_beats_rk4_at_a_tenth_of_its_limit_and_meets_the_tolerance():
+    # 30x20 linearised grid: big enough that wall time is dominated by the force evaluations.
+    scene = sim.scenes.build("grid", nx=30, ny=20, linear=True)
+    rk4_limit = sim.Simulation(scene).stable_dt("rk4")
+    until = 4.0
+    slow_and_safe = 0.1 * rk4_limit
+    dts = [slow_and_safe, 0.25 * rk4_limit, 0.5 * rk4_limit]
+    tolerance = 0.05
+    study = accuracy_study(scene, integrators=["verlet", "rk4"], dts=dts, until=until,
+                           tolerance=tolerance)
+    choice = study.recommendation
+    assert choice.integrator is not None
+    assert choice.error <= tolerance
+    chosen = next(run for run in study.runs
+                  if run.integrator == choice.integrator and run.dt == choice.dt)
+    assert chosen.error <= tolerance
+    baseline = next(run for run in study.runs_of("rk4") if math.isclose(
+        run.dt, until / round(until / slow_and_safe)))
+    assert chosen.wall_seconds < baseline.wall_seconds
+    # never less accurate than asked, whatever the tolerance
+    for tight in (1e-2, 1e-4, 1e-6):
+        again = recommend(study.runs, tight)
+        assert again.integrator is None or again.error <= tight
+
+
+def test_json_output_is_valid_and_complete(linear_grid_study):
+    data = json.loads(json.dumps(linear_grid_study.as_dict()))
+    assert {"runs", "orders", "recommendation", "reference", "limits"} <= set(data)
+    assert len(data["runs"]) >= 16
+
+
+def test_cli_accuracy_prints_table_and_writes_picture(tmp_path, capsys):
+    from app.cli import main
+
+    picture = tmp_path / "wp.png"
+    status = main(["accuracy", "chain", "--set", "linear=true", "--integrators", "verlet", "rk4",
+                   "--dts", "0.02", "0.01", "--until", "1", "--quiet", "--plot", str(picture)])
+    assert status == 0
+    output = capsys.readouterr().out
+    assert "recommendation" in output and "exact normal modes" in output
+    assert picture.stat().st_size > 10_000
