@@ -201,9 +201,13 @@ class WebApp:
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
-            self.control.release(client.client_id)
-            if self._drag is not None and self._drag["owner"] == client.client_id:
-                self._drag = None
+            self.client_left(client.client_id)
+
+    def client_left(self, client_id: int) -> None:
+        """A browser went away: let go of whatever it was dragging."""
+        self.control.release(client_id)
+        if self._drag is not None and self._drag["owner"] == client_id:
+            self._drag = None
 
     def pick(self, ray_origin: tuple[float, float, float],
              ray_direction: tuple[float, float, float]) -> int | None:

@@ -1,0 +1,164 @@
+"""The web app in a real (headless) Chromium driven by Playwright.
+
+Each test starts a ``WebApp`` on a free localhost port and stops it (and the browser) at the end.
+Only ``test_page_loads_and_a_gui_change_reaches_the_simulation`` runs by default; the others are
+also marked slow (``pytest -m ''``).  Clicks on particles are aimed by projecting world points
+with the client's camera (which the server knows): the camera looks straight down -z.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+import sim
+from app.web.app import WebApp
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--no-first-run",
+]
+VIEWPORT = {"width": 1400, "height": 900}
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no Chromium at {CHROMIUM}"),
+]
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def wait_for(condition, timeout: float = 15.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+@pytest.fixture
+def web_app() -> Iterator[WebApp]:
+    """An 11x7 grid (odd sizes: the middle particle sits at the origin), paused."""
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port())
+    app.start()
+    yield app
+    app.stop()
+
+
+@pytest.fixture
+def browser():
+    playwright_api = pytest.importorskip("playwright.sync_api")
+    with playwright_api.sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield chromium
+        finally:
+            chromium.close()
+
+
+def open_page(browser, app: WebApp):
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(app.url)
+    page.wait_for_selector("canvas", timeout=20_000)
+    page.get_by_text("Connected").wait_for(timeout=20_000)
+    return page
+
+
+def choose(page, label: str, option: str) -> None:
+    """Pick ``option`` in the viser dropdown labelled ``label`` (a Mantine combobox)."""
+    page.get_by_label(label, exact=True).click()
+    page.get_by_role("option", name=option, exact=True).click()
+
+
+def to_screen(page, app: WebApp, xy: np.ndarray) -> tuple[float, float]:
+    """Pixel position of the world point (x, y, 0) in the (only) client's view."""
+    client = next(iter(app.server.get_clients().values()))
+    camera = client.camera
+    box = page.locator("canvas").first.bounding_box()
+    half_height = camera.position[2] * math.tan(camera.fov / 2)
+    half_width = half_height * box["width"] / box["height"]
+    return (
+        box["x"] + (xy[0] / half_width + 1) / 2 * box["width"],
+        box["y"] + (1 - xy[1] / half_height) / 2 * box["height"],
+    )
+
+
+def test_page_loads_and_a_gui_change_reaches_the_simulation(web_app, browser):
+    page = open_page(browser, web_app)
+    assert wait_for(lambda: len(web_app.server.get_clients()) == 1)
+    assert page.locator("canvas").count() >= 1
+    assert wait_for(lambda: web_app.frames_delivered > 0)
+    choose(page, "Method", "verlet")
+    page.get_by_label("Gravity", exact=True).check()
+    assert wait_for(lambda: web_app.runner.simulation.integrator == "verlet")
+    assert wait_for(lambda: web_app.runner.simulation.model.gravity[1] == pytest.approx(-9.81))
+
+
+@pytest.mark.slow
+def test_click_selects_and_gizmo_drag_displaces_the_particle(web_app, browser):
+    page = open_page(browser, web_app)
+    assert wait_for(lambda: web_app.view.last_positions is not None)
+    particle = 2 * 11 + 3
+    start = web_app.runner.simulation.peek_positions()[particle]
+    page.mouse.click(*to_screen(page, web_app, start))
+    assert wait_for(lambda: web_app.view.selection.tolist() == [particle])
+    page.get_by_text(f"Selected particle {particle}").wait_for(timeout=10_000)
+    time.sleep(1.0)  # let the gizmo reach the page
+    # grab the gizmo's x arrow near its tip and pull it to the right
+    grab_x, grab_y = to_screen(page, web_app, start + np.array([1.3, 0.0]))
+    page.mouse.move(grab_x, grab_y)
+    page.mouse.down()
+    for step in range(1, 11):
+        page.mouse.move(grab_x + 8 * step, grab_y, steps=2)
+        time.sleep(0.05)
+    page.mouse.up()
+    target_x = start[0] + 0.5
+    assert wait_for(lambda: web_app.runner.simulation.peek_positions()[particle][0] > target_x)
+    moved = web_app.runner.simulation.peek_positions()
+    assert moved[particle][1] == pytest.approx(start[1], abs=1e-6)
+    assert not web_app.runner.pins  # released at the end of the drag
+
+
+@pytest.mark.slow
+def test_unstable_dt_shows_the_warning_and_pauses_finite(web_app, browser):
+    page = open_page(browser, web_app)
+    stable = web_app.runner.simulation.stable_dt()
+    dt_box = page.get_by_label("Time step dt (s)", exact=True)
+    dt_box.fill(f"{5 * stable:.4f}")
+    dt_box.press("Enter")
+    assert wait_for(lambda: web_app.runner.simulation.dt > stable)
+    page.get_by_text("exceeds the stability limit").wait_for(timeout=10_000)
+    page.get_by_role("button", name="Play").click()
+    page.get_by_text("Stopped:").wait_for(timeout=20_000)
+    assert not web_app.runner.playing
+    assert np.isfinite(web_app.runner.simulation.peek_positions()).all()
+    assert "stability limit" in (web_app.runner.error or "")
+
+
+@pytest.mark.slow
+def test_two_clients_share_the_lattice(web_app, browser):
+    first = open_page(browser, web_app)
+    second = open_page(browser, web_app)
+    assert wait_for(lambda: len(web_app.server.get_clients()) == 2)
+    first.get_by_label("Gravity", exact=True).check()
+    assert wait_for(lambda: web_app.runner.simulation.model.has_gravity)
+    second.get_by_role("button", name="Play").click()
+    assert wait_for(lambda: web_app.runner.simulation.step_count > 20)
+    assert wait_for(lambda: second.get_by_label("Gravity", exact=True).is_checked(), timeout=10)
+    first.close()
+    assert wait_for(lambda: len(web_app.server.get_clients()) == 1)
+    steps = web_app.runner.simulation.step_count
+    assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 10)

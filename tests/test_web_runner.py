@@ -1,0 +1,170 @@
+"""The web app's commands and interaction logic, without a browser.
+
+``SimulationControl`` posts commands to a running ``LatticeRunner``; ``WebApp`` turns clicks
+(pointer rays) and gizmo drags into those commands.  Servers here bind a free localhost port and
+are always stopped.
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+
+import numpy as np
+import pytest
+
+import sim
+from app.web.app import WebApp
+from app.web.control import LatticeRunner, SimulationControl
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def wait_for(condition, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.02)
+    return False
+
+
+@pytest.fixture
+def running():
+    simulation = sim.Simulation(sim.scenes.build("grid"))
+    runner = LatticeRunner(simulation, max_fps=200)
+    runner.start()
+    yield runner, SimulationControl(runner)
+    runner.stop()
+
+
+@pytest.fixture
+def web_app():
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port())
+    app.start()
+    assert wait_for(lambda: app.view.last_positions is not None)
+    yield app
+    app.stop()
+
+
+def test_gravity_change_reaches_the_simulation(running):
+    runner, control = running
+    control.set_gravity(True, 3.5).result(timeout=5)
+    assert runner.simulation.model.gravity[:2] == (0.0, -3.5)
+    control.set_gravity(False).result(timeout=5)
+    assert not runner.simulation.model.has_gravity
+
+
+def test_bad_parameter_is_rejected_and_changes_nothing(running):
+    runner, control = running
+    with pytest.raises(sim.ModelError):
+        control.set_stiffness(-1.0).result(timeout=5)
+    assert runner.simulation.model.stiffness == 35.0
+
+
+def test_drag_command_displaces_exactly_that_particle(running):
+    runner, control = running
+    before = runner.simulation.peek_positions()
+    target = before[17] + np.array([0.3, -0.2])
+    control.move_particles([17], target[None, :]).result(timeout=5)
+    after = runner.simulation.peek_positions()
+    assert np.allclose(after[17], target)
+    moved = np.flatnonzero(np.any(after != before, axis=1))
+    assert moved.tolist() == [17]
+
+
+def test_pinned_particle_is_held_while_running_and_released(running):
+    runner, control = running
+    model = runner.simulation.model
+    target = model.rest_positions[40] + np.array([0.0, 0.4])
+    control.move_particles([40], target[None, :], owner="client-1", pin=True).result(timeout=5)
+    runner.play()
+    assert wait_for(lambda: runner.simulation.step_count > 30)
+    runner.pause()
+    runner.post(lambda s: None).result(timeout=5)
+    assert np.allclose(runner.simulation.peek_positions()[40], target)
+    control.release("client-1").result(timeout=5)
+    assert not runner.pins
+    runner.play()
+    assert wait_for(lambda: not np.allclose(runner.simulation.peek_positions()[40], target))
+    runner.pause()
+
+
+def test_unstable_dt_pauses_with_a_message_and_a_finite_state(running):
+    runner, control = running
+    stable = runner.simulation.stable_dt()
+    frames = []
+    runner.subscribe(frames.append)
+    control.set_dt(5 * stable).result(timeout=5)
+    runner.play()
+    assert wait_for(lambda: any(frame.error for frame in frames))
+    assert wait_for(lambda: not runner.playing)
+    errored = next(frame for frame in frames if frame.error)
+    assert "stability limit" in errored.error
+    assert np.isfinite(runner.simulation.peek_positions()).all()
+
+
+def test_mass_pattern_and_selection_mass(running):
+    runner, control = running
+    control.set_mass_pattern("ionic", heavy=4.0).result(timeout=5)
+    assert set(np.unique(runner.simulation.masses)) == {1.0, 4.0}
+    control.set_particle_masses([3, 5], 7.5).result(timeout=5)
+    assert runner.simulation.masses[3] == 7.5 and runner.simulation.masses[5] == 7.5
+
+
+def test_replace_scene_and_save_load(running, tmp_path):
+    runner, control = running
+    control.build_preset("chain").result(timeout=10)
+    assert runner.simulation.model.nx == 5
+    saved = control.save(tmp_path / "chain.toml").result(timeout=5)
+    control.build_preset("grid").result(timeout=10)
+    control.load(saved).result(timeout=10)
+    assert runner.simulation.model.nx == 5 and runner.simulation.model.ny == 1
+
+
+def test_click_ray_selects_the_particle_under_it(web_app):
+    model = web_app.runner.simulation.model
+    centre = 3 * model.nx + 5  # 11x7: the middle particle sits at the origin
+    assert web_app.click((0.0, 0.0, 20.0), (0.0, 0.0, -1.0)) == centre
+    assert web_app.view.selection.tolist() == [centre]
+    # slanted ray landing on particle 0 (bottom left)
+    x, y = model.rest_positions[0]
+    assert web_app.click((x + 1.0, y + 1.0, 10.0), (-0.1, -0.1, -1.0)) == 0
+    assert web_app.click((0.0, 0.0, 20.0), (0.0, 0.0, -1.0), add=True) == centre
+    assert sorted(web_app.view.selection.tolist()) == [0, centre]
+    # a click outside the lattice selects nothing and keeps the selection
+    assert web_app.click((50.0, 50.0, 20.0), (0.0, 0.0, -1.0)) is None
+    assert sorted(web_app.view.selection.tolist()) == [0, centre]
+
+
+def test_gizmo_drag_moves_the_selection_and_release_lets_go(web_app):
+    model = web_app.runner.simulation.model
+    web_app.set_selection(np.array([0]))
+    start = model.rest_positions[0].copy()
+    owner = 123
+    web_app.drag("start", np.array([*start, 0.0]), owner=owner)
+    web_app.drag("update", np.array([start[0] + 0.5, start[1] + 0.25, 0.0]), owner=owner)
+    web_app.runner.post(lambda s: None).result(timeout=5)
+    assert owner in web_app.runner.pins
+    assert np.allclose(web_app.runner.simulation.peek_positions()[0], start + [0.5, 0.25])
+    web_app.drag("end", np.array([start[0] + 0.5, start[1] + 0.25, 0.0]), owner=owner)
+    web_app.runner.post(lambda s: None).result(timeout=5)
+    assert not web_app.runner.pins
+    assert np.allclose(web_app.runner.simulation.peek_positions()[0], start + [0.5, 0.25])
+
+
+def test_disconnect_mid_drag_releases_the_pins(web_app):
+    web_app.set_selection(np.array([5]))
+    start = web_app.runner.simulation.model.rest_positions[5]
+    web_app.drag("start", np.array([*start, 0.0]), owner=7)
+    web_app.drag("update", np.array([start[0], start[1] + 0.3, 0.0]), owner=7)
+    web_app.runner.post(lambda s: None).result(timeout=5)
+    assert 7 in web_app.runner.pins
+
+    web_app.client_left(7)
+    web_app.runner.post(lambda s: None).result(timeout=5)
+    assert not web_app.runner.pins and web_app._drag is None
