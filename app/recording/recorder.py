@@ -32,6 +32,7 @@ import queue
 import shutil
 import sys
 import threading
+import time
 import uuid
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -73,6 +74,8 @@ class RecordingOptions:
     detail_limit: the particle count up to which a lattice counts as small.
     jpeg_quality: 1-95; raw_dtype: "float32" or "float16".
     flush_every: frames between waits for the file writer (bounds memory).
+    background: log in a worker thread fed by a bounded queue instead of in the runner's thread
+        (measured slower on 2 cores for large lattices: the threads compete; see the docs).
     queue_frames: frames that may wait for the worker before the simulation is held back.
     """
 
@@ -84,6 +87,7 @@ class RecordingOptions:
     jpeg_quality: int = 80
     raw_dtype: str = "float32"
     flush_every: int = 50
+    background: bool = False
     queue_frames: int = 4
 
     def plan(self, model: Model) -> LoggingPlan:
@@ -358,8 +362,9 @@ class _Track:
         values = np.sqrt(np.einsum("ij,ij->i", vectors, vectors))
         image = fields.lattice_image(values, model.nx, model.ny)
         if self.recorder.options.field_scale is None:
-            top = max(int(values.size * 0.999) - 1, 0)
-            percentile = float(np.partition(values, top)[top]) if values.size else 0.0
+            sample = values[:: max(1, values.size // 20000)]  # ~20k values suffice for a scale
+            top = max(int(sample.size * 0.999) - 1, 0)
+            percentile = float(np.partition(sample, top)[top]) if sample.size else 0.0
             self._scale = max(self._scale or 0.0, percentile, 1e-6 * model.spacing)
         assert self._scale is not None and self._encoder is not None
         self.recorder.stream.log(self.paths.field_scale, rr.Scalars(self._scale))
@@ -445,8 +450,13 @@ class Recorder:
         self._closed = False
         self._failure: BaseException | None = None
         self.frames_logged = 0
-        self._worker = threading.Thread(target=self._work, name="rrd-recorder", daemon=True)
-        self._worker.start()
+        self.logging_seconds = 0.0
+        """Wall time spent logging frames (colour mapping, encoding, rerun calls; not flushes)."""
+        self._since_flush = 0
+        self._worker: threading.Thread | None = None
+        if self.options.background:
+            self._worker = threading.Thread(target=self._work, name="rrd-recorder", daemon=True)
+            self._worker.start()
 
     # --- checks -----------------------------------------------------------------------------------
 
@@ -513,33 +523,45 @@ class Recorder:
         with self._lock:
             if self._closed:
                 return
-            self._queue.put((track, frame))
+            self._submit((track, frame))
 
     # --- worker -----------------------------------------------------------------------------------
 
     def _work(self) -> None:
-        since_flush = 0
         while True:
             item = self._queue.get()
             if item is _STOP:
                 return
-            if self._failure is not None:
-                continue  # keep draining so producers never block
-            try:
-                if callable(item):
-                    item()
-                    continue
-                track, frame = item
-                track.log_frame(frame)
-                self.frames_logged += 1
-                since_flush += 1
-                if since_flush >= self.options.flush_every:
-                    since_flush = 0
-                    self.stream.flush(timeout_sec=120.0)
-                    self._check_space()
-            except BaseException as error:  # noqa: BLE001 - reported to the producer
-                self._failure = error
-                print(f"recording error: {error!r}", file=sys.stderr)
+            self._process(item)
+
+    def _process(self, item: Any) -> None:
+        """Log one queued item: a (track, frame) pair or a callable (events, finishing)."""
+        if self._failure is not None:
+            return  # keep draining so producers never block
+        try:
+            if callable(item):
+                item()
+                return
+            track, frame = item
+            started = time.perf_counter()
+            track.log_frame(frame)
+            self.logging_seconds += time.perf_counter() - started
+            self.frames_logged += 1
+            self._since_flush += 1
+            if self._since_flush >= self.options.flush_every:
+                self._since_flush = 0
+                self.stream.flush(timeout_sec=120.0)
+                self._check_space()
+        except BaseException as error:  # noqa: BLE001 - reported to the producer
+            self._failure = error
+            print(f"recording error: {error!r}", file=sys.stderr)
+
+    def _submit(self, item: Any) -> None:
+        """Hand an item to the worker (background) or log it now; the caller holds _lock."""
+        if self._worker is not None:
+            self._queue.put(item)
+        else:
+            self._process(item)
 
     def _check_space(self) -> None:
         if shutil.disk_usage(self.path.parent).free < MIN_FREE_BYTES // 4:
@@ -560,7 +582,7 @@ class Recorder:
 
         with self._lock:
             if not self._closed:
-                self._queue.put(log_event)
+                self._submit(log_event)
 
     def close(self, interrupted: bool = False) -> Path:
         """Stop listening, log what is queued, flush, close the file and give it its final name.
@@ -570,14 +592,15 @@ class Recorder:
                 return self.path
             if interrupted:
                 for name in self.tracks:
-                    self._queue.put(functools.partial(self._interrupted_event, name))
+                    self._submit(functools.partial(self._interrupted_event, name))
+            for unsubscribe in self._unsubscribers:
+                unsubscribe()
+            for track in self.tracks.values():
+                self._submit(track.finish)
             self._closed = True
-        for unsubscribe in self._unsubscribers:
-            unsubscribe()
-        for track in self.tracks.values():
-            self._queue.put(track.finish)
-        self._queue.put(_STOP)
-        self._worker.join()
+        if self._worker is not None:
+            self._queue.put(_STOP)
+            self._worker.join()
         try:
             self.stream.flush(timeout_sec=120.0)
         finally:
