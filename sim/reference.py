@@ -84,11 +84,8 @@ def step(model: Model, integrator: str, positions, velocities, dt: float):
         a_predicted = accelerations(model, x_predicted, v_predicted)
         return x + dt / 2 * (v + v_predicted), v + dt / 2 * (a + a_predicted)
     if integrator == "verlet":
-        a = accelerations(model, x, v)
-        v_half = v + dt / 2 * a
-        x_new = x + dt * v_half
-        a_new = accelerations(model, x_new, v + dt * a)
-        return x_new, v_half + dt / 2 * a_new
+        x_new, v_new, _ = verlet_step(model, x, v, accelerations(model, x, v), dt)
+        return x_new, v_new
     if integrator == "rk4":
         k1x, k1v = v, accelerations(model, x, v)
         k2x = v + dt / 2 * k1v
@@ -102,3 +99,25 @@ def step(model: Model, integrator: str, positions, velocities, dt: float):
             v + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v),
         )
     raise ValueError(f"unknown integrator {integrator!r}")
+
+
+def verlet_step(model: Model, positions, velocities, acceleration, dt: float):
+    """Velocity Verlet with the acceleration carried from the previous step; velocity-dependent
+    forces are evaluated at the predicted velocity v + dt a.  Returns (x, v, a) after the step."""
+    v_half = velocities + dt / 2 * acceleration
+    x_new = positions + dt * v_half
+    a_new = accelerations(model, x_new, velocities + dt * acceleration)
+    return x_new, v_half + dt / 2 * a_new, a_new
+
+
+def run(model: Model, integrator: str, positions, velocities, dt: float, steps: int):
+    """``steps`` steps of ``integrator`` in numpy; returns the final (positions, velocities)."""
+    x, v = positions.copy(), velocities.copy()
+    if integrator == "verlet":
+        a = accelerations(model, x, v)
+        for _ in range(steps):
+            x, v, a = verlet_step(model, x, v, a, dt)
+        return x, v
+    for _ in range(steps):
+        x, v = step(model, integrator, x, v, dt)
+    return x, v
