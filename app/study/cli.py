@@ -48,7 +48,7 @@ The largest stable time step of each integrator, found by bisection on real runs
 theoretical limit (Simulation.stable_dt(): velocity Verlet omega_max dt = 2, RK4 2 sqrt 2; explicit
 Euler and Heun are unstable at every dt without damping and stable only with enough damping).
 
-A run is unstable when it raises sim.BlowUpError, its energy runs away (x1e4), or its energy grows
+A run is unstable when it raises sim.BlowUpError, its energy runs away (x100), or its energy grows
 at every checkpoint (the slow, steady growth of Euler and Heun).  A tiny random perturbation
 (1e-6 spacing) excites every mode, so the fastest mode is always present.  The cases are the
 extremes of the issue: very stiff springs, mass ratios up to 1e6 (one heavy particle among light
