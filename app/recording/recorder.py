@@ -552,7 +552,7 @@ class Recorder:
                 self._since_flush = 0
                 self.stream.flush(timeout_sec=120.0)
                 self._check_space()
-        except BaseException as error:  # noqa: BLE001 - reported to the producer
+        except Exception as error:  # reported to the producer; Ctrl-C passes through
             self._failure = error
             print(f"recording error: {error!r}", file=sys.stderr)
 

@@ -1,0 +1,331 @@
+"""Recordings (issue 3): real ``.rrd`` files written by ``app.recording`` and read back with
+rerun's own reader (``rerun.chunk.RrdReader``) and CLI (``rerun rrd verify``)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rerun.chunk import RrdReader
+
+import sim
+from app.cli import build_parser, main
+from app.recording import Recorder, RecordingError, RecordingOptions
+from app.recording.field import video_available
+from sim.runner import Runner
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+# --- reading files back ------------------------------------------------------------------------
+
+
+def read_chunks(path: Path) -> list:
+    return RrdReader(path).stream().to_chunks()
+
+
+def temporal(chunks: list, entity: str, column: str) -> dict[int, object]:
+    """{step: value} of one component column of an entity's temporal rows."""
+    rows: dict[int, object] = {}
+    for chunk in chunks:
+        if chunk.entity_path != entity or chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        if column not in batch.schema.names:
+            continue
+        for step, value in zip(batch.column("step").to_pylist(), batch.column(column), strict=True):
+            rows[step] = value
+    return rows
+
+
+def static_rows(chunks: list, entity: str) -> int:
+    return sum(chunk.num_rows for chunk in chunks if chunk.entity_path == entity and chunk.is_static)
+
+
+def as_array(value: object, width: int | None = None) -> np.ndarray:
+    """An Arrow list cell (possibly of fixed-size lists) as a numpy array."""
+    flat = value.values  # type: ignore[attr-defined]
+    while hasattr(flat, "values") and not hasattr(flat, "to_numpy_zero_copy"):
+        flat = flat.flatten() if hasattr(flat, "flatten") else flat.values
+    array = np.asarray(flat.to_numpy(zero_copy_only=False))
+    return array.reshape(-1, width) if width else array
+
+
+def scalar(value: object) -> float:
+    return float(value.as_py()[0])  # type: ignore[attr-defined]
+
+
+def texts(chunks: list, entity: str) -> list[tuple[int, str, str]]:
+    out = []
+    for chunk in chunks:
+        if chunk.entity_path != entity or chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        steps = batch.column("step").to_pylist() if "step" in batch.schema.names else [None] * len(batch)
+        levels = batch.column("TextLog:level").to_pylist()
+        for step, text, level in zip(steps, batch.column("TextLog:text").to_pylist(), levels, strict=True):
+            out.append((step, text[0], level[0] if level else None))
+    return out
+
+
+def rerun_binary() -> str:
+    import rerun_cli
+
+    return str(Path(rerun_cli.__file__).parent / "rerun")
+
+
+def record_scene(path: Path, scene, steps: int, every: int, **option_values) -> Recorder:
+    simulation = sim.Simulation(scene)
+    runner = Runner(simulation)
+    with Recorder(path, scene, options=RecordingOptions(**option_values)) as recorder:
+        recorder.attach(runner)
+        runner.publish()
+        runner.advance(steps, every=every)
+    return recorder
+
+
+# --- small scenes ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def grid_file(tmp_path_factory) -> tuple[Path, object]:
+    scene = sim.scenes.build("grid")
+    path = tmp_path_factory.mktemp("grid") / "grid.rrd"
+    record_scene(path, scene, steps=30, every=3)
+    return path, scene
+
+
+def test_file_is_final_and_verified(grid_file):
+    path, _ = grid_file
+    assert path.exists() and not Path(str(path) + ".partial").exists()
+    result = subprocess.run([rerun_binary(), "rrd", "verify", str(path)],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    reader = RrdReader(path)
+    assert len(reader.recordings()) == 1 and reader.blueprints()
+
+
+def test_timelines_and_positions_match_an_independent_simulation(grid_file):
+    path, scene = grid_file
+    chunks = read_chunks(path)
+    positions = temporal(chunks, "/lattice/particles", "Points2D:positions")
+    assert sorted(positions) == list(range(0, 31, 3))
+    names = {name for chunk in chunks if not chunk.is_static for name in chunk.timeline_names}
+    assert {"step", "sim_time"} <= names
+    reference = sim.Simulation(scene)
+    for step in (0, 3, 15, 30):
+        reference.step(step - reference.step_count)
+        recorded = as_array(positions[step], 2)
+        np.testing.assert_allclose(recorded, reference.peek_positions(), rtol=0, atol=1e-5)
+    times = {}
+    for chunk in chunks:
+        if chunk.entity_path == "/energy/total" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            for step, duration in zip(batch.column("step").to_pylist(),
+                                      batch.column("sim_time").cast("int64").to_pylist(), strict=True):
+                times[step] = duration * 1e-9
+    assert times[30] == pytest.approx(30 * scene.dt, rel=1e-9)
+
+
+def test_energy_series_and_strains_match(grid_file):
+    path, scene = grid_file
+    chunks = read_chunks(path)
+    reference = sim.Simulation(scene)
+    series = {term: temporal(chunks, f"/energy/{term}", "Scalars:scalars")
+              for term in ("kinetic", "potential", "total", "dissipated")}
+    strains = temporal(chunks, "/lattice/springs", "strain")
+    for step in (0, 9, 30):
+        reference.step(step - reference.step_count)
+        energy = reference.energy()
+        for term, rows in series.items():
+            assert scalar(rows[step]) == pytest.approx(energy[term], rel=1e-9, abs=1e-12)
+        np.testing.assert_allclose(as_array(strains[step]), reference.strains(), atol=1e-12)
+    integrator = temporal(chunks, "/settings/integrator", "TextDocument:text")
+    assert [v.as_py() for v in integrator.values()] == [["rk4"]]
+    assert scalar(temporal(chunks, "/settings/dt", "Scalars:scalars")[30]) == scene.dt
+
+
+def test_static_data_is_logged_once(grid_file):
+    path, scene = grid_file
+    chunks = read_chunks(path)
+    for entity in ("/scene", "/lattice/rest", "/lattice/anchors", "/lattice"):
+        assert static_rows(chunks, entity) == 1, entity
+        assert not temporal(chunks, entity, "Points2D:positions")
+    rest = [c for c in chunks if c.entity_path == "/lattice/rest" and c.is_static][0]
+    assert len(as_array(rest.to_record_batch().column("Points2D:positions")[0], 2)) == 96
+    topology = [c for c in chunks if c.entity_path == "/lattice/springs" and c.is_static
+                and "first" in c.to_record_batch().schema.names]
+    assert len(topology) == 1
+    first = as_array(topology[0].to_record_batch().column("first")[0])
+    np.testing.assert_array_equal(first, scene.model.springs[:, 0])
+    scene_text = [c for c in chunks if c.entity_path == "/scene"][0].to_record_batch()
+    assert "stiffness" in scene_text.column("TextDocument:text")[0].as_py()[0]
+
+
+def test_raw_field_is_lossless_and_oriented_like_the_lattice(tmp_path):
+    scene = sim.scenes.build("grid")
+    path = tmp_path / "raw.rrd"
+    record_scene(path, scene, steps=10, every=5, field="raw", detail_limit=10)
+    chunks = read_chunks(path)
+    images = temporal(chunks, "/field", "DepthImage:buffer")
+    assert sorted(images) == [0, 5, 10]
+    assert not temporal(chunks, "/lattice/particles", "Points2D:positions")  # big-scene plan
+    reference = sim.Simulation(scene)
+    reference.step(10)
+    displacement = np.linalg.norm(reference.peek_positions() - reference.rest_positions, axis=1)
+    image = np.frombuffer(as_array(images[10]).astype(np.uint8).tobytes(), dtype=np.float32)
+    image = image.reshape(8, 12)
+    np.testing.assert_allclose(image[::-1].ravel(), displacement, rtol=1e-6, atol=1e-7)
+
+
+# --- integrity -----------------------------------------------------------------------------------
+
+
+def test_blow_up_ends_the_recording_cleanly(tmp_path):
+    scene = sim.scenes.build("grid")
+    simulation = sim.Simulation(scene, integrator="euler", dt=0.2)
+    runner = Runner(simulation)
+    path = tmp_path / "blowup.rrd"
+    with pytest.raises(sim.BlowUpError):
+        with Recorder(path, scene) as recorder:
+            recorder.attach(runner)
+            runner.advance(10_000, every=10)
+    chunks = read_chunks(path)
+    errors = [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
+    assert len(errors) == 1 and "blew up" in errors[0][1]
+    assert max(temporal(chunks, "/energy/total", "Scalars:scalars")) == errors[0][0]
+
+
+def test_unwritable_path_and_full_disk_fail_before_the_run(tmp_path, monkeypatch):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    scene = sim.scenes.build("chain")
+    with pytest.raises(RecordingError, match="cannot write"):
+        Recorder(blocker / "x.rrd", scene)
+    assert main(["record", "chain", "--steps", "5", "-o", str(blocker / "x.rrd"), "--quiet"]) == 2
+
+    import shutil
+
+    real = shutil.disk_usage
+    monkeypatch.setattr(shutil, "disk_usage",
+                        lambda path: real(path)._replace(free=1_000_000))
+    with pytest.raises(RecordingError, match="disk space"):
+        Recorder(tmp_path / "y.rrd", scene, expected_frames=1000)
+    assert not list(tmp_path.glob("y.rrd*"))
+
+
+@pytest.mark.parametrize("signal_number", [signal.SIGINT, signal.SIGTERM])
+def test_signal_leaves_a_readable_file(tmp_path, signal_number):
+    path = tmp_path / "interrupted.rrd"
+    command = [sys.executable, "-m", "app.cli", "record", "grid", "--steps", "100000000",
+               "--every", "20", "-o", str(path), "--quiet"]
+    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    partial = Path(str(path) + ".partial")
+    deadline = time.monotonic() + 40
+    while time.monotonic() < deadline and (not partial.exists() or partial.stat().st_size < 200_000):
+        time.sleep(0.2)
+    assert partial.exists(), process.communicate(timeout=10)
+    process.send_signal(signal_number)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert path.exists() and not partial.exists()
+    chunks = read_chunks(path)
+    steps = temporal(chunks, "/energy/total", "Scalars:scalars")
+    assert len(steps) > 10
+    warnings = [entry for entry in texts(chunks, "/log") if entry[2] == "WARN"]
+    assert warnings and "interrupted" in warnings[0][1]
+    assert warnings[0][0] == max(steps)
+
+
+def test_attach_and_close_while_the_runner_thread_runs(tmp_path):
+    scene = sim.scenes.build("grid")
+    runner = Runner(sim.Simulation(scene), max_fps=200)
+    runner.start()
+    runner.play()
+    try:
+        time.sleep(0.1)
+        recorder = Recorder(tmp_path / "live.rrd", scene)
+        recorder.attach(runner, snapshot=True)
+        time.sleep(0.5)
+        recorder.close()
+        time.sleep(0.1)  # frames published after close are ignored
+    finally:
+        runner.stop()
+    steps = temporal(read_chunks(tmp_path / "live.rrd"), "/energy/total", "Scalars:scalars")
+    assert len(steps) > 5 and min(steps) > 0
+
+
+# --- command line --------------------------------------------------------------------------------
+
+
+def test_compare_mode_holds_one_tree_per_integrator(tmp_path):
+    path = tmp_path / "compare.rrd"
+    status = main(["record", "grid", "--compare", "euler,verlet,rk4", "--dt", "0.05",
+                   "--steps", "200", "--every", "5", "-o", str(path), "--quiet"])
+    assert status == 0  # Euler blowing up is a result of the comparison, not a failure
+    chunks = read_chunks(path)
+    roots = {chunk.entity_path.split("/")[1] for chunk in chunks}
+    assert {"euler", "verlet", "rk4", "scene"} <= roots
+    assert "lattice" not in roots and "energy" not in roots
+    verlet = temporal(chunks, "/verlet/lattice/particles", "Points2D:positions")
+    assert max(verlet) == 200
+    reference = sim.Simulation(sim.scenes.build("grid"), integrator="verlet", dt=0.05)
+    reference.step(200)
+    np.testing.assert_allclose(as_array(verlet[200], 2), reference.peek_positions(), atol=1e-5)
+    assert any(level == "ERROR" for _, _, level in texts(chunks, "/euler/log"))
+    assert max(temporal(chunks, "/rk4/energy/total", "Scalars:scalars")) == 200
+
+
+def test_help_teaches_with_examples(capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["record", "--help"])
+    text = capsys.readouterr().out
+    for phrase in ("examples:", "--compare euler,verlet,rk4", "--field", "rerun ", "--positions"):
+        assert phrase in text
+
+
+def test_cli_duration_and_output(tmp_path):
+    path = tmp_path / "sub" / "chain.rrd"
+    assert main(["record", "chain", "--duration", "0.5", "--dt", "0.01", "-o", str(path),
+                 "--quiet"]) == 0
+    steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
+    assert max(steps) == 50
+
+
+# --- large scenes ------------------------------------------------------------------------------
+
+
+def test_interference_default_recording_fits_the_budget(tmp_path):
+    """Budget: 1000 frames of interference in under 50 MB; extrapolated from a few frames."""
+    scene = sim.scenes.build("interference")
+    simulation = sim.Simulation(scene)
+    simulation.step(150)  # let the waves spread so the images are not flat
+    frames = 6
+
+    def recorded_bytes(count: int) -> tuple[int, Recorder]:
+        runner = Runner(simulation)
+        path = tmp_path / f"interference{count}.rrd"
+        with Recorder(path, scene) as recorder:
+            recorder.attach(runner)
+            if count:
+                runner.advance(count, every=1)
+        return path.stat().st_size, recorder
+
+    static_bytes, _ = recorded_bytes(0)
+    total_bytes, recorder = recorded_bytes(frames)
+    per_frame = (total_bytes - static_bytes) / frames
+    assert per_frame * 1000 < 50e6, f"{per_frame / 1e3:.0f} kB a frame"
+    assert recorder.logging_seconds / frames < 0.06
+    chunks = read_chunks(tmp_path / f"interference{frames}.rrd")
+    entities = {chunk.entity_path for chunk in chunks if not chunk.is_static}
+    assert "/field" in entities and "/lattice/springs" not in entities
+    assert not temporal(chunks, "/lattice/particles", "Points2D:positions")
+    column = "VideoStream:sample" if video_available() else "EncodedImage:blob"
+    assert len(temporal(chunks, "/field", column)) == frames
+
