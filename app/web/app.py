@@ -37,7 +37,7 @@ def runner_pacing(model: sim.Model) -> tuple[int, float, float]:
     """(steps per frame, simulation frames/s cap, render frames/s cap) for a lattice."""
     if model.n_particles >= LARGE_LATTICE:
         return 5, 25.0, 25.0
-    return 1, 60.0, 60.0
+    return 1, 60.0, 90.0
 
 
 class WebApp:
