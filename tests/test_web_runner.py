@@ -168,3 +168,18 @@ def test_disconnect_mid_drag_releases_the_pins(web_app):
     web_app.client_left(7)
     web_app.runner.post(lambda s: None).result(timeout=5)
     assert not web_app.runner.pins and web_app._drag is None
+
+
+def test_record_button_records_the_running_lattice(running, tmp_path):
+    from app.web.panel import _find_recorder
+
+    factory = _find_recorder()
+    if factory is None:
+        pytest.skip("app.recording is not installed")
+    runner, control = running
+    recording = factory(runner, tmp_path)
+    runner.play()
+    assert wait_for(lambda: runner.simulation.step_count > 20)
+    runner.pause()
+    path = recording.stop()
+    assert path.exists() and path.suffix == ".rrd" and path.stat().st_size > 0

@@ -524,13 +524,32 @@ class ControlPanel:
 
 
 def _find_recorder() -> Any:
-    """The recorder's ``start(runner, directory)`` factory if ``app.recording`` provides one."""
+    """A factory ``(runner, directory) -> recording`` if ``app.recording`` is installed, else None.
+
+    The recording subscribes a ``app.recording.Recorder`` to the runner; ``stop()`` closes it and
+    returns the ``.rrd`` path.
+    """
     try:
-        module = importlib.import_module("app.recording")
+        recording = importlib.import_module("app.recording")
     except ImportError:
         return None
-    for name in ("start_web_recording", "start_recording"):
-        factory = getattr(module, name, None)
-        if callable(factory):
-            return factory
-    return None
+    recorder_class = getattr(recording, "Recorder", None)
+    if recorder_class is None:
+        return None
+
+    class WebRecording:
+        def __init__(self, runner: Any, directory: Path) -> None:
+            simulation = runner.simulation
+            scene = sim.scenes.scene_from_simulation(simulation)
+            directory.mkdir(parents=True, exist_ok=True)
+            stamp = time.strftime("%Y%m%d-%H%M%S")
+            self.recorder = recorder_class(
+                directory / f"{scene.name}-{stamp}.rrd", scene,
+                integrator=simulation.integrator, dt=simulation.dt,
+            )
+            self.recorder.attach(runner, snapshot=True)
+
+        def stop(self) -> Path:
+            return self.recorder.close()
+
+    return WebRecording
