@@ -93,42 +93,54 @@ def heun_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
     gravity, first_acceleration, stage_position, stage_velocity,
 ):
-    """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector."""
+    """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector.
+
+    The two sweeps run as a wavefront: the corrector works on row j - 1 right after the predictor
+    has finished row j, so each step reads and writes the state once while it is in cache.
+    """
     x, y, z = _components(out_of_plane, position)
     vx, vy, vz = _components(out_of_plane, velocity)
     xs, ys, zs = _components(out_of_plane, stage_position)
     vxs, vys, vzs = _components(out_of_plane, stage_velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx))
-    above = np.empty((3, nx))
+    vertical = np.empty((2, 2, 3, nx))  # (sweep, below/above, component, column)
     horizontal = np.empty((3, nx + 1))
     row = np.empty((3, nx))
     half = 0.5 * dt
     dissipated = 0.0
     for _ in range(n):
-        # predictor sweep on (x, v): store a(x, v) and the Euler prediction
-        power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
-        for j in range(ny):
-            power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                                       dashpot, drag, gravity, below, above, horizontal, row)
-            for c in range(dim):
-                for i in range(nx):
-                    first_acceleration[c, j, i] = row[c, i]
-                    stage_position[c, j, i] = position[c, j, i] + dt * velocity[c, j, i]
-                    stage_velocity[c, j, i] = velocity[c, j, i] + dt * row[c, i]
-            below, above = above, below
-        # corrector sweep on the prediction: trapezoid of the two slopes
-        power_stage = vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear, parameters,
-                                       dashpot, below)
-        for j in range(ny):
-            power_stage += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
-                                             parameters, dashpot, drag, gravity, below, above,
-                                             horizontal, row)
-            for c in range(dim):
-                for i in range(nx):
-                    position[c, j, i] += half * (velocity[c, j, i] + stage_velocity[c, j, i])
-                    velocity[c, j, i] += half * (first_acceleration[c, j, i] + row[c, i])
-            below, above = above, below
+        power = 0.0
+        power_stage = 0.0
+        for t in range(ny + 1):
+            j = t  # predictor on (x, v): store a(x, v) and the Euler prediction
+            if j < ny:
+                below = vertical[0, j % 2]
+                above = vertical[0, (j + 1) % 2]
+                if j == 0:
+                    power += vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot,
+                                              below)
+                power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
+                                           parameters, dashpot, drag, gravity, below, above,
+                                           horizontal, row)
+                for c in range(dim):
+                    for i in range(nx):
+                        first_acceleration[c, j, i] = row[c, i]
+                        stage_position[c, j, i] = position[c, j, i] + dt * velocity[c, j, i]
+                        stage_velocity[c, j, i] = velocity[c, j, i] + dt * row[c, i]
+            j = t - 1  # corrector on the prediction: trapezoid of the two slopes
+            if j >= 0:
+                below = vertical[1, j % 2]
+                above = vertical[1, (j + 1) % 2]
+                if j == 0:
+                    power_stage += vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear,
+                                                    parameters, dashpot, below)
+                power_stage += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass,
+                                                 linear, parameters, dashpot, drag, gravity,
+                                                 below, above, horizontal, row)
+                for c in range(dim):
+                    for i in range(nx):
+                        position[c, j, i] += half * (velocity[c, j, i] + stage_velocity[c, j, i])
+                        velocity[c, j, i] += half * (first_acceleration[c, j, i] + row[c, i])
         dissipated += half * (power + power_stage)
     return dissipated
 
@@ -156,8 +168,15 @@ def verlet_steps(
 
     ``acceleration`` must hold a(x, v) of the current state on entry (``previous_power`` the
     power that went with it) and holds the new one on exit, so a step costs one force sweep.
-    With velocity-dependent forces (damping), the new forces use the predicted velocity
-    v + dt a, which keeps the scheme explicit and second order.  Returns (dissipated, power).
+
+    Without damping, consecutive steps run as leapfrog (kick by a full dt, drift) on the
+    half-step velocities, each sweep updating a row in place once its forces are known; the first
+    sweep drifts each row just before it is needed and the last one kicks by half a step to bring
+    the velocities back to whole steps.  That is algebraically velocity Verlet and reads and
+    writes only positions and velocities in the steps between.
+    With velocity-dependent forces (damping), every step is a full velocity-Verlet step whose new
+    forces use the predicted velocity v + dt a, which keeps it explicit and second order.
+    Returns (dissipated, power).
     """
     damped = dashpot is not None or drag is not None
     x, y, z = _components(out_of_plane, position)
@@ -173,20 +192,30 @@ def verlet_steps(
     half = 0.5 * dt
     dissipated = 0.0
     power = previous_power
-    for _ in range(n):
-        _verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
+    for step in range(n):
+        first = step == 0 or damped
+        last = step == n - 1 or damped
+        if first:
+            _verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
         new_power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
         for j in range(ny):
-            if j + 1 < ny:
+            if first and j + 1 < ny:
                 _verlet_drift(j + 1, dt, position, velocity, acceleration, predicted_velocity,
                               damped)
             new_power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
                                            horizontal, row)
-            for c in range(dim):
-                for i in range(nx):
-                    acceleration[c, j, i] = row[c, i]
-                    velocity[c, j, i] += half * row[c, i]
+            if last:
+                for c in range(dim):
+                    for i in range(nx):
+                        acceleration[c, j, i] = row[c, i]
+                        velocity[c, j, i] += half * row[c, i]
+            else:  # leapfrog: v(t + dt/2) = v(t - dt/2) + dt a(t); x(t + dt) = x(t) + dt v
+                for c in range(dim):
+                    for i in range(nx):
+                        v = velocity[c, j, i] + dt * row[c, i]
+                        velocity[c, j, i] = v
+                        position[c, j, i] += dt * v
             below, above = above, below
         dissipated += half * (power + new_power)
         power = new_power
@@ -198,66 +227,70 @@ def rk4_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
     gravity, stage_position, stage_velocity, sum_position, sum_velocity,
 ):
-    """Classic fourth-order Runge-Kutta on (x, v): four fused sweeps, four work arrays."""
+    """Classic fourth-order Runge-Kutta on (x, v).
+
+    The four stages run as a wavefront over the rows: at sweep position t, stage s works on row
+    t - s, which needs rows t - s and t - s + 1 of its input, finished one iteration earlier by
+    stage s - 1.  Each stage overwrites the stage state of a row with the next stage's input once
+    it no longer needs it, and the last stage writes the new (x, v) of rows every stage has left
+    behind.  So a step streams the state through the cache once instead of four times.
+    """
     x, y, z = _components(out_of_plane, position)
     vx, vy, vz = _components(out_of_plane, velocity)
     xs, ys, zs = _components(out_of_plane, stage_position)
     vxs, vys, vzs = _components(out_of_plane, stage_velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx))
-    above = np.empty((3, nx))
+    vertical = np.empty((4, 2, 3, nx))  # (stage, below/above, component, column)
     horizontal = np.empty((3, nx + 1))
     row = np.empty((3, nx))
+    powers = np.zeros(4)
     sixth = dt / 6.0
     third = dt / 3.0
     half = 0.5 * dt
     dissipated = 0.0
     for _ in range(n):
-        # stage 1 on (x, v)
-        p1 = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
-        for j in range(ny):
-            p1 += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                                    dashpot, drag, gravity, below, above, horizontal, row)
-            for c in range(dim):
-                for i in range(nx):
-                    sum_position[c, j, i] = position[c, j, i] + sixth * velocity[c, j, i]
-                    sum_velocity[c, j, i] = velocity[c, j, i] + sixth * row[c, i]
-                    stage_position[c, j, i] = position[c, j, i] + half * velocity[c, j, i]
-                    stage_velocity[c, j, i] = velocity[c, j, i] + half * row[c, i]
-            below, above = above, below
-        # stages 2 and 3 on the stage state, which is overwritten row by row with the next one
-        p2 = 0.0
-        p3 = 0.0
-        for stage in range(2):
-            step_to_next = half if stage == 0 else dt
-            power = vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot,
-                                     below)
-            for j in range(ny):
-                power += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
-                                           parameters, dashpot, drag, gravity, below, above,
-                                           horizontal, row)
-                for c in range(dim):
-                    for i in range(nx):
-                        stage_v = stage_velocity[c, j, i]
-                        sum_position[c, j, i] += third * stage_v
-                        sum_velocity[c, j, i] += third * row[c, i]
-                        stage_position[c, j, i] = position[c, j, i] + step_to_next * stage_v
-                        stage_velocity[c, j, i] = velocity[c, j, i] + step_to_next * row[c, i]
-                below, above = above, below
-            if stage == 0:
-                p2 = power
-            else:
-                p3 = power
-        # stage 4 and the final combination
-        p4 = vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot, below)
-        for j in range(ny):
-            p4 += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
-                                    parameters, dashpot, drag, gravity, below, above, horizontal,
-                                    row)
-            for c in range(dim):
-                for i in range(nx):
-                    position[c, j, i] = sum_position[c, j, i] + sixth * stage_velocity[c, j, i]
-                    velocity[c, j, i] = sum_velocity[c, j, i] + sixth * row[c, i]
-            below, above = above, below
-        dissipated += sixth * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
+        powers[:] = 0.0
+        for t in range(ny + 3):
+            for stage in range(4):
+                j = t - stage
+                if j < 0 or j >= ny:
+                    continue
+                below = vertical[stage, j % 2]
+                above = vertical[stage, (j + 1) % 2]
+                if stage == 0:
+                    if j == 0:
+                        powers[0] += vertical_springs(0, x, y, z, vx, vy, vz, linear,
+                                                      parameters, dashpot, below)
+                    powers[0] += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
+                                                   parameters, dashpot, drag, gravity, below,
+                                                   above, horizontal, row)
+                    for c in range(dim):
+                        for i in range(nx):
+                            v = velocity[c, j, i]
+                            sum_position[c, j, i] = position[c, j, i] + sixth * v
+                            sum_velocity[c, j, i] = v + sixth * row[c, i]
+                            stage_position[c, j, i] = position[c, j, i] + half * v
+                            stage_velocity[c, j, i] = v + half * row[c, i]
+                    continue
+                if j == 0:
+                    powers[stage] += vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear,
+                                                      parameters, dashpot, below)
+                powers[stage] += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass,
+                                                   linear, parameters, dashpot, drag, gravity,
+                                                   below, above, horizontal, row)
+                if stage < 3:
+                    step_to_next = half if stage == 1 else dt
+                    for c in range(dim):
+                        for i in range(nx):
+                            stage_v = stage_velocity[c, j, i]
+                            sum_position[c, j, i] += third * stage_v
+                            sum_velocity[c, j, i] += third * row[c, i]
+                            stage_position[c, j, i] = position[c, j, i] + step_to_next * stage_v
+                            stage_velocity[c, j, i] = velocity[c, j, i] + step_to_next * row[c, i]
+                else:
+                    for c in range(dim):
+                        for i in range(nx):
+                            position[c, j, i] = sum_position[c, j, i] + sixth * stage_velocity[c, j, i]
+                            velocity[c, j, i] = sum_velocity[c, j, i] + sixth * row[c, i]
+        dissipated += sixth * (powers[0] + 2.0 * powers[1] + 2.0 * powers[2] + powers[3])
     return dissipated
