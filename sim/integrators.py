@@ -85,11 +85,14 @@ class Integrator:
 
     name: ClassVar[str]
     work_arrays: ClassVar[int] = 1
+    ring_rows: ClassVar[int | None] = None
+    """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
 
     def __init__(self, model: Model) -> None:
         self.model = model
         self.kernel = KernelArguments.from_model(model)
-        shape = (model.dim, model.ny, model.nx)
+        rows = model.ny if self.ring_rows is None else self.ring_rows
+        shape = (model.dim, rows, model.nx)
         self.work = [np.zeros(shape) for _ in range(self.work_arrays)]
 
     def invalidate(self) -> None:
@@ -118,6 +121,7 @@ class Euler(Integrator):
 class Heun(Integrator):
     name = "heun"
     work_arrays = 3
+    ring_rows = 2
 
     def advance(self, state: State, n: int, dt: float) -> None:
         state.dissipated += stepping.heun_steps(n, dt, *self._common(state), *self.work)
@@ -151,6 +155,7 @@ class Verlet(Integrator):
 class RungeKutta4(Integrator):
     name = "rk4"
     work_arrays = 4
+    ring_rows = 4
 
     def advance(self, state: State, n: int, dt: float) -> None:
         state.dissipated += stepping.rk4_steps(n, dt, *self._common(state), *self.work)

@@ -95,6 +95,8 @@ class Simulation:
         self._integrator = make_integrator(self._integrator_name, self._model)
         self._stability_cache: dict[str, observables.StabilityLimit] = {}
         self._reference_energy: float | None = None
+        self._energy_cache: tuple[tuple, observables.Energy] | None = None
+        self._checkpoint = self.state.copy()
 
     # --- state -----------------------------------------------------------------------------------
 
@@ -202,8 +204,14 @@ class Simulation:
     # --- observables ------------------------------------------------------------------------------
 
     def energy(self) -> observables.Energy:
-        """Kinetic, spring, gravity, potential, dissipated and total energy (J)."""
-        return observables.energy(self._model, self.state)
+        """Kinetic, spring, gravity, potential, dissipated and total energy (J).
+
+        Computed once per state: the blow-up check after each chunk of steps computes it anyway,
+        so a viewer asking for it afterwards gets it for free."""
+        key = (self.state.revision, self.state.step, self.state.time, id(self._model))
+        if self._energy_cache is None or self._energy_cache[0] != key:
+            self._energy_cache = (key, observables.energy(self._model, self.state))
+        return self._energy_cache[1]
 
     def strains(self) -> np.ndarray:
         """(n_springs,) strain of every spring, in ``model.springs`` order."""
@@ -232,14 +240,25 @@ class Simulation:
             self._reference_energy = self._energy_scale()
         while remaining > 0:
             chunk = min(remaining, self.chunk_steps)
-            checkpoint = self.state.copy()
+            self._save_checkpoint()
             self._integrator.advance(self.state, chunk, self._dt)
             problem = self._problem()
             if problem is not None:
-                self.state.restore(checkpoint)
+                self.state.restore(self._checkpoint)
                 self._integrator.invalidate()
                 self._find_bad_step(chunk)
             remaining -= chunk
+
+    def _save_checkpoint(self) -> None:
+        """Copy the state into the preallocated checkpoint (no allocation per chunk)."""
+        if self._checkpoint.positions.shape != self.state.positions.shape:
+            self._checkpoint = self.state.copy()
+            return
+        np.copyto(self._checkpoint.positions, self.state.positions)
+        np.copyto(self._checkpoint.velocities, self.state.velocities)
+        self._checkpoint.time = self.state.time
+        self._checkpoint.step = self.state.step
+        self._checkpoint.dissipated = self.state.dissipated
 
     def _find_bad_step(self, chunk: int) -> None:
         for _ in range(chunk):
@@ -261,10 +280,10 @@ class Simulation:
         return max(abs(energy.kinetic) + abs(energy.potential), spring_scale * self._model.n_particles)
 
     def _problem(self) -> str | None:
-        if not self.state.is_finite():
-            return "positions or velocities became infinite or NaN"
         energy = self.energy()
         size = abs(energy.kinetic) + abs(energy.spring)
+        if not math.isfinite(size):
+            return "positions or velocities became infinite or NaN"
         if size > RUNAWAY_FACTOR * (self._reference_energy or 0.0):
             return (
                 f"the energy ran away ({size:.3g} J, {RUNAWAY_FACTOR:.0e} times "

@@ -49,9 +49,9 @@ def accelerations(
     above = np.empty((3, nx))
     horizontal = np.empty((3, nx + 1))
     row = np.empty((3, nx))
-    power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+    power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
     for j in range(ny):
-        power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+        power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
                                    dashpot, drag, gravity, below, above, horizontal, row)
         for c in range(dim):
             for i in range(nx):
@@ -75,9 +75,9 @@ def euler_steps(
     row = np.empty((3, nx))
     dissipated = 0.0
     for _ in range(n):
-        power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
         for j in range(ny):
-            power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+            power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
                                        dashpot, drag, gravity, below, above, horizontal, row)
             for c in range(dim):
                 for i in range(nx):
@@ -96,13 +96,15 @@ def heun_steps(
     """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector.
 
     The two sweeps run as a wavefront: the corrector works on row j - 1 right after the predictor
-    has finished row j, so each step reads and writes the state once while it is in cache.
+    has finished row j, so each step reads and writes the state once while it is in cache.  The
+    work arrays are ring buffers of at least 2 rows, (dim, 2, nx); row j is kept at j % rows.
     """
     x, y, z = _components(out_of_plane, position)
     vx, vy, vz = _components(out_of_plane, velocity)
     xs, ys, zs = _components(out_of_plane, stage_position)
     vxs, vys, vzs = _components(out_of_plane, stage_velocity)
     dim, ny, nx = position.shape
+    ring = stage_position.shape[1]  # rows kept of the stage arrays (a ring buffer, >= 2)
     vertical = np.empty((2, 2, 3, nx))  # (sweep, below/above, component, column)
     horizontal = np.empty((3, nx + 1))
     row = np.empty((3, nx))
@@ -117,30 +119,32 @@ def heun_steps(
                 below = vertical[0, j % 2]
                 above = vertical[0, (j + 1) % 2]
                 if j == 0:
-                    power += vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot,
+                    power += vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot,
                                               below)
-                power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
+                power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
                                            horizontal, row)
+                slot = j % ring
                 for c in range(dim):
                     for i in range(nx):
-                        first_acceleration[c, j, i] = row[c, i]
-                        stage_position[c, j, i] = position[c, j, i] + dt * velocity[c, j, i]
-                        stage_velocity[c, j, i] = velocity[c, j, i] + dt * row[c, i]
+                        first_acceleration[c, slot, i] = row[c, i]
+                        stage_position[c, slot, i] = position[c, j, i] + dt * velocity[c, j, i]
+                        stage_velocity[c, slot, i] = velocity[c, j, i] + dt * row[c, i]
             j = t - 1  # corrector on the prediction: trapezoid of the two slopes
             if j >= 0:
                 below = vertical[1, j % 2]
                 above = vertical[1, (j + 1) % 2]
                 if j == 0:
-                    power_stage += vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear,
+                    power_stage += vertical_springs(0, ny, xs, ys, zs, vxs, vys, vzs, linear,
                                                     parameters, dashpot, below)
-                power_stage += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass,
+                power_stage += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass,
                                                  linear, parameters, dashpot, drag, gravity,
                                                  below, above, horizontal, row)
+                slot = j % ring
                 for c in range(dim):
                     for i in range(nx):
-                        position[c, j, i] += half * (velocity[c, j, i] + stage_velocity[c, j, i])
-                        velocity[c, j, i] += half * (first_acceleration[c, j, i] + row[c, i])
+                        position[c, j, i] += half * (velocity[c, j, i] + stage_velocity[c, slot, i])
+                        velocity[c, j, i] += half * (first_acceleration[c, slot, i] + row[c, i])
         dissipated += half * (power + power_stage)
     return dissipated
 
@@ -197,12 +201,12 @@ def verlet_steps(
         last = step == n - 1 or damped
         if first:
             _verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
-        new_power = vertical_springs(0, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
         for j in range(ny):
             if first and j + 1 < ny:
                 _verlet_drift(j + 1, dt, position, velocity, acceleration, predicted_velocity,
                               damped)
-            new_power += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
+            new_power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
                                            horizontal, row)
             if last:
@@ -233,13 +237,16 @@ def rk4_steps(
     t - s, which needs rows t - s and t - s + 1 of its input, finished one iteration earlier by
     stage s - 1.  Each stage overwrites the stage state of a row with the next stage's input once
     it no longer needs it, and the last stage writes the new (x, v) of rows every stage has left
-    behind.  So a step streams the state through the cache once instead of four times.
+    behind.  So a step streams the state through the cache once instead of four times, and the
+    stage arrays only need to hold 4 rows: they are ring buffers of shape (dim, 4, nx) (full
+    (dim, ny, nx) arrays work too), row j being stored at index j % rows.
     """
     x, y, z = _components(out_of_plane, position)
     vx, vy, vz = _components(out_of_plane, velocity)
     xs, ys, zs = _components(out_of_plane, stage_position)
     vxs, vys, vzs = _components(out_of_plane, stage_velocity)
     dim, ny, nx = position.shape
+    ring = stage_position.shape[1]  # rows kept of the stage arrays (a ring buffer, >= 4)
     vertical = np.empty((4, 2, 3, nx))  # (stage, below/above, component, column)
     horizontal = np.empty((3, nx + 1))
     row = np.empty((3, nx))
@@ -259,38 +266,42 @@ def rk4_steps(
                 above = vertical[stage, (j + 1) % 2]
                 if stage == 0:
                     if j == 0:
-                        powers[0] += vertical_springs(0, x, y, z, vx, vy, vz, linear,
+                        powers[0] += vertical_springs(0, ny, x, y, z, vx, vy, vz, linear,
                                                       parameters, dashpot, below)
-                    powers[0] += row_accelerations(j, x, y, z, vx, vy, vz, inverse_mass, linear,
+                    powers[0] += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                                    parameters, dashpot, drag, gravity, below,
                                                    above, horizontal, row)
+                    slot = j % ring
                     for c in range(dim):
                         for i in range(nx):
                             v = velocity[c, j, i]
-                            sum_position[c, j, i] = position[c, j, i] + sixth * v
-                            sum_velocity[c, j, i] = v + sixth * row[c, i]
-                            stage_position[c, j, i] = position[c, j, i] + half * v
-                            stage_velocity[c, j, i] = v + half * row[c, i]
+                            sum_position[c, slot, i] = position[c, j, i] + sixth * v
+                            sum_velocity[c, slot, i] = v + sixth * row[c, i]
+                            stage_position[c, slot, i] = position[c, j, i] + half * v
+                            stage_velocity[c, slot, i] = v + half * row[c, i]
                     continue
                 if j == 0:
-                    powers[stage] += vertical_springs(0, xs, ys, zs, vxs, vys, vzs, linear,
+                    powers[stage] += vertical_springs(0, ny, xs, ys, zs, vxs, vys, vzs, linear,
                                                       parameters, dashpot, below)
-                powers[stage] += row_accelerations(j, xs, ys, zs, vxs, vys, vzs, inverse_mass,
+                powers[stage] += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass,
                                                    linear, parameters, dashpot, drag, gravity,
                                                    below, above, horizontal, row)
+                slot = j % ring
                 if stage < 3:
                     step_to_next = half if stage == 1 else dt
                     for c in range(dim):
                         for i in range(nx):
-                            stage_v = stage_velocity[c, j, i]
-                            sum_position[c, j, i] += third * stage_v
-                            sum_velocity[c, j, i] += third * row[c, i]
-                            stage_position[c, j, i] = position[c, j, i] + step_to_next * stage_v
-                            stage_velocity[c, j, i] = velocity[c, j, i] + step_to_next * row[c, i]
+                            stage_v = stage_velocity[c, slot, i]
+                            sum_position[c, slot, i] += third * stage_v
+                            sum_velocity[c, slot, i] += third * row[c, i]
+                            stage_position[c, slot, i] = position[c, j, i] + step_to_next * stage_v
+                            stage_velocity[c, slot, i] = velocity[c, j, i] + step_to_next * row[c, i]
                 else:
                     for c in range(dim):
                         for i in range(nx):
-                            position[c, j, i] = sum_position[c, j, i] + sixth * stage_velocity[c, j, i]
-                            velocity[c, j, i] = sum_velocity[c, j, i] + sixth * row[c, i]
+                            position[c, j, i] = (
+                                sum_position[c, slot, i] + sixth * stage_velocity[c, slot, i]
+                            )
+                            velocity[c, j, i] = sum_velocity[c, slot, i] + sixth * row[c, i]
         dissipated += sixth * (powers[0] + 2.0 * powers[1] + 2.0 * powers[2] + powers[3])
     return dissipated

@@ -342,3 +342,23 @@ def test_bad_names_and_steps_are_refused_clearly():
     with pytest.raises(sim.ModelError, match="mass"):
         simulation.set_parameters(mass=-2.0)
     assert simulation.model.masses.min() > 0  # nothing changed
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("linear", [False, True])
+def test_compiled_energy_matches_numpy_energy(dim, linear):
+    from sim import observables
+
+    model = Model.create(5, 3, dim=dim, stiffness=K, rest_length=0.9, linear=linear,
+                         mass=np.linspace(1, 2, 15).reshape(3, 5))
+    state = sim.State.at_rest(model)
+    rng = np.random.default_rng(5)
+    state.positions += 0.2 * rng.standard_normal(state.positions.shape)
+    state.velocities += rng.standard_normal(state.velocities.shape)
+    energy = observables.energy(model, state)
+    assert energy.spring == pytest.approx(observables.spring_energy(model, state.positions), rel=1e-12)
+    assert energy.kinetic == pytest.approx(
+        observables.kinetic_energy(model, state.velocities), rel=1e-12
+    )
+    state.velocities[0, 1, 2] = np.nan
+    assert not math.isfinite(observables.energy(model, state).kinetic)
