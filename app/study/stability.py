@@ -321,7 +321,7 @@ def format_report(study: StabilityStudy) -> str:
             note = (note + " unstable at every dt tried").strip()
         if limit.unstable_below:
             windows = ", ".join(f"{dt:.3g}" for dt in limit.unstable_below)
-            note = (note + f" but unstable at {windows} (resonance)").strip()
+            note = (note + f" unstable again at {windows};").strip()
         if limit.measured is not None and limit.theory is None:
             note = (note + " growth too slow to see in the run (theory: none stable)").strip()
         lines.append(f"{limit.case:24s} {limit.integrator:8s} {limit.omega_max:10.4g} "
