@@ -8,8 +8,9 @@ not a flat lattice), then ``--frames`` frames are recorded one step apart throug
 ``sim.runner.Runner``.  Printed per mode:
 
 * ms/frame: wall time per recorded frame, simulation included;
-* overhead: ms/frame above the same runner with a no-op subscriber (the bare simulation: step,
-  blow-up check and the frame's energy account, which the runner computes anyway);
+* overhead: ms/frame above the same runner with a no-op subscriber, measured just before (the
+  bare simulation: step, blow-up check and the frame's energy account, which the runner
+  computes anyway); noisy when other processes share the cores;
 * recorder: ms/frame spent in the recorder itself (colour map, encoding, rerun calls), the
   figure least disturbed by other load on the machine;
 * KB/frame: (file size - size of the same recording with no frame) / frames, and the
@@ -119,6 +120,8 @@ def main(argv: list[str] | None = None) -> int:
             bare = bare_ms_per_frame(case, frames)
             print(f"{case.label:22s} {'bare simulation (runner)':27s} {bare:9.1f}", flush=True)
             for label, options in case.modes.items():
+                # Measured again next to each mode: other load on the machine drifts.
+                bare = bare_ms_per_frame(case, frames)
                 _, _, static_bytes = record(case, options, 0, Path(directory, "static.rrd"))
                 ms, own, total_bytes = record(case, options, frames, Path(directory, "run.rrd"))
                 per_frame = (total_bytes - static_bytes) / frames

@@ -251,5 +251,6 @@ def command_record(arguments: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - started
     size = path.stat().st_size
     print(f"wrote {path} ({size / 2**20:.1f} MB, {recorder.frames_logged} frames, "
-          f"{elapsed:.1f} s); open it with: rerun {path}")
+          f"{elapsed:.1f} s, {recorder.logging_seconds:.1f} s of it recording); "
+          f"open it with: rerun {path}")
     return status

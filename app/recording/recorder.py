@@ -8,10 +8,12 @@
 
 How it stays fast and safe:
 
-* the runner's callback only puts the frame on a small bounded queue; a worker thread does the
-  colour mapping, encoding and logging (so it overlaps the next steps), and the bounded queue
-  slows the simulation down rather than letting memory grow when logging falls behind;
-* every ``flush_every`` frames the worker waits for rerun to write what was logged to disk
+* by default the frame is logged in the thread that publishes it (the runner's): colour mapping,
+  encoding and the rerun calls cost a few ms to ~25 ms a frame, and on a 2-core machine a
+  separate logging thread was measured slower (it competes with the simulation for the cores).
+  ``RecordingOptions(background=True)`` logs in a worker thread fed by a small bounded queue
+  instead; the bounded queue slows the simulation down rather than letting memory grow;
+* every ``flush_every`` frames the recorder waits for rerun to write what was logged to disk
   (``RecordingStream.flush``), so memory stays flat on long runs and an interrupted run has
   everything up to the last flush on disk;
 * the file is written as ``NAME.rrd.partial`` and renamed to ``NAME.rrd`` by ``close()`` once
