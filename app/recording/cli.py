@@ -105,24 +105,31 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(handler=command_record)
 
 
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C: stop stepping, keep what was recorded."""
+class _StopRequest:
+    """SIGINT / SIGTERM: the first asks the loop to stop after the frame being computed (so every
+    recorded frame is complete); a second one stops at once (KeyboardInterrupt)."""
 
+    def __init__(self) -> None:
+        self.signal_name: str | None = None
 
-@contextlib.contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    def on_sigterm(signum: int, frame: Any) -> None:
-        raise _Terminated()
+    def handle(self, number: int, frame: Any) -> None:
+        if self.signal_name is not None:
+            raise KeyboardInterrupt
+        self.signal_name = signal.Signals(number).name
 
-    try:
-        previous = signal.signal(signal.SIGTERM, on_sigterm)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    @contextlib.contextmanager
+    def installed(self) -> Iterator[_StopRequest]:
+        try:
+            previous = {number: signal.signal(number, self.handle)
+                        for number in (signal.SIGINT, signal.SIGTERM)}
+        except ValueError:  # not the main thread: leave the signals alone
+            yield self
+            return
+        try:
+            yield self
+        finally:
+            for number, handler in previous.items():
+                signal.signal(number, handler)
 
 
 @contextlib.contextmanager
@@ -195,7 +202,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     try:
         recorder = Recorder(
             output, scene, options=options, trees=trees, expected_frames=frames,
-            integrator=names[0], dt=dt,
+            integrator=", ".join(names), dt=dt,
         )
     except RecordingError as error:
         print(f"error: {error}", file=sys.stderr)
@@ -211,16 +218,19 @@ def command_record(arguments: argparse.Namespace) -> int:
     status = 0
     started = time.perf_counter()
     alive = dict(runners)
-    chunk_steps = arguments.every * max(1, 50 // arguments.every)
+    # Small chunks for large lattices so a stop request is honoured within a frame or so.
+    frames_per_chunk = 1 if scene.model.n_particles > DETAIL_LIMIT else max(1, 50 // arguments.every)
+    chunk_steps = arguments.every * frames_per_chunk
     bar = tqdm(total=steps * len(runners), unit="step", disable=arguments.quiet,
                dynamic_ncols=True)
     interrupted = False
+    stop = _StopRequest()
     try:
-        with _sigterm_as_interrupt():
+        with stop.installed():
             for runner in runners.values():
                 runner.publish()  # the initial state, step 0
             done = 0
-            while done < steps and alive:
+            while done < steps and alive and stop.signal_name is None:
                 count = min(chunk_steps, steps - done)
                 for name, runner in list(alive.items()):
                     try:
@@ -232,16 +242,17 @@ def command_record(arguments: argparse.Namespace) -> int:
                         status = 3 if not alive or not compare else status
                     bar.update(count)
                 done += count
-    except KeyboardInterrupt as signal_raised:
-        interrupted = True
-        kind = "SIGTERM" if isinstance(signal_raised, _Terminated) else "interrupt"
-        bar.write(f"{kind}: stopping, keeping what was recorded")
-        status = 130
+    except KeyboardInterrupt:
+        stop.signal_name = stop.signal_name or "SIGINT"
     except RecordingError as error:
         bar.write(f"error: {error}")
         status = 1
     finally:
         bar.close()
+        if stop.signal_name is not None:
+            interrupted = True
+            status = 130
+            print(f"{stop.signal_name}: stopped, keeping what was recorded", file=sys.stderr)
         with _signals_ignored():
             try:
                 path = recorder.close(interrupted=interrupted)

@@ -96,7 +96,11 @@ def blueprint(
         if show_field:
             pictures.append(rrb.Spatial2DView(origin=paths.field, name=f"{label}field"))
         if show_lattice:
-            pictures.append(spatial(origin=paths.lattice, name=f"{label}lattice"))
+            # Origin at the tree's root so the y flip logged on `lattice` (2-D) applies.
+            pictures.append(
+                spatial(origin=paths.root or "/", contents=[f"+ {paths.lattice}/**"],
+                        name=f"{label}lattice")
+            )
     if len(pictures) == 1:
         main: rrb.Container | rrb.View = pictures[0]
     else:

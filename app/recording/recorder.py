@@ -184,7 +184,7 @@ def scene_document(scene: Any, model: Model, integrator: str, dt: float, plans: 
         f"| mass (kg) | {mass_text} |",
         f"| particles | {model.n_particles} |",
         f"| springs | {model.n_springs} |",
-        f"| integrator at start | {integrator} |",
+        f"| integrator{'s' if ',' in integrator else ''} at start | {integrator} |",
         f"| dt at start (s) | {dt:g} |",
         "",
         f"Logged: {plans}.",
@@ -298,11 +298,12 @@ class _Track:
         paths, plan = self.paths, self.plan
         stream.set_time("step", sequence=frame.step)
         stream.set_time("sim_time", duration=frame.time)
+        self.last_step, self.last_time = frame.step, frame.time
         if frame.model is not self.model:
             self._model_changed(frame.model)
         if frame.integrator != self._integrator or frame.dt != self._dt:
-            if self._integrator is not None:
-                self.event(f"integrator {frame.integrator}, dt = {frame.dt:g} s", "INFO")
+            start = "recording starts: " if self._integrator is None else ""
+            self.event(f"{start}integrator {frame.integrator}, dt = {frame.dt:g} s", "INFO")
             stream.log(paths.integrator, rr.TextDocument(frame.integrator))
             self._integrator, self._dt = frame.integrator, frame.dt
         stream.log(paths.dt, rr.Scalars(frame.dt))
@@ -320,8 +321,6 @@ class _Track:
         if frame.error:
             self.event(frame.error, "ERROR")
         self.frames_logged += 1
-        self.last_step = frame.step
-        self.last_time = frame.time
 
     def set_last_time(self) -> None:
         """Put the worker's clock back at this tree's last frame (for events and the end)."""
