@@ -108,13 +108,14 @@ def measure(scene_name: str = "interference", overrides: dict | None = None,
     def specialised(steps: int) -> None:
         stepping.rk4_steps(steps, scene.dt, arguments.linear, arguments.out_of_plane,
                            state.positions, state.velocities, arguments.inverse_mass,
-                           arguments.parameters, arguments.dashpot, arguments.drag,
+                           arguments.uniform_inverse_mass, arguments.parameters,
+                           arguments.dashpot, arguments.drag,
                            arguments.gravity, *work)
 
     def unspecialised(steps: int) -> None:
         stepping.rk4_steps(steps, scene.dt, arguments.linear, arguments.out_of_plane,
                            state.positions, state.velocities, arguments.inverse_mass,
-                           arguments.parameters, *general, *work)
+                           None, arguments.parameters, *general, *work)
 
     if arguments.dashpot is None and arguments.drag is None and arguments.gravity is None:
         specialised_rate = _best_rate(specialised, 5, seconds)

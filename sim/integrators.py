@@ -57,6 +57,7 @@ class KernelArguments:
     linear: bool
     out_of_plane: object
     inverse_mass: np.ndarray
+    uniform_inverse_mass: float | None
     parameters: tuple[float, float, float, float, float, float]
     dashpot: float | None
     drag: float | None
@@ -70,6 +71,9 @@ class KernelArguments:
             linear=model.linear,
             out_of_plane=None if model.dim == 2 else True,
             inverse_mass=np.ascontiguousarray(model.inverse_masses),
+            uniform_inverse_mass=(
+                float(model.inverse_masses.flat[0]) if model.uniform_mass else None
+            ),
             parameters=(
                 float(model.stiffness), float(model.rest_length), float(model.tension_stiffness),
                 float(model.spacing), float(origin_x), float(origin_y),
@@ -102,7 +106,7 @@ class Integrator:
         k = self.kernel
         return (
             k.linear, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
-            k.parameters, k.dashpot, k.drag, k.gravity,
+            k.uniform_inverse_mass, k.parameters, k.dashpot, k.drag, k.gravity,
         )
 
     def advance(self, state: State, n: int, dt: float) -> None:

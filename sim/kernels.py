@@ -99,7 +99,8 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
             power += p
             out[0, i] = f * dx
             out[1, i] = f * dy
-            out[2, i] = f * dz
+            if z is not None:
+                out[2, i] = f * dz
     elif j == ny:
         top = origin_y + ny * spacing
         for i in range(nx):
@@ -116,7 +117,8 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
             power += p
             out[0, i] = f * dx
             out[1, i] = f * dy
-            out[2, i] = f * dz
+            if z is not None:
+                out[2, i] = f * dz
     else:
         for i in range(nx):
             dx = x[upper, i] - x[lower, i]
@@ -132,7 +134,8 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
             power += p
             out[0, i] = f * dx
             out[1, i] = f * dy
-            out[2, i] = f * dz
+            if z is not None:
+                out[2, i] = f * dz
     return power
 
 
@@ -161,7 +164,8 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
     power += p
     out[0, 0] = f * dx
     out[1, 0] = f * dy
-    out[2, 0] = f * dz
+    if z is not None:
+        out[2, 0] = f * dz
     for i in range(1, nx):
         dx = x[r, i] - x[r, i - 1]
         dy = y[r, i] - y[r, i - 1]
@@ -176,7 +180,8 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
         power += p
         out[0, i] = f * dx
         out[1, i] = f * dy
-        out[2, i] = f * dz
+        if z is not None:
+            out[2, i] = f * dz
     # particle nx - 1 to the right wall anchor
     dx = (origin_x + nx * spacing) - x[r, nx - 1]
     dy = row_y_rest - y[r, nx - 1]
@@ -191,7 +196,8 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
     power += p
     out[0, nx] = f * dx
     out[1, nx] = f * dy
-    out[2, nx] = f * dz
+    if z is not None:
+        out[2, nx] = f * dz
     return power
 
 
@@ -206,7 +212,6 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
         for i in range(nx):
             out[0, i] = tension_stiffness * (x[upper, i] - (origin_x + i * spacing))
             out[1, i] = stiffness * (y[upper, i] - origin_y)
-            out[2, i] = 0.0
             if z is not None:
                 out[2, i] = tension_stiffness * z[upper, i]
             if dashpot is not None:
@@ -217,7 +222,6 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
         for i in range(nx):
             out[0, i] = tension_stiffness * ((origin_x + i * spacing) - x[lower, i])
             out[1, i] = stiffness * (top_stretch_base - y[lower, i])
-            out[2, i] = 0.0
             if z is not None:
                 out[2, i] = -tension_stiffness * z[lower, i]
             if dashpot is not None:
@@ -227,7 +231,6 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
         for i in range(nx):
             out[0, i] = tension_stiffness * (x[upper, i] - x[lower, i])
             out[1, i] = stiffness * (y[upper, i] - y[lower, i] - spacing)
-            out[2, i] = 0.0
             if z is not None:
                 out[2, i] = tension_stiffness * (z[upper, i] - z[lower, i])
             if dashpot is not None:
@@ -246,7 +249,6 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
     row_y_rest = origin_y + j * spacing
     out[0, 0] = stiffness * (x[r, 0] - origin_x)
     out[1, 0] = tension_stiffness * (y[r, 0] - row_y_rest)
-    out[2, 0] = 0.0
     if z is not None:
         out[2, 0] = tension_stiffness * z[r, 0]
     if dashpot is not None:
@@ -255,7 +257,6 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
     for i in range(1, nx):
         out[0, i] = stiffness * (x[r, i] - x[r, i - 1] - spacing)
         out[1, i] = tension_stiffness * (y[r, i] - y[r, i - 1])
-        out[2, i] = 0.0
         if z is not None:
             out[2, i] = tension_stiffness * (z[r, i] - z[r, i - 1])
         if dashpot is not None:
@@ -264,7 +265,6 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
             power += dashpot * relative * relative
     out[0, nx] = stiffness * ((origin_x + (nx - 1) * spacing) - x[r, nx - 1])
     out[1, nx] = tension_stiffness * (row_y_rest - y[r, nx - 1])
-    out[2, nx] = 0.0
     if z is not None:
         out[2, nx] = -tension_stiffness * z[r, nx - 1]
     if dashpot is not None:
@@ -293,12 +293,14 @@ def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, ou
 
 @njit(**_JIT)
 def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters, dashpot, drag,
-                      gravity, below, above, horizontal, out):
+                      gravity, below, above, horizontal, out, uniform_inverse_mass=None):
     """Accelerations (3, nx) of the particles of row j, written into ``out``.
 
     ``below`` must hold ``vertical_springs(j)``; this function fills ``above`` with
     ``vertical_springs(j + 1)`` (so the caller swaps the two buffers for the next row) and uses
-    ``horizontal`` (3, nx + 1) as scratch.  Returns the power dissipated in row j by the
+    ``horizontal`` (3, nx + 1) as scratch.  ``uniform_inverse_mass`` (1/kg), when given, replaces
+    the (ny, nx) ``inverse_mass`` array for lattices of equal masses (one memory stream less).
+    Returns the power dissipated in row j by the
     horizontal springs, the springs above it and drag (W).
     """
     stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y = parameters
@@ -312,7 +314,10 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, paramete
     r = j % x.shape[0]
     nx = x.shape[1]
     for i in range(nx):
-        w = inverse_mass[j, i]
+        if uniform_inverse_mass is not None:
+            w = uniform_inverse_mass
+        else:
+            w = inverse_mass[j, i]
         fx = horizontal[0, i + 1] - horizontal[0, i] + above[0, i] - below[0, i]
         fy = horizontal[1, i + 1] - horizontal[1, i] + above[1, i] - below[1, i]
         if drag is not None:

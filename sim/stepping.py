@@ -38,8 +38,8 @@ def _components(out_of_plane, array):
 
 @njit(**_JIT)
 def accelerations(
-    linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag, gravity,
-    acceleration,
+    linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters,
+    dashpot, drag, gravity, acceleration,
 ):
     """Write the acceleration of every particle into ``acceleration``; return dissipated power (W)."""
     x, y, z = _components(out_of_plane, position)
@@ -52,7 +52,8 @@ def accelerations(
     power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
     for j in range(ny):
         power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                                   dashpot, drag, gravity, below, above, horizontal, row)
+                                   dashpot, drag, gravity, below, above, horizontal, row,
+                                   uniform_inverse_mass)
         for c in range(dim):
             for i in range(nx):
                 acceleration[c, j, i] = row[c, i]
@@ -62,8 +63,8 @@ def accelerations(
 
 @njit(**_JIT)
 def euler_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity,
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
+    drag, gravity,
 ):
     """Explicit Euler: x += dt v(t); v += dt a(t).  First order; no work array needed."""
     x, y, z = _components(out_of_plane, position)
@@ -78,7 +79,8 @@ def euler_steps(
         power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
         for j in range(ny):
             power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                                       dashpot, drag, gravity, below, above, horizontal, row)
+                                       dashpot, drag, gravity, below, above, horizontal, row,
+                                       uniform_inverse_mass)
             for c in range(dim):
                 for i in range(nx):
                     position[c, j, i] += dt * velocity[c, j, i]
@@ -90,8 +92,8 @@ def euler_steps(
 
 @njit(**_JIT)
 def heun_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity, first_acceleration, stage_position, stage_velocity,
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
+    drag, gravity, first_acceleration, stage_position, stage_velocity,
 ):
     """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector.
 
@@ -123,7 +125,7 @@ def heun_steps(
                                               below)
                 power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
-                                           horizontal, row)
+                                           horizontal, row, uniform_inverse_mass)
                 slot = j % ring
                 for c in range(dim):
                     for i in range(nx):
@@ -139,7 +141,7 @@ def heun_steps(
                                                     parameters, dashpot, below)
                 power_stage += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass,
                                                  linear, parameters, dashpot, drag, gravity,
-                                                 below, above, horizontal, row)
+                                                 below, above, horizontal, row, uniform_inverse_mass)
                 slot = j % ring
                 for c in range(dim):
                     for i in range(nx):
@@ -165,8 +167,8 @@ def _verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, d
 
 @njit(**_JIT)
 def verlet_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity, acceleration, previous_power, predicted_velocity,
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
+    drag, gravity, acceleration, previous_power, predicted_velocity,
 ):
     """Velocity Verlet: half kick, drift, new forces, half kick.  Second order, symplectic.
 
@@ -208,7 +210,7 @@ def verlet_steps(
                               damped)
             new_power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
-                                           horizontal, row)
+                                           horizontal, row, uniform_inverse_mass)
             if last:
                 for c in range(dim):
                     for i in range(nx):
@@ -228,8 +230,8 @@ def verlet_steps(
 
 @njit(**_JIT)
 def rk4_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, parameters, dashpot, drag,
-    gravity, stage_position, stage_velocity, sum_position, sum_velocity,
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
+    drag, gravity, stage_position, stage_velocity, sum_position, sum_velocity,
 ):
     """Classic fourth-order Runge-Kutta on (x, v).
 
@@ -270,7 +272,7 @@ def rk4_steps(
                                                       parameters, dashpot, below)
                     powers[0] += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                                    parameters, dashpot, drag, gravity, below,
-                                                   above, horizontal, row)
+                                                   above, horizontal, row, uniform_inverse_mass)
                     slot = j % ring
                     for c in range(dim):
                         for i in range(nx):
@@ -285,7 +287,7 @@ def rk4_steps(
                                                       parameters, dashpot, below)
                 powers[stage] += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass,
                                                    linear, parameters, dashpot, drag, gravity,
-                                                   below, above, horizontal, row)
+                                                   below, above, horizontal, row, uniform_inverse_mass)
                 slot = j % ring
                 if stage < 3:
                     step_to_next = half if stage == 1 else dt
