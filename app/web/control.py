@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import threading
-import time
 from collections.abc import Hashable, Sequence
 from pathlib import Path
 from typing import Any
@@ -22,11 +21,8 @@ from typing import Any
 import numpy as np
 
 import sim
-from sim.runner import Frame, Runner
+from sim.runner import Runner
 
-ENERGY_REFRESH_PARTICLES = 50_000
-"""From this many particles on, frames reuse an energy account up to ``ENERGY_REFRESH_S`` old."""
-ENERGY_REFRESH_S = 0.2
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
 
@@ -45,32 +41,6 @@ class LatticeRunner(Runner):
         self.pins: dict[Hashable, dict[int, np.ndarray]] = {}
         self.steps_taken = 0
         self._steps_lock = threading.Lock()
-        self._energy_cache: tuple[float, Any, sim.Energy] | None = None
-
-    def make_frame(self, error: str | None = None) -> Frame:
-        """As ``Runner.make_frame``, but on large lattices the energy account (~10 ms for 261k
-        particles) is recomputed at most every ``ENERGY_REFRESH_S`` seconds of wall time, so
-        frames stay cheap for the simulation thread; blow-up frames always get a fresh one."""
-        simulation = self.simulation
-        if simulation.model.n_particles < ENERGY_REFRESH_PARTICLES or error is not None:
-            return super().make_frame(error)
-        now = time.perf_counter()
-        cached = self._energy_cache
-        if cached is None or now - cached[0] > ENERGY_REFRESH_S or cached[1] is not simulation:
-            cached = (now, simulation, simulation.energy())
-            self._energy_cache = cached
-        with self._lock:
-            subscribers = list(self._subscribers)
-        state = simulation.state
-        return Frame(
-            step=simulation.step_count, time=simulation.time, integrator=simulation.integrator,
-            dt=simulation.dt, model=simulation.model,
-            positions=state.particle_positions().copy(), energy=cached[2],
-            velocities=(state.particle_velocities().copy()
-                        if any(s.velocities for s in subscribers) else None),
-            strains=simulation.strains() if any(s.strains for s in subscribers) else None,
-            error=error, playing=self._playing,
-        )
 
     def pinned_particles(self) -> dict[int, np.ndarray]:
         """Every held particle index -> its target position (dim,) in m (later owners win)."""
