@@ -286,10 +286,7 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
             rates = np.einsum("im,ij,jm->m", vectors, damping, vectors)
             omega_squared.append(values)
             damping_rate.append(rates)
-            if model.is_damped and not (c_columns == 0 and c_rows == 0):
-                exact = False
-            if model.drag > 0:
-                exact = False
+            exact = exact and not model.is_damped  # damping rates are Rayleigh quotients
         else:
 
             def apply(vector, k_columns=k_columns, k_rows=k_rows):
@@ -361,8 +358,21 @@ def _all_stable(integrator: str, mode_set: ModeSet, dt: float) -> bool:
     return bool(radius <= 1.0 + 1e-12)
 
 
+_SMALL_AMPLITUDE = (
+    " This is the small-amplitude limit about the rest lattice: large displacements or a sag"
+    " under gravity stiffen the springs and lower it."
+)
+
+
 def stability_limit(model: Model, integrator: str) -> StabilityLimit:
     """Largest time step for which ``integrator`` is stable on ``model`` (see ``StabilityLimit``)."""
+    limit = _stability_limit(model, integrator)
+    if limit.dt is not None and not model.linear:
+        limit = dataclasses.replace(limit, reason=limit.reason + _SMALL_AMPLITUDE)
+    return limit
+
+
+def _stability_limit(model: Model, integrator: str) -> StabilityLimit:
     mode_set = modes(model)
     positive = mode_set.omega_squared[mode_set.omega_squared > 0]
     omega_max = math.sqrt(float(positive.max())) if positive.size else 0.0
