@@ -50,7 +50,7 @@ class Case:
 def cases(quick: bool) -> list[Case]:
     big_modes = {
         "video (H.264)": RecordingOptions(field="video"),
-        "video, background thread": RecordingOptions(field="video", background=True),
+        "video, in runner thread": RecordingOptions(field="video", background=False),
         "jpeg q80": RecordingOptions(field="jpeg"),
         "raw float32": RecordingOptions(field="raw"),
         "raw float16": RecordingOptions(field="raw", raw_dtype="float16"),
@@ -59,11 +59,11 @@ def cases(quick: bool) -> list[Case]:
     if not video_available():
         big_modes = {k: v for k, v in big_modes.items() if "video" not in k}
     if quick:
-        big_modes = {k: v for k, v in big_modes.items() if "background" not in k}
+        big_modes = {k: v for k, v in big_modes.items() if "runner thread" not in k}
     return [
         Case("grid 12x8", "grid", {}, 100, {
             "auto: particles + springs": RecordingOptions(),
-            "auto, background thread": RecordingOptions(background=True),
+            "auto, in runner thread": RecordingOptions(background=False),
         }),
         Case("lattice 200x200", "grid", {"nx": 200, "ny": 200}, 200, big_modes),
         Case("interference 682x383", "interference", {}, 300, big_modes),

@@ -170,7 +170,7 @@ def test_static_data_is_logged_once(grid_file):
 def test_raw_field_is_lossless_and_oriented_like_the_lattice(tmp_path):
     scene = sim.scenes.build("grid")
     path = tmp_path / "raw.rrd"
-    record_scene(path, scene, steps=10, every=5, field="raw", detail_limit=10)
+    record_scene(path, scene, steps=10, every=5, field="raw", detail_limit=10, background=False)
     chunks = read_chunks(path)
     images = temporal(chunks, "/field", "DepthImage:buffer")
     assert sorted(images) == [0, 5, 10]

@@ -8,11 +8,12 @@
 
 How it stays fast and safe:
 
-* by default the frame is logged in the thread that publishes it (the runner's): colour mapping,
-  encoding and the rerun calls cost a few ms to ~25 ms a frame, and on a 2-core machine a
-  separate logging thread was measured slower (it competes with the simulation for the cores).
-  ``RecordingOptions(background=True)`` logs in a worker thread fed by a small bounded queue
-  instead; the bounded queue slows the simulation down rather than letting memory grow;
+* by default a worker thread does the colour mapping, encoding and rerun calls (a few ms to
+  ~10 ms a frame for 682x383), overlapping the next steps on another core; the runner's callback
+  only puts the frame on a small bounded queue, which slows the simulation down rather than
+  letting memory grow when logging falls behind.  ``RecordingOptions(background=False)`` logs in
+  the publishing thread instead (deterministic, and better when the simulation itself holds
+  the cores);
 * every ``flush_every`` frames the recorder waits for rerun to write what was logged to disk
   (``RecordingStream.flush``), so memory stays flat on long runs and an interrupted run has
   everything up to the last flush on disk;
@@ -76,8 +77,8 @@ class RecordingOptions:
     detail_limit: the particle count up to which a lattice counts as small.
     jpeg_quality: 1-95; raw_dtype: "float32" or "float16".
     flush_every: frames between waits for the file writer (bounds memory).
-    background: log in a worker thread fed by a bounded queue instead of in the runner's thread
-        (measured slower on 2 cores for large lattices: the threads compete; see the docs).
+    background: log in a worker thread fed by a bounded queue (default) instead of in the
+        runner's thread (see the measurements in docs/recording.md).
     queue_frames: frames that may wait for the worker before the simulation is held back.
     """
 
@@ -89,7 +90,7 @@ class RecordingOptions:
     jpeg_quality: int = 80
     raw_dtype: str = "float32"
     flush_every: int = 50
-    background: bool = False
+    background: bool = True
     queue_frames: int = 4
 
     def plan(self, model: Model) -> LoggingPlan:
