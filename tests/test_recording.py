@@ -331,3 +331,16 @@ def test_interference_default_recording_fits_the_budget(tmp_path):
     column = "VideoStream:sample" if video_available() else "EncodedImage:blob"
     assert len(temporal(chunks, "/field", column)) == frames
 
+
+
+@pytest.mark.slow
+def test_interference_thousand_frames_end_to_end(tmp_path):
+    """The issue's budget, measured whole: 1000 frames in under 50 MB and 60 s."""
+    path = tmp_path / "interference.rrd"
+    started = time.perf_counter()
+    assert main(["record", "interference", "--steps", "1000", "-o", str(path), "--quiet"]) == 0
+    elapsed = time.perf_counter() - started
+    assert path.stat().st_size < 50e6
+    assert elapsed < 60
+    steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
+    assert len(steps) == 1001

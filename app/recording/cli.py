@@ -75,8 +75,8 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--field", choices=("auto", "none", *FIELD_MODES), default="auto",
         help="field image: auto (none for small lattices; video if PyAV is installed, else jpeg, "
-        "for large ones), jpeg (~35 MB per 1000 frames of interference), video (H.264, a few "
-        "MB), raw (float image, lossless, ~1 MB a frame) or none",
+        "for large ones), video (H.264: 4-30 MB per 1000 frames of interference), jpeg (9-90 "
+        "MB), raw (float image, lossless: up to 1 MB a frame) or none",
     )
     parser.add_argument(
         "--quantity", choices=QUANTITIES, default="displacement",
