@@ -183,6 +183,31 @@ def test_raw_field_is_lossless_and_oriented_like_the_lattice(tmp_path):
     np.testing.assert_allclose(image[::-1].ravel(), displacement, rtol=1e-6, atol=1e-7)
 
 
+
+def test_speed_field_and_changes_mid_run(tmp_path):
+    scene = sim.scenes.build("grid")
+    simulation = sim.Simulation(scene)
+    runner = Runner(simulation)
+    path = tmp_path / "changes.rrd"
+    options = RecordingOptions(field="raw", quantity="speed", detail_limit=10)
+    with Recorder(path, scene, options=options) as recorder:
+        recorder.attach(runner)
+        runner.advance(4, every=2)
+        runner.post(lambda s: setattr(s, "integrator", "verlet"))
+        runner.post(lambda s: s.set_parameters(damping=0.5))
+        runner.advance(4, every=2)
+    chunks = read_chunks(path)
+    integrators = temporal(chunks, "/settings/integrator", "TextDocument:text")
+    assert {step: value.as_py()[0] for step, value in integrators.items()} == {2: "rk4", 6: "verlet"}
+    assert list(temporal(chunks, "/settings/model", "TextDocument:text")) == [6]
+    messages = [text for _, text, _ in texts(chunks, "/log")]
+    assert any("verlet" in text for text in messages)
+    assert any("parameters changed" in text for text in messages)
+    image = as_array(temporal(chunks, "/field", "DepthImage:buffer")[8]).astype(np.uint8)
+    speeds = np.frombuffer(image.tobytes(), dtype=np.float32).reshape(8, 12)[::-1].ravel()
+    expected = np.linalg.norm(simulation.state.particle_velocities(), axis=1)
+    np.testing.assert_allclose(speeds, expected, rtol=1e-6, atol=1e-7)
+
 # --- integrity -----------------------------------------------------------------------------------
 
 
