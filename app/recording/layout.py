@@ -13,6 +13,18 @@ import rerun.blueprint as rrb
 
 SCENE_ENTITY = "/scene"
 ENERGY_TERMS = ("kinetic", "potential", "total", "dissipated")
+TERM_COLOURS = {  # RGB of each energy term's line
+    "kinetic": (235, 100, 60),
+    "potential": (70, 140, 235),
+    "total": (235, 235, 235),
+    "dissipated": (170, 150, 70),
+}
+INTEGRATOR_COLOURS = {  # RGB of each integrator's total-energy line in a comparison
+    "euler": (230, 70, 70),
+    "heun": (240, 170, 50),
+    "verlet": (90, 200, 110),
+    "rk4": (80, 150, 240),
+}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -46,7 +46,13 @@ import rerun as rr
 
 from app.recording import field as fields
 from app.recording import layout
-from app.recording.layout import ENERGY_TERMS, SCENE_ENTITY, TreePaths
+from app.recording.layout import (
+    ENERGY_TERMS,
+    INTEGRATOR_COLOURS,
+    SCENE_ENTITY,
+    TERM_COLOURS,
+    TreePaths,
+)
 from sim.model import Model
 from sim.runner import Frame, Runner
 
@@ -256,7 +262,12 @@ class _Track:
             )
         for term in ENERGY_TERMS:
             label = f"{self.name} {term}" if self.name else term
-            stream.log(paths.energy_term(term), rr.SeriesLines(names=label), static=True)
+            colour = TERM_COLOURS[term]
+            if self.name and term == "total":
+                colour = INTEGRATOR_COLOURS.get(self.name, colour)
+            stream.log(
+                paths.energy_term(term), rr.SeriesLines(names=label, colors=colour), static=True
+            )
         stream.log(paths.dt, rr.SeriesLines(names=f"{self.name} dt" if self.name else "dt"),
                    static=True)
 
