@@ -28,7 +28,7 @@ from app.recording.recorder import (
 EPILOG = f"""examples:
   oscillators record grid                                  # -> recordings/grid.rrd, 1000 steps
   oscillators record chain --duration 20 -o /tmp/chain.rrd
-  oscillators record catenary --integrator verlet --dt 0.005 --steps 4000 --every 4
+  oscillators record ionic --integrator verlet --dt 0.005 --steps 4000 --every 4
   oscillators record grid --compare euler,verlet,rk4 --dt 0.05 --steps 600
   oscillators record interference --steps 1000             # field image as H.264 video
   oscillators record interference --steps 200 --field raw  # lossless float32 field
