@@ -29,7 +29,7 @@ EPILOG = """examples:
   oscillators run grid --set nx=40 --set ny=30 --duration 20
   oscillators run catenary --duration 30            # watch it settle under gravity
   oscillators serve grid                            # the web app on http://127.0.0.1:8080
-  oscillators bench --steps 200                     # steps per second of every integrator
+  oscillators bench --seconds 1                     # steps per second of every integrator
 
 units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in N s/m.
 """

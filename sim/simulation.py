@@ -275,9 +275,15 @@ class Simulation:
         # The chunk failed but single steps did not (cannot happen for a deterministic kernel).
 
     def _energy_scale(self) -> float:
+        """The energy the run may legitimately reach, to compare runaway growth against: the
+        energy when the run started, or what gravity can release by sagging the whole lattice
+        (its weight times its size plus a generous sag m g / k), or a tiny spring energy."""
+        model = self._model
         energy = self.energy()
-        spring_scale = 0.5 * self._model.stiffness * (1e-3 * self._model.spacing) ** 2
-        return max(abs(energy.kinetic) + abs(energy.potential), spring_scale * self._model.n_particles)
+        spring_scale = 0.5 * model.stiffness * (1e-3 * model.spacing) ** 2 * model.n_particles
+        weight = float(model.masses.sum()) * float(np.linalg.norm(model.gravity[: model.dim]))
+        extent = (max(model.nx, model.ny) + 1) * model.spacing + weight / model.stiffness
+        return max(abs(energy.kinetic) + abs(energy.potential), spring_scale, weight * extent)
 
     def _problem(self) -> str | None:
         energy = self.energy()

@@ -183,3 +183,12 @@ def test_record_button_records_the_running_lattice(running, tmp_path):
     runner.pause()
     path = recording.stop()
     assert path.exists() and path.suffix == ".rrd" and path.stat().st_size > 0
+
+
+def test_speed_accuracy_study_from_the_page(web_app):
+    panel = web_app.panel
+    panel._run_study(1e-2)
+    assert panel.study_image.visible
+    assert panel.study_image.image.shape[2] == 3 and panel.study_image.image.shape[0] > 100
+    assert "Recommendation" in panel.study_text.content
+    assert " at dt = " in panel.study_text.content  # an integrator and dt that meet 1e-2

@@ -34,6 +34,8 @@ PLOT_INTERVAL = 0.25
 """Seconds between energy plot updates."""
 SCENE_DIRECTORY = Path("scenes")
 RECORDING_DIRECTORY = Path("recordings")
+STUDY_PARTICLE_LIMIT = 2_500
+"""Largest lattice the page measures speed against accuracy on (bigger: use the CLI)."""
 
 
 def _ok(text: str) -> str:
@@ -75,6 +77,7 @@ class ControlPanel:
         self._build_selection_folder()
         self._build_view_folder()
         self._build_recording_folder()
+        self._build_study_folder()
         self._build_energy_plot()
 
     # --- folders ---------------------------------------------------------------------------------
@@ -379,6 +382,65 @@ class ControlPanel:
                 self.recorder = None
                 self.record_button.label = "Start recording"
                 self.record_text.content = f"saved `{path}`" if path else "stopped"
+
+    def _build_study_folder(self) -> None:
+        """Speed against accuracy on the scene as it is now: the work-precision picture and the
+        recommendation of ``oscillators accuracy``, measured in a background thread."""
+        gui = self.gui
+        with gui.add_folder("Speed vs accuracy", expand_by_default=False):
+            self.study_tolerance = gui.add_number(
+                "Target error", initial_value=1e-3, min=1e-10, max=0.5, step=1e-4,
+                hint="relative position error at the end of the run that the recommendation must meet",
+            )
+            self.study_button = gui.add_button(
+                "Measure on this scene", icon=viser.Icon.CHART_LINE,
+                hint="time every integrator at several dt against a reference solution "
+                "(the same study as `oscillators accuracy`)",
+            )
+            self.study_text = gui.add_markdown("")
+            self.study_image = gui.add_image(np.full((8, 8, 3), 255, np.uint8), visible=False)
+
+        @self.study_button.on_click
+        def _(_: viser.GuiEvent) -> None:  # runs in viser's thread pool: it may take a while
+            if self.study_button.disabled:
+                return
+            self.study_button.disabled = True
+            try:
+                self._run_study(float(self.study_tolerance.value))
+            except Exception as error:  # a failed study must not take the page down
+                self.study_text.content = f"**could not measure:** {error}"
+            finally:
+                self.study_button.disabled = False
+
+    def _run_study(self, tolerance: float) -> None:
+        import tempfile
+
+        import imageio.v3 as imageio
+
+        from app.study.accuracy import accuracy_study, plot_work_precision
+
+        scene = self.app.runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
+        if scene.model.n_particles > STUDY_PARTICLE_LIMIT:
+            self.study_text.content = (
+                f"This lattice has {scene.model.n_particles:,} particles; the page measures up to "
+                f"{STUDY_PARTICLE_LIMIT:,}. Run `oscillators accuracy` with this scene's file "
+                "(Scene → Save) from the command line instead."
+            )
+            return
+        total = [0]
+
+        def progress(label: str) -> None:
+            total[0] += 1
+            self.study_text.content = f"measuring… run {total[0]}: {label}"
+
+        study = accuracy_study(scene, tolerance=tolerance, progress=progress)
+        with tempfile.TemporaryDirectory() as folder:
+            picture = Path(folder) / "work_precision.png"
+            plot_work_precision(study, str(picture))
+            image = imageio.imread(picture)
+        self.study_image.image = np.ascontiguousarray(image[..., :3])
+        self.study_image.visible = True
+        self.study_text.content = f"**Recommendation:** {study.recommendation.reason}"
 
     def _build_energy_plot(self) -> None:
         gui = self.gui
