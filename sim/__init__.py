@@ -13,6 +13,8 @@ Modules: ``model`` (immutable lattice description), ``state`` (positions, veloci
 ``scenes`` (presets and files), ``runner`` (the loop that viewers and recorders subscribe to).
 """
 
+# first: configures numba's target before anything is compiled
+from sim._vector_width import WIDE_VECTORS  # noqa: I001
 from sim import scenes
 from sim.integrators import INTEGRATORS, ORDERS, IntegratorError
 from sim.model import Model, ModelError
@@ -22,6 +24,6 @@ from sim.simulation import BlowUpError, Simulation
 from sim.state import State
 
 __all__ = [
-    "INTEGRATORS", "ORDERS", "BlowUpError", "Energy", "IntegratorError", "Model", "ModelError",
-    "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "scenes",
+    "WIDE_VECTORS", "INTEGRATORS", "ORDERS", "BlowUpError", "Energy", "IntegratorError", "Model",
+    "ModelError", "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "scenes",
 ]
