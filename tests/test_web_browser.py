@@ -129,7 +129,7 @@ def test_click_selects_and_gizmo_drag_displaces_the_particle(web_app, browser):
     assert wait_for(lambda: web_app.runner.simulation.peek_positions()[particle][0] > target_x)
     moved = web_app.runner.simulation.peek_positions()
     assert moved[particle][1] == pytest.approx(start[1], abs=1e-6)
-    assert not web_app.runner.pins  # released at the end of the drag
+    assert wait_for(lambda: not web_app.runner.pins)  # released at the end of the drag
 
 
 @pytest.mark.slow
