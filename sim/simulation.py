@@ -74,7 +74,7 @@ class Simulation:
     through the ``integrator`` and ``dt`` properties.  Nothing is lost by any of these changes.
     """
 
-    chunk_steps = 32
+    chunk_steps = 64
 
     def __init__(
         self, scene: Any, integrator: str | None = None, dt: float | None = None
