@@ -40,6 +40,18 @@ def runner_pacing(model: sim.Model) -> tuple[int, float, float]:
     return 1, 60.0, 90.0
 
 
+
+def camera_pose(model: sim.Model) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """Camera position (m) and up direction that frame the lattice: straight above a planar
+    lattice, and from the front and above (about 40 degrees) for a 3-D one, so that its
+    out-of-plane motion is visible."""
+    width = (model.nx + 1) * model.spacing
+    height = (model.ny + 1) * model.spacing
+    distance = 1.1 * max(width, height * 1.4)
+    if model.dim == 3:
+        return (0.0, -0.75 * distance, 0.65 * distance), (0.0, 0.0, 1.0)
+    return (0.0, 0.0, distance), (0.0, 1.0, 0.0)
+
 class WebApp:
     """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end."""
 
@@ -164,17 +176,15 @@ class WebApp:
         self.panel.update(frame)
 
     def _frame_camera(self, model: sim.Model) -> None:
-        width = (model.nx + 1) * model.spacing
-        height = (model.ny + 1) * model.spacing
-        distance = 1.1 * max(width, height * 1.4)
+        position, up = camera_pose(model)
         camera = self.server.initial_camera
-        camera.position = (0.0, 0.0, distance)
+        camera.position = position
         camera.look_at = (0.0, 0.0, 0.0)
-        camera.up = (0.0, 1.0, 0.0)
+        camera.up = up
         for client in self.server.get_clients().values():
-            client.camera.position = (0.0, 0.0, distance)
+            client.camera.position = position
             client.camera.look_at = (0.0, 0.0, 0.0)
-            client.camera.up_direction = (0.0, 1.0, 0.0)
+            client.camera.up_direction = up
 
     # --- selection and dragging ------------------------------------------------------------------
 
@@ -192,12 +202,10 @@ class WebApp:
 
         @self.server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
-            model = self.runner.simulation.model
-            width = (model.nx + 1) * model.spacing
-            height = (model.ny + 1) * model.spacing
-            client.camera.position = (0.0, 0.0, 1.1 * max(width, height * 1.4))
+            position, up = camera_pose(self.runner.simulation.model)
+            client.camera.position = position
             client.camera.look_at = (0.0, 0.0, 0.0)
-            client.camera.up_direction = (0.0, 1.0, 0.0)
+            client.camera.up_direction = up
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:

@@ -60,7 +60,8 @@ class ViewSettings:
 
     def coloring(self, model: Model) -> str:
         if self.color_by is None:
-            return "plain" if model.n_particles <= SPHERE_LIMIT else "displacement"
+            planar_and_small = model.dim == 2 and model.n_particles <= SPHERE_LIMIT
+            return "plain" if planar_and_small else "displacement"
         return self.color_by
 
 
