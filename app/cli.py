@@ -238,6 +238,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ModelError, SceneError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:  # unwritable output, missing directory, disk full
+        print(f"error: {error.strerror or error}: {error.filename or ''}".rstrip(": "),
+              file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: not enough memory for this lattice; try a smaller nx/ny", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

@@ -47,7 +47,11 @@ def _finite_positive(name: str, value: Any, allow_zero: bool = False) -> float:
 
 
 def _whole_number(name: str, value: Any, smallest: int = 1) -> int:
-    if isinstance(value, bool) or not float(value).is_integer():
+    try:
+        whole = not isinstance(value, bool) and float(value).is_integer()
+    except (TypeError, ValueError, OverflowError):
+        whole = False
+    if not whole:
         raise ModelError(f"{name} must be a whole number, got {value!r}")
     number = int(value)
     if number < smallest:
@@ -289,7 +293,12 @@ def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
 
 
 def _gravity_vector(gravity: float | tuple[float, ...] | np.ndarray) -> tuple[float, float, float]:
-    array = np.asarray(gravity, dtype=float)
+    try:
+        array = np.asarray(gravity, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(
+            f"gravity must be a number (downwards) or a 2- or 3-vector, got {gravity!r}"
+        ) from None
     if array.ndim == 0:
         vector = (0.0, -float(array), 0.0)
     elif array.shape in ((2,), (3,)):

@@ -223,7 +223,8 @@ class Runner:
         self._wake.set()
         if self._thread is not None:
             self._thread.join(timeout)
-            self._thread = None
+            if not self._thread.is_alive():  # still stepping: keep it, commands stay queued
+                self._thread = None
 
     def _loop(self) -> None:
         last_frame = 0.0

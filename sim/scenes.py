@@ -349,10 +349,16 @@ def load(path: str | Path) -> Scene:
         text = path.read_text()
     except OSError as error:
         raise SceneError(f"cannot read scene file {path}: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise SceneError(f"{path} is not a text (TOML) scene file") from None
     try:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{path} is not valid TOML: {error}") from None
+    if document.get("format", FORMAT_VERSION) != FORMAT_VERSION:
+        raise SceneError(
+            f"{path} has format {document['format']!r}; this version reads format {FORMAT_VERSION}"
+        )
     if "model" not in document or not isinstance(document["model"], dict):
         raise SceneError(f"{path} has no [model] table")
     model_table = dict(document["model"])
@@ -376,21 +382,25 @@ def load(path: str | Path) -> Scene:
         model = Model.create(**model_table)
     except ModelError as error:
         raise SceneError(f"{path}: {error}") from None
-    positions = model.rest_positions.copy()
-    if "displacements" in arrays:
-        positions = positions + arrays["displacements"]
-    for row in document.get("initial", {}).get("displacements", []):
-        if not isinstance(row, list) or len(row) < 2 or not 0 <= int(row[0]) < model.n_particles:
-            raise SceneError(f"{path}: bad displacement entry {row!r} (want [particle, dx, dy])")
-        values = [float(v) for v in row[1 : 1 + model.dim]]
-        positions[int(row[0]), : len(values)] += values
-    velocities = arrays.get("velocities")
     try:
+        positions = model.rest_positions.copy()
+        if "displacements" in arrays:
+            positions = positions + arrays["displacements"]
+        for row in document.get("initial", {}).get("displacements", []):
+            if (not isinstance(row, list) or len(row) < 2
+                    or not 0 <= int(row[0]) < model.n_particles):
+                raise SceneError(
+                    f"{path}: bad displacement entry {row!r} (want [particle, dx, dy])"
+                )
+            values = [float(v) for v in row[1 : 1 + model.dim]]
+            positions[int(row[0]), : len(values)] += values
+        velocities = arrays.get("velocities")
+        dt = float(document.get("dt", 0.01))
         return Scene(
             name=str(document.get("name", path.stem)), model=model,
             description=str(document.get("description", "")),
             integrator=str(document.get("integrator", "rk4")),
-            dt=float(document.get("dt", 0.01)), initial_positions=positions,
+            dt=dt, initial_positions=positions,
             initial_velocities=velocities,
         )
     except (ValueError, TypeError) as error:

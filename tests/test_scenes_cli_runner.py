@@ -53,6 +53,10 @@ def test_a_hand_written_scene_file_loads(tmp_path):
         ("[model]\nnx = 3\nwobble = 2", "unknown \\[model\\] key"),
         ("[model]\nnx = 3\nmass = 'arrays:masses'\n[arrays]\nfile = 'missing.npz'", "array file"),
         ("dt = -1\n[model]\nnx = 2", "dt"),
+        ("[model]\nnx = 'five'", "nx must be a whole number"),
+        ("[model]\nnx = 2\ngravity = 'down'", "gravity must be"),
+        ("format = 99\n[model]\nnx = 2", "format"),
+        ("[model]\nnx = 2\n[initial]\ndisplacements = [['a', 0.1, 0.0]]", "bad.toml"),
     ],
 )
 def test_bad_scene_files_get_clear_errors(tmp_path, text, message):
@@ -62,9 +66,13 @@ def test_bad_scene_files_get_clear_errors(tmp_path, text, message):
         sim.scenes.load(path)
 
 
-def test_missing_scene_file_is_a_clear_error(tmp_path):
+def test_missing_or_binary_scene_file_is_a_clear_error(tmp_path):
     with pytest.raises(sim.SceneError, match="cannot read scene file"):
         sim.scenes.load(tmp_path / "nowhere.toml")
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(bytes(range(256)))
+    with pytest.raises(sim.SceneError, match="not a text"):
+        sim.scenes.load(binary)
 
 
 # --- command line ------------------------------------------------------------------------------
@@ -151,3 +159,12 @@ def test_a_failing_command_reports_its_error_without_stopping_anything():
         future.result(timeout=1)
     runner.advance(3)
     assert runner.simulation.step_count == 3
+
+
+def test_serve_refuses_a_bad_host_or_port_instead_of_hanging(capsys):
+    assert cli.main(["serve", "grid", "--host", "256.1.1.1"]) == 2
+    assert "not an address of this machine" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["serve", "grid", "--port", "99999"])
+    assert exit_info.value.code == 2
+    assert "between 0 and 65535" in capsys.readouterr().err

@@ -176,13 +176,24 @@ def test_record_button_records_the_running_lattice(running, tmp_path):
     factory = _find_recorder()
     if factory is None:
         pytest.skip("app.recording is not installed")
+    from tests.test_recording import read_chunks, temporal
+
     runner, control = running
     recording = factory(runner, tmp_path)
+    started_at = runner.simulation.step_count
     runner.play()
-    assert wait_for(lambda: runner.simulation.step_count > 20)
+    assert wait_for(lambda: runner.simulation.step_count > started_at + 20)
     runner.pause()
+    runner.post(lambda s: None).result(timeout=5)  # the last frame has been published
+    energy_before_stop = runner.simulation.energy().total
+    last_step = runner.simulation.step_count
     path = recording.stop()
-    assert path.exists() and path.suffix == ".rrd" and path.stat().st_size > 0
+    assert path.exists() and path.suffix == ".rrd"
+    totals = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
+    recorded_steps = sorted(totals)
+    assert recorded_steps and recorded_steps[-1] == last_step  # frames while playing were logged
+    assert len([step for step in recorded_steps if step > started_at]) >= 10
+    assert totals[last_step][0].as_py() == pytest.approx(energy_before_stop)
 
 
 def test_speed_accuracy_study_from_the_page(web_app):

@@ -601,13 +601,13 @@ def _find_recorder() -> Any:
 
     class WebRecording:
         def __init__(self, runner: Any, directory: Path) -> None:
-            simulation = runner.simulation
-            scene = sim.scenes.scene_from_simulation(simulation)
+            # the snapshot is taken by the simulation thread between steps, never mid-step
+            scene = runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
             directory.mkdir(parents=True, exist_ok=True)
             stamp = time.strftime("%Y%m%d-%H%M%S")
             self.recorder = recorder_class(
                 directory / f"{scene.name}-{stamp}.rrd", scene,
-                integrator=simulation.integrator, dt=simulation.dt,
+                integrator=scene.integrator, dt=scene.dt,
             )
             self.recorder.attach(runner, snapshot=True)
 

@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import argparse
+import socket
 import time
 
 EPILOG = """examples:
@@ -34,15 +35,43 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to listen on (default 127.0.0.1, this machine only; "
                         "0.0.0.0 for every network interface)")
-    parser.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    parser.add_argument("--port", type=_port, default=8080,
+                        help="port (default 8080; if it is taken, the next free one is used)")
     parser.add_argument("--play", action="store_true", help="start running immediately")
     parser.set_defaults(handler=command_serve)
+
+
+def _port(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a port is a whole number, got {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"a port is between 0 and 65535, got {port}")
+    return port
+
+
+def check_host(host: str) -> None:
+    """Raise ValueError with a clear message unless this machine can listen on ``host``."""
+    try:
+        infos = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)
+    except socket.gaierror as error:
+        raise ValueError(f"--host {host!r} is not an address of this machine ({error})") from None
+    family, kind, protocol, _, address = infos[0]
+    with socket.socket(family, kind, protocol) as probe:
+        try:
+            probe.bind(address)
+        except OSError as error:
+            raise ValueError(
+                f"cannot listen on --host {host!r}: {error.strerror or error}"
+            ) from None
 
 
 def command_serve(arguments: argparse.Namespace) -> int:
     from app.cli import simulation_from_arguments
     from app.web.app import WebApp
 
+    check_host(arguments.host)
     simulation = simulation_from_arguments(arguments)
     app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play)
     app.start()
