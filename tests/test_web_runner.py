@@ -120,10 +120,23 @@ def test_replace_scene_and_save_load(running, tmp_path):
     runner, control = running
     control.build_preset("chain").result(timeout=10)
     assert runner.simulation.model.nx == 5
+
+    def displace(simulation: sim.Simulation) -> tuple:
+        simulation.positions[1] += (0.1, -0.2)
+        simulation.velocities[3] = (0.5, 0.25)
+        simulation.set_masses(np.array([1.0, 2.0, 3.0, 4.0, 5.0]))
+        return simulation.peek_positions(), simulation.state.particle_velocities().copy()
+
+    positions, velocities = runner.post(displace).result(timeout=5)
     saved = control.save(tmp_path / "chain.toml").result(timeout=5)
     control.build_preset("grid").result(timeout=10)
     control.load(saved).result(timeout=10)
-    assert runner.simulation.model.nx == 5 and runner.simulation.model.ny == 1
+    loaded = runner.post(lambda s: (s.model, s.peek_positions(), s.velocities.copy())).result(5)
+    model, loaded_positions, loaded_velocities = loaded
+    assert model.nx == 5 and model.ny == 1
+    np.testing.assert_array_equal(model.masses.ravel(), [1.0, 2.0, 3.0, 4.0, 5.0])
+    np.testing.assert_allclose(loaded_positions, positions)
+    np.testing.assert_allclose(loaded_velocities, velocities)
 
 
 def test_click_ray_selects_the_particle_under_it(web_app):
