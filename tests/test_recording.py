@@ -270,22 +270,38 @@ def test_signal_leaves_a_readable_file(tmp_path, signal_number):
     assert set(temporal(chunks, "/lattice/springs", "strain")) == set(steps)
 
 
+def wait_for(condition, timeout: float = 60.0) -> bool:
+    """Poll ``condition`` until it holds or ``timeout`` seconds pass; returns whether it held."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
 def test_attach_and_close_while_the_runner_thread_runs(tmp_path):
     scene = sim.scenes.build("grid")
     runner = Runner(sim.Simulation(scene), max_fps=200)
     runner.start()
     runner.play()
     try:
-        time.sleep(0.1)
+        assert wait_for(lambda: runner.simulation.step_count > 0), "the runner never stepped"
         recorder = Recorder(tmp_path / "live.rrd", scene)
         recorder.attach(runner, snapshot=True)
-        time.sleep(0.5)
+        attached = runner.frames_published
+        assert wait_for(lambda: runner.frames_published >= attached + 10), runner.error
         recorder.close()
-        time.sleep(0.1)  # frames published after close are ignored
+        # frames published after close are ignored (no error, nothing written)
+        closed = runner.frames_published
+        assert wait_for(lambda: runner.frames_published >= closed + 3), runner.error
     finally:
         runner.stop()
+    assert runner.error is None
     steps = temporal(read_chunks(tmp_path / "live.rrd"), "/energy/total", "Scalars:scalars")
-    assert len(steps) > 5 and min(steps) > 0
+    # >= 10 frames went to the recorder; one may race the subscription and the snapshot may
+    # share its step with a regular frame
+    assert len(steps) >= 8 and min(steps) > 0
 
 
 # --- command line --------------------------------------------------------------------------------
@@ -307,6 +323,15 @@ def test_compare_mode_holds_one_tree_per_integrator(tmp_path):
     np.testing.assert_allclose(as_array(verlet[200], 2), reference.peek_positions(), atol=1e-5)
     assert any(level == "ERROR" for _, _, level in texts(chunks, "/euler/log"))
     assert max(temporal(chunks, "/rk4/energy/total", "Scalars:scalars")) == 200
+
+
+@pytest.mark.parametrize("listing", ["", " , ", "euler,warp", "rk4,rk4"])
+def test_compare_rejects_empty_or_bad_lists(tmp_path, capsys, listing):
+    path = tmp_path / "x.rrd"
+    assert main(["record", "chain", "--compare", listing, "--steps", "5", "-o", str(path),
+                 "--quiet"]) == 2
+    assert capsys.readouterr().err.startswith("error: --compare")
+    assert not path.exists()
 
 
 def test_help_teaches_with_examples(capsys):
@@ -345,10 +370,9 @@ def test_interference_default_recording_fits_the_budget(tmp_path):
         return path.stat().st_size, recorder
 
     static_bytes, _ = recorded_bytes(0)
-    total_bytes, recorder = recorded_bytes(frames)
+    total_bytes, _ = recorded_bytes(frames)
     per_frame = (total_bytes - static_bytes) / frames
     assert per_frame * 1000 < 50e6, f"{per_frame / 1e3:.0f} kB a frame"
-    assert recorder.logging_seconds / frames < 0.06
     chunks = read_chunks(tmp_path / f"interference{frames}.rrd")
     entities = {chunk.entity_path for chunk in chunks if not chunk.is_static}
     assert "/field" in entities and "/lattice/springs" not in entities
@@ -360,12 +384,10 @@ def test_interference_default_recording_fits_the_budget(tmp_path):
 
 @pytest.mark.slow
 def test_interference_thousand_frames_end_to_end(tmp_path):
-    """The issue's budget, measured whole: 1000 frames in under 50 MB and 60 s."""
+    """The issue's size budget, measured whole: 1000 frames in under 50 MB (the time budget is
+    measured by benchmarks/recording_speed.py)."""
     path = tmp_path / "interference.rrd"
-    started = time.perf_counter()
     assert main(["record", "interference", "--steps", "1000", "-o", str(path), "--quiet"]) == 0
-    elapsed = time.perf_counter() - started
     assert path.stat().st_size < 50e6
-    assert elapsed < 60
     steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     assert len(steps) == 1001

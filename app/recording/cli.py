@@ -151,12 +151,15 @@ def _signals_ignored() -> Iterator[None]:
 def _integrators(text: str | None) -> list[str]:
     from sim import INTEGRATORS
 
-    if not text:
+    if text is None:
         return []
     names = [name.strip() for name in text.split(",") if name.strip()]
+    choices = ", ".join(INTEGRATORS)
+    if not names:
+        raise ValueError(f"--compare needs a comma-separated list of integrators among {choices}, "
+                         f"got {text!r}")
     unknown = [name for name in names if name not in INTEGRATORS]
-    if unknown or not names:
-        choices = ", ".join(INTEGRATORS)
+    if unknown:
         raise ValueError(f"--compare takes integrators among {choices}, got {text!r}")
     if len(set(names)) != len(names):
         raise ValueError(f"--compare lists an integrator twice: {text!r}")

@@ -238,13 +238,30 @@ def reference_solution(
     steps = min(steps, REFERENCE_STEP_LIMIT)
     steps += steps % 2
     fine_dt = until / steps
+    # The coarse half of the Richardson pair runs at 2 fine_dt; when the step count is capped
+    # that can exceed RK4's stability limit, and the reference would blow up.
+    rk4_limit = sim.Simulation(scene).stable_dt("rk4")
+    if rk4_limit and 2 * fine_dt > rk4_limit:
+        longest = REFERENCE_STEP_LIMIT * rk4_limit / 2
+        raise ValueError(
+            f"--until {until:g} s is too long for a numerical reference: it would need more "
+            f"than {REFERENCE_STEP_LIMIT} RK4 steps to stay below RK4's stable dt "
+            f"({rk4_limit:.3g} s); use --until {longest:.3g} or less "
+            "(a small scene with --set linear=true uses the exact solution instead)"
+        )
     results = []
     for n, dt in ((steps // 2, 2 * fine_dt), (steps, fine_dt)):
         if progress:
             progress(f"reference: RK4, {n} steps of {dt:.3g} s")
         simulation = sim.Simulation(scene, integrator="rk4", dt=dt)
         simulation.chunk_steps = 4096
-        simulation.step(n)
+        try:
+            simulation.step(n)
+        except sim.BlowUpError as error:
+            raise ValueError(
+                f"the RK4 reference blew up at dt = {dt:.3g} s ({error}); "
+                "use a shorter --until or smaller --dts"
+            ) from error
         results.append((simulation.state.positions.copy(), simulation.state.velocities.copy()))
     (coarse, _), (fine, fine_velocities) = results
     estimate = _position_error(fine, coarse) / (2**4 - 1) / disturbance_scale(scene)
@@ -320,16 +337,19 @@ def accuracy_study(
     """
     integrators = [sim.integrators.check_integrator_name(name) for name in integrators]
     until = float(until) if until is not None else default_until(scene)
-    if not until > 0:
-        raise ValueError(f"--until must be a positive time in seconds, got {until}")
+    if not (math.isfinite(until) and until > 0):
+        raise ValueError(f"--until must be a positive, finite time in seconds, got {until}")
     if dts is None:
         dts = default_dts(scene)
     plan = {
         name: sorted(float(dt) for dt in (dts[name] if isinstance(dts, Mapping) else dts))
         for name in integrators
     }
-    if any(dt <= 0 for steps in plan.values() for dt in steps):
-        raise ValueError("every dt must be positive")
+    bad = [dt for steps in plan.values() for dt in steps if not (math.isfinite(dt) and dt > 0)]
+    if bad:
+        raise ValueError(f"every dt must be a positive, finite time in seconds, got {bad[0]}")
+    if not any(plan.values()):
+        raise ValueError("give at least one dt")
     probe = sim.Simulation(scene)
     limits = {name: probe.stable_dt(name) for name in sim.INTEGRATORS}
     omega_max = probe.stability("verlet").omega_max
