@@ -197,9 +197,12 @@ class Runner:
 
     def single_step(self) -> concurrent.futures.Future:
         """Advance exactly one step (while paused) and publish it."""
-        return self.post(lambda simulation: self._guarded_step(1))
+        return self.post(lambda simulation: self.guarded_step(1))
 
-    def _guarded_step(self, steps: int) -> bool:
+    def guarded_step(self, steps: int) -> bool:
+        """Advance ``steps`` steps in the loop's thread; on a blow-up pause, keep the state and
+        publish a frame with the error.  Returns whether the steps ran.  Subclasses override it
+        to constrain the motion between steps (the web app holds dragged particles this way)."""
         try:
             self.simulation.step(steps)
         except BlowUpError as error:
@@ -231,7 +234,7 @@ class Runner:
         while self._running:
             changed = self.apply_commands() > 0
             if self._playing:
-                if self._guarded_step(max(1, int(self.steps_per_frame))):
+                if self.guarded_step(max(1, int(self.steps_per_frame))):
                     changed = True
             if changed:
                 now = time.perf_counter()

@@ -60,15 +60,15 @@ class LatticeRunner(Runner):
         positions[indices] = targets
         simulation.velocities[indices] = 0.0
 
-    def _guarded_step(self, steps: int) -> bool:
+    def guarded_step(self, steps: int) -> bool:
         if not self.pins:
             before = self.simulation.step_count
-            ok = super()._guarded_step(steps)
+            ok = super().guarded_step(steps)
             self._count_steps(self.simulation.step_count - before)
             return ok
         for _ in range(steps):
             self.apply_pins(self.simulation)
-            if not super()._guarded_step(1):
+            if not super().guarded_step(1):
                 return False
             self._count_steps(1)
         self.apply_pins(self.simulation)
