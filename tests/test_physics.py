@@ -362,3 +362,22 @@ def test_compiled_energy_matches_numpy_energy(dim, linear):
     )
     state.velocities[0, 1, 2] = np.nan
     assert not math.isfinite(observables.energy(model, state).kinetic)
+
+
+@pytest.mark.parametrize("mode", [1, 3])
+def test_chain_transverse_modes_feel_the_wall_springs_and_the_tension(mode):
+    count, mass, rest_length = 5, 1.0, 0.8
+    simulation = sim.Simulation(
+        sim.scenes.build("chain", linear=True, rest_length=rest_length), integrator="rk4", dt=0.001
+    )
+    j = np.arange(1, count + 1)
+    shape = np.sin(mode * math.pi * j / (count + 1))
+    rest = simulation.rest_positions.copy()
+    simulation.positions = rest
+    simulation.positions[:, 1] += 0.05 * shape
+    simulation.velocities[...] = 0.0
+    tension = K * (1.0 - rest_length)
+    omega = math.sqrt(2 * K / mass + 4 * tension / mass * math.sin(mode * math.pi / (2 * (count + 1))) ** 2)
+    simulation.step(1700)
+    displacement = simulation.positions[:, 1] - rest[:, 1]
+    np.testing.assert_allclose(displacement, 0.05 * shape * math.cos(omega * simulation.time), atol=1e-9)
