@@ -112,7 +112,8 @@ def command_scenes(arguments: argparse.Namespace) -> int:
     for name in scenes.names():
         scene = scenes.build(name)
         print(f"{name:13s} {scene.description}")
-        print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s")
+        print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s, "
+              f"{scene.duration:g} s worth watching")
     print("\noverride any parameter with --set key=value; see `oscillators run --help`.")
     return 0
 
@@ -125,8 +126,10 @@ def command_run(arguments: argparse.Namespace) -> int:
     simulation = simulation_from_arguments(arguments)
     if arguments.duration is not None:
         steps = int(round(arguments.duration / simulation.dt))
-    else:
+    elif arguments.steps is not None:
         steps = arguments.steps
+    else:
+        steps = max(1, int(round(simulation.scene.duration / simulation.dt)))
     limit = simulation.stability()
     print(f"{simulation.scene.summary()}")
     print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}")
@@ -196,7 +199,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_scene_arguments(run_parser)
     length = run_parser.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=int, default=1000, help="number of steps (default 1000)")
+    length.add_argument("--steps", type=int,
+                        help="number of steps (default: the scene's duration, see `scenes`)")
     length.add_argument("--duration", type=float, help="simulated seconds instead of --steps")
     run_parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     run_parser.add_argument("--quiet", action="store_true", help="no progress bar")

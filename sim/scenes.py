@@ -55,6 +55,8 @@ class Scene:
     integrator: str = "rk4"
     dt: float = 0.01
     initial_positions: np.ndarray = None  # type: ignore[assignment]
+    duration: float = 20.0
+    """Simulated seconds worth watching (the default length of `run` and `record`)."""
     initial_velocities: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
@@ -76,6 +78,8 @@ class Scene:
         object.__setattr__(self, "integrator", check_integrator_name(self.integrator))
         if not (math.isfinite(self.dt) and self.dt > 0):
             raise SceneError(f"dt must be a positive number of seconds, got {self.dt!r}")
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise SceneError(f"duration must be a positive number of seconds, got {self.duration!r}")
 
     def with_displacement(self, particle: int, displacement: tuple[float, ...]) -> Scene:
         """A copy with one more particle displaced from its initial position (m)."""
@@ -112,6 +116,7 @@ class Preset:
     integrator: str
     dt: float
     initial: Callable[[Model], tuple[np.ndarray, np.ndarray]]
+    duration: float = 20.0
 
 
 def _rest(model: Model) -> tuple[np.ndarray, np.ndarray]:
@@ -189,7 +194,7 @@ PRESETS: dict[str, Preset] = {
             "catenary", "A 15x10 lattice (150 particles) under gravity with dashpots: it sags "
             "and settles into catenary curves (paper Fig. 8).",
             dict(nx=15, ny=10, stiffness=PAPER_STIFFNESS, gravity=9.81, damping=2.0),
-            "verlet", 0.01, _rest,
+            "verlet", 0.01, _rest, duration=30.0,
         ),
         Preset(
             "interference", "The paper's continuum-limit run (Figs. 10-14): 682x383 = 261,206 "
@@ -202,12 +207,13 @@ PRESETS: dict[str, Preset] = {
                     (_index(m, m.nx - 1, m.ny // 2), (0.0, -0.5 * m.spacing)),
                 ]
             ),
+            duration=150.0,  # longitudinal fronts meet near t = 58 s, transverse ones near 130 s
         ),
         Preset(
             "membrane", "A 24x24 drum skin moving out of the plane (3-D), pre-tensioned "
             "(L = 0.9 a); a smooth bump in the middle is released and the membrane drums.",
             dict(nx=24, ny=24, dim=3, stiffness=PAPER_STIFFNESS, rest_length=0.9), "rk4", 0.02,
-            _membrane_bump,
+            _membrane_bump, duration=40.0,
         ),
     ]
 }
@@ -261,6 +267,7 @@ def build(name: str, **overrides: Any) -> Scene:
     return Scene(
         name=name, model=model, description=preset.description, integrator=integrator,
         dt=dt_value, initial_positions=positions, initial_velocities=velocities,
+        duration=preset.duration,
     )
 
 
@@ -305,6 +312,7 @@ def save(scene: Scene, path: str | Path) -> Path:
         f"description = {_toml_value(scene.description)}",
         f"integrator = {_toml_value(scene.integrator)}",
         f"dt = {_toml_value(scene.dt)}",
+        f"duration = {_toml_value(scene.duration)}",
         "",
         "[model]",
         f"nx = {model.nx}",
@@ -396,11 +404,12 @@ def load(path: str | Path) -> Scene:
             positions[int(row[0]), : len(values)] += values
         velocities = arrays.get("velocities")
         dt = float(document.get("dt", 0.01))
+        duration = float(document.get("duration", 20.0))
         return Scene(
             name=str(document.get("name", path.stem)), model=model,
             description=str(document.get("description", "")),
             integrator=str(document.get("integrator", "rk4")),
-            dt=dt, initial_positions=positions,
+            dt=dt, duration=duration, initial_positions=positions,
             initial_velocities=velocities,
         )
     except (ValueError, TypeError) as error:
@@ -412,6 +421,7 @@ def scene_from_simulation(simulation: Any, name: str | None = None) -> Scene:
     return Scene(
         name=name or simulation.scene.name, model=simulation.model,
         description=simulation.scene.description, integrator=simulation.integrator,
-        dt=simulation.dt, initial_positions=simulation.state.particle_positions().copy(),
+        dt=simulation.dt, duration=simulation.scene.duration,
+        initial_positions=simulation.state.particle_positions().copy(),
         initial_velocities=simulation.state.particle_velocities().copy(),
     )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import signal
 import sys
 import time
@@ -25,12 +26,15 @@ from app.recording.recorder import (
     RecordingOptions,
 )
 
+MAX_DEFAULT_FRAMES = 1000
+"""Frames a recording gets by default (--every is chosen to stay within it)."""
+
 EPILOG = f"""examples:
-  oscillators record grid                                  # -> recordings/grid.rrd, 1000 steps
+  oscillators record grid                                  # -> recordings/grid.rrd, the scene's 20 s
   oscillators record chain --duration 20 -o /tmp/chain.rrd
   oscillators record ionic --integrator verlet --dt 0.005 --steps 4000 --every 4
   oscillators record grid --compare euler,verlet,rk4 --dt 0.05 --steps 600
-  oscillators record interference --steps 1000             # field image as H.264 video
+  oscillators record interference                          # 150 s: the fronts meet; H.264 field
   oscillators record interference --steps 200 --field raw  # lossless float32 field
   oscillators record interference --field jpeg --positions 50 --quantity speed
   oscillators record grid --set nx=40 --set ny=30 --set damping=0.5
@@ -66,11 +70,14 @@ def register(subparsers: Any) -> None:
         help="the .rrd file to write (default: recordings/SCENE.rrd, or SCENE-compare.rrd)",
     )
     length = parser.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=int, default=1000, help="steps to run (default 1000)")
+    length.add_argument("--steps", type=int,
+                        help="steps to run (default: the scene's duration, e.g. 150 s for "
+                        "interference, so the waves meet)")
     length.add_argument("--duration", type=float, help="simulated seconds instead of --steps")
     parser.add_argument(
-        "--every", type=int, default=1, metavar="K",
-        help="record a frame every K steps (default 1: every step)",
+        "--every", type=int, metavar="K",
+        help=f"record a frame every K steps (default: every step, or every K-th for at most "
+        f"{MAX_DEFAULT_FRAMES} frames)",
     )
     parser.add_argument(
         "--field", choices=("auto", "none", *FIELD_MODES), default="auto",
@@ -176,7 +183,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     compare = _integrators(arguments.compare)
     if compare and arguments.integrator:
         raise ValueError("give either --integrator or --compare, not both")
-    if arguments.every < 1:
+    if arguments.every is not None and arguments.every < 1:
         raise ValueError("--every must be at least 1")
     scene = scene_from_arguments(arguments)
     names = compare or [arguments.integrator or scene.integrator]
@@ -184,10 +191,14 @@ def command_record(arguments: argparse.Namespace) -> int:
     dt = next(iter(simulations.values())).dt
     if arguments.duration is not None:
         steps = max(1, int(round(arguments.duration / dt)))
-    else:
+    elif arguments.steps is not None:
         steps = arguments.steps
+    else:
+        steps = max(1, int(round(scene.duration / dt)))
     if steps < 1:
         raise ValueError("--steps must be at least 1")
+    if arguments.every is None:
+        arguments.every = max(1, math.ceil(steps / MAX_DEFAULT_FRAMES))
     output = arguments.output or Path("recordings") / (
         f"{scene.name}-compare.rrd" if compare else f"{scene.name}.rrd"
     )
