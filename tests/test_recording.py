@@ -18,6 +18,7 @@ from app.cli import build_parser, main
 from app.recording import Recorder, RecordingError, RecordingOptions
 from app.recording.field import video_available
 from sim.runner import Runner
+from tests.helpers import wait_for
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -268,16 +269,6 @@ def test_signal_leaves_a_readable_file(tmp_path, signal_number):
     assert warnings[0][0] == max(steps)
     # The stop request is honoured between frames: every recorded frame is complete.
     assert set(temporal(chunks, "/lattice/springs", "strain")) == set(steps)
-
-
-def wait_for(condition, timeout: float = 60.0) -> bool:
-    """Poll ``condition`` until it holds or ``timeout`` seconds pass; returns whether it held."""
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.005)
-    return True
 
 
 def test_attach_and_close_while_the_runner_thread_runs(tmp_path):

@@ -7,30 +7,13 @@ are always stopped.
 
 from __future__ import annotations
 
-import socket
-import time
-
 import numpy as np
 import pytest
 
 import sim
 from app.web.app import WebApp
 from app.web.control import LatticeRunner, SimulationControl
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
-def wait_for(condition, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.02)
-    return False
+from tests.helpers import free_port, wait_for
 
 
 @pytest.fixture
