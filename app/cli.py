@@ -16,10 +16,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import math
 import sys
 import time
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -35,12 +36,114 @@ units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in 
 """
 
 
+MAX_STEPS = 10**8
+"""Most steps one command may plan (about 100 s of Verlet on the 5-particle chain)."""
+
+MAX_ESTIMATED_SECONDS = 6 * 3600.0
+"""Longest estimated wall time of a planned run; longer ones are refused before they start."""
+
+SECONDS_PER_STEP = {
+    # integrator: (fixed cost of a step, cost per particle) in seconds, measured with
+    # Simulation.step on a 2-core x86_64 machine: the chain/grid presets for the fixed part,
+    # 682x383 for the part per particle (the README's speed table).
+    "euler": (1.0e-6, 1 / 3.2e8),
+    "heun": (1.3e-6, 1 / 1.3e8),
+    "verlet": (1.0e-6, 1 / 3.4e8),
+    "rk4": (2.4e-6, 1 / 6.2e7),
+}
+
+
+class OneLineErrorParser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage errors are one line on stderr (exit code 2), not the usage
+    block followed by the message."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (a time step, a duration, a scale)."""
+    value = _number(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive, finite number, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1 (a count of steps, frames, particles)."""
+    return bounded_int(1, None)(text)
+
+
+def bounded_int(smallest: int, largest: int | None) -> Callable[[str], int]:
+    """argparse type factory: a whole number in [smallest, largest] (largest None: no bound)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < smallest or (largest is not None and value > largest):
+            span = f"at least {smallest}" if largest is None else f"from {smallest} to {largest}"
+            raise argparse.ArgumentTypeError(f"must be {span}, got {text!r}")
+        return value
+
+    return parse
+
+
+def estimated_seconds(steps: float, n_particles: int, integrator: str) -> float:
+    """Rough wall time (s) of ``steps`` steps of ``integrator`` on ``n_particles`` particles."""
+    fixed, per_particle = SECONDS_PER_STEP.get(integrator, SECONDS_PER_STEP["rk4"])
+    return steps * (fixed + n_particles * per_particle)
+
+
+def describe_seconds(seconds: float) -> str:
+    """``5400`` -> ``"1.5 hours"``: a wall time a person can read."""
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600),
+                       ("minutes", 60)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def planned_steps(
+    simulation: Any, steps: int | None = None, duration: float | None = None,
+    runs: int = 1,
+) -> int:
+    """The number of steps a command will run: ``steps``, or ``duration / dt``, or the scene's
+    duration.  Raises ValueError, naming the estimated run time, when the plan exceeds
+    ``MAX_STEPS`` or ``MAX_ESTIMATED_SECONDS`` (``runs`` simulations are advanced together)."""
+    dt = simulation.dt
+    if steps is not None:
+        count = float(steps)
+        what = f"{steps} steps"
+    else:
+        seconds = duration if duration is not None else simulation.scene.duration
+        count = max(1.0, round(seconds / dt))
+        what = f"{seconds:g} s at dt = {dt:g} s is {count:.3g} steps"
+    model = simulation.model
+    wall = runs * estimated_seconds(count, model.n_particles, simulation.integrator)
+    if count > MAX_STEPS or wall > MAX_ESTIMATED_SECONDS:
+        raise ValueError(
+            f"{what}: about {describe_seconds(wall)} of computing on {model.n_particles} "
+            f"particles, over the limit of {MAX_STEPS:.0e} steps or "
+            f"{describe_seconds(MAX_ESTIMATED_SECONDS)}; shorten the run or use a larger --dt"
+        )
+    return int(count)
+
+
 def parse_overrides(pairs: Sequence[str] | None) -> dict[str, Any]:
     """``["nx=40", "gravity=9.81", "linear=true", "gravity=0,-9.81"]`` -> keyword arguments."""
     overrides: dict[str, Any] = {}
     for pair in pairs or []:
         if "=" not in pair:
-            raise SystemExit(f"error: --set takes key=value, got {pair!r}")
+            raise ValueError(f"--set takes key=value, got {pair!r}")
         key, text = (part.strip() for part in pair.split("=", 1))
         overrides[key] = _parse_value(text)
     return overrides
@@ -74,7 +177,8 @@ def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | No
         "--integrator", choices=["euler", "heun", "verlet", "rk4"],
         help="time integrator (default: the scene's)",
     )
-    parser.add_argument("--dt", type=float, help="time step in seconds (default: the scene's)")
+    parser.add_argument("--dt", type=positive_float,
+                        help="time step in seconds (default: the scene's)")
     parser.add_argument(
         "--set", dest="overrides", action="append", metavar="KEY=VALUE",
         help="override a scene parameter: nx, ny, spacing, mass, stiffness, rest_length, damping, "
@@ -90,7 +194,7 @@ def scene_from_arguments(arguments: argparse.Namespace):
     if arguments.scene.endswith(".toml"):
         scene = scenes.load(arguments.scene)
         if overrides:
-            raise SystemExit("error: --set applies to presets; edit the .toml file instead")
+            raise ValueError("--set applies to presets; edit the .toml file instead")
     else:
         scene = scenes.build(arguments.scene, **overrides)
     return scene
@@ -124,12 +228,7 @@ def command_run(arguments: argparse.Namespace) -> int:
     from sim import BlowUpError
 
     simulation = simulation_from_arguments(arguments)
-    if arguments.duration is not None:
-        steps = int(round(arguments.duration / simulation.dt))
-    elif arguments.steps is not None:
-        steps = arguments.steps
-    else:
-        steps = max(1, int(round(simulation.scene.duration / simulation.dt)))
+    steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
     limit = simulation.stability()
     print(f"{simulation.scene.summary()}")
     print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}")
@@ -181,7 +280,7 @@ _PLUGIN_MODULES = ("app.web.serve", "app.recording.cli", "app.study.cli")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineErrorParser(
         prog="oscillators",
         description="Coupled oscillators: watch waves emerge from a lattice of masses and springs.",
         epilog=EPILOG,
@@ -199,9 +298,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_scene_arguments(run_parser)
     length = run_parser.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=int,
+    length.add_argument("--steps", type=positive_int,
                         help="number of steps (default: the scene's duration, see `scenes`)")
-    length.add_argument("--duration", type=float, help="simulated seconds instead of --steps")
+    length.add_argument("--duration", type=positive_float,
+                        help="simulated seconds instead of --steps")
     run_parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     run_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     run_parser.set_defaults(handler=command_run)
@@ -212,7 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
         "the interference scene (682x383) by default. Prints steps/s and the ratio.",
     )
     bench_parser.add_argument("--scene", default="interference")
-    bench_parser.add_argument("--seconds", type=float, default=2.0,
+    bench_parser.add_argument("--seconds", type=positive_float, default=2.0,
                               help="time to spend on each measurement (default 2 s)")
     bench_parser.add_argument("--set", dest="overrides", action="append", metavar="KEY=VALUE")
     bench_parser.add_argument("--json", action="store_true")

@@ -1,7 +1,9 @@
 """``oscillators record``: run a scene headless and write a rerun ``.rrd`` recording.
 
 Registered into ``app.cli`` through ``register(subparsers)``.  Exit codes: 0 done, 2 bad input
-or unwritable destination (before any step is run), 3 the run blew up (the file is still valid
+or unwritable destination (checked before any step is run; an existing file is only replaced with
+``--force``) or a write that failed during the run (disk full: the run stops, what was written is
+kept as a valid ``.rrd`` ending with an ERROR entry), 3 the run blew up (the file is still valid
 and ends with the error), 130 interrupted by SIGINT/SIGTERM (what was recorded is kept).
 """
 
@@ -9,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import math
 import signal
 import sys
@@ -55,7 +58,7 @@ layout of the file for analysis: docs/recording.md
 
 def register(subparsers: Any) -> None:
     """Add the ``record`` subcommand to ``oscillators``."""
-    from app.cli import add_scene_arguments
+    from app.cli import add_scene_arguments, bounded_int, positive_float, positive_int
 
     parser = subparsers.add_parser(
         "record", help="run a scene headless and write a rerun .rrd recording",
@@ -67,15 +70,19 @@ def register(subparsers: Any) -> None:
     add_scene_arguments(parser)
     parser.add_argument(
         "-o", "--output", type=Path,
-        help="the .rrd file to write (default: recordings/SCENE.rrd, or SCENE-compare.rrd)",
+        help="the .rrd file to write (default: recordings/SCENE.rrd, or SCENE-compare.rrd); "
+        "an existing file is replaced only with --force",
     )
+    parser.add_argument("--force", action="store_true",
+                        help="replace the output file if it exists")
     length = parser.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=int,
+    length.add_argument("--steps", type=positive_int,
                         help="steps to run (default: the scene's duration, e.g. 150 s for "
                         "interference, so the waves meet)")
-    length.add_argument("--duration", type=float, help="simulated seconds instead of --steps")
+    length.add_argument("--duration", type=positive_float,
+                        help="simulated seconds instead of --steps")
     parser.add_argument(
-        "--every", type=int, metavar="K",
+        "--every", type=positive_int, metavar="K",
         help=f"record a frame every K steps (default: every step, or every K-th for at most "
         f"{MAX_DEFAULT_FRAMES} frames)",
     )
@@ -90,16 +97,17 @@ def register(subparsers: Any) -> None:
         help="what the field image shows: displacement |x - x_rest| (m) or speed |v| (m/s)",
     )
     parser.add_argument(
-        "--field-scale", type=float, metavar="VALUE",
+        "--field-scale", type=positive_float, metavar="VALUE",
         help="field value at the top of the colour map (default: adapts to the run)",
     )
     parser.add_argument(
         "--raw-dtype", choices=("float32", "float16"), default="float32",
         help="precision of --field raw (float16 halves the size)",
     )
-    parser.add_argument("--jpeg-quality", type=int, default=80, help="1-95 (default 80)")
+    parser.add_argument("--jpeg-quality", type=bounded_int(1, 95), default=80,
+                        help="1-95 (default 80)")
     parser.add_argument(
-        "--positions", default="auto", metavar="auto|all|none|N",
+        "--positions", type=_positions_choice, default="auto", metavar="auto|all|none|N",
         help="particle positions: auto (every frame for small lattices, none for large), all, "
         "none, or N: every N-th recorded frame",
     )
@@ -155,6 +163,34 @@ def _signals_ignored() -> Iterator[None]:
             signal.signal(number, handler)
 
 
+def _positions_choice(text: str) -> str:
+    """argparse type of --positions: auto, all, none or a whole number >= 1."""
+    if text in ("auto", "all", "none") or (text.isdigit() and int(text) >= 1):
+        return text
+    raise argparse.ArgumentTypeError(f"must be auto, all, none or a whole number >= 1, got {text!r}")
+
+
+def _check_output(output: Path, force: bool) -> None:
+    """Refuse a directory, and an existing file unless ``force`` (before anything runs)."""
+    if output.is_dir():
+        raise ValueError(f"{output} is a directory; give a file name ending in .rrd")
+    if output.exists() and not force:
+        raise ValueError(f"{output} already exists; use --force to replace it")
+
+
+@contextlib.contextmanager
+def _runner_log_quiet() -> Iterator[None]:
+    """The runner logs a detached subscriber with a traceback; the command prints one line
+    instead, so that log goes nowhere while it runs."""
+    logger = logging.getLogger("oscillators")
+    handler = logging.NullHandler()
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+
+
 def _integrators(text: str | None) -> list[str]:
     from sim import INTEGRATORS
 
@@ -176,32 +212,28 @@ def _integrators(text: str | None) -> list[str]:
 def command_record(arguments: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from app.cli import scene_from_arguments
+    from app.cli import planned_steps, scene_from_arguments
     from sim import BlowUpError, Simulation
     from sim.runner import Runner
 
     compare = _integrators(arguments.compare)
     if compare and arguments.integrator:
         raise ValueError("give either --integrator or --compare, not both")
-    if arguments.every is not None and arguments.every < 1:
-        raise ValueError("--every must be at least 1")
+    if arguments.output is not None:
+        _check_output(arguments.output, arguments.force)
     scene = scene_from_arguments(arguments)
     names = compare or [arguments.integrator or scene.integrator]
     simulations = {name: Simulation(scene, integrator=name, dt=arguments.dt) for name in names}
-    dt = next(iter(simulations.values())).dt
-    if arguments.duration is not None:
-        steps = max(1, int(round(arguments.duration / dt)))
-    elif arguments.steps is not None:
-        steps = arguments.steps
-    else:
-        steps = max(1, int(round(scene.duration / dt)))
-    if steps < 1:
-        raise ValueError("--steps must be at least 1")
+    first = next(iter(simulations.values()))
+    dt = first.dt
+    steps = planned_steps(first, steps=arguments.steps, duration=arguments.duration,
+                          runs=len(simulations))
     if arguments.every is None:
         arguments.every = max(1, math.ceil(steps / MAX_DEFAULT_FRAMES))
     output = arguments.output or Path("recordings") / (
         f"{scene.name}-compare.rrd" if compare else f"{scene.name}.rrd"
     )
+    _check_output(output, arguments.force)
     options = RecordingOptions(
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
         positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,
@@ -216,7 +248,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     try:
         recorder = Recorder(
             output, scene, options=options, trees=trees, expected_frames=frames,
-            integrator=", ".join(names), dt=dt,
+            integrator=", ".join(names), dt=dt, overwrite=arguments.force,
         )
     except RecordingError as error:
         print(f"error: {error}", file=sys.stderr)
@@ -240,11 +272,12 @@ def command_record(arguments: argparse.Namespace) -> int:
     interrupted = False
     stop = _StopRequest()
     try:
-        with stop.installed():
+        with stop.installed(), _runner_log_quiet():
             for runner in runners.values():
                 runner.publish()  # the initial state, step 0
             done = 0
-            while done < steps and alive and stop.signal_name is None:
+            while (done < steps and alive and stop.signal_name is None
+                   and recorder.failure is None):
                 count = min(chunk_steps, steps - done)
                 for name, runner in list(alive.items()):
                     try:
@@ -258,9 +291,6 @@ def command_record(arguments: argparse.Namespace) -> int:
                 done += count
     except KeyboardInterrupt:
         stop.signal_name = stop.signal_name or "SIGINT"
-    except RecordingError as error:
-        bar.write(f"error: {error}")
-        status = 1
     finally:
         bar.close()
         if stop.signal_name is not None:
@@ -270,9 +300,9 @@ def command_record(arguments: argparse.Namespace) -> int:
         with _signals_ignored():
             try:
                 path = recorder.close(interrupted=interrupted)
-            except RecordingError as error:
+            except RecordingError as error:  # writing failed: the file is kept, readable
                 print(f"error: {error}", file=sys.stderr)
-                return 1
+                return 2
     elapsed = time.perf_counter() - started
     size = path.stat().st_size
     print(f"wrote {path} ({size / 2**20:.1f} MB, {recorder.frames_logged} frames, "

@@ -19,7 +19,12 @@ How it stays fast and safe:
   everything up to the last flush on disk;
 * the file is written as ``NAME.rrd.partial`` and renamed to ``NAME.rrd`` by ``close()`` once
   rerun has flushed and closed it: a file under the final name is always complete;
-* the path and the free disk space are checked in the constructor, before any step is run.
+* the path and the free disk space are checked in the constructor, before any step is run; an
+  existing file is refused unless ``overwrite=True``;
+* a write that fails during the run (disk full, I/O error) stops the recording: the runner
+  detaches the recorder and calls its ``on_error``, which logs an ERROR entry if it still can,
+  closes the file and gives it its final name, so what was written stays a readable ``.rrd``
+  (``failure`` holds the error; ``close()`` raises ``RecordingError`` saying so).
 
 What is logged depends on the lattice (see ``LoggingPlan`` and ``docs/recording.md``): small
 lattices (at most ``DETAIL_LIMIT`` particles) get every particle and spring each frame; large
@@ -33,7 +38,6 @@ import functools
 import os
 import queue
 import shutil
-import sys
 import threading
 import time
 import uuid
@@ -413,6 +417,7 @@ class Recorder:
     trees: entity trees to lay out in the blueprint: ``(None,)`` for a single run at the root, or
         names such as ``("euler", "verlet", "rk4")`` for a comparison.
     expected_frames: if given, the free disk space is checked against an estimate.
+    overwrite: replace ``path`` if it exists (otherwise ``RecordingError``).
     Usable as a context manager; ``close()`` is idempotent and safe from any thread.
     """
 
@@ -426,6 +431,7 @@ class Recorder:
         expected_frames: int | None = None,
         integrator: str | None = None,
         dt: float | None = None,
+        overwrite: bool = False,
     ) -> None:
         self.options = options or RecordingOptions()
         self.scene = scene
@@ -436,7 +442,7 @@ class Recorder:
         self.trees = tuple(trees)
         self.path = Path(path)
         self.partial_path = self.path.with_name(self.path.name + ".partial")
-        self._check_destination(expected_frames)
+        self._check_destination(expected_frames, overwrite)
 
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
         bp = layout.blueprint(
@@ -473,10 +479,14 @@ class Recorder:
 
     # --- checks -----------------------------------------------------------------------------------
 
-    def _check_destination(self, expected_frames: int | None) -> None:
+    def _check_destination(self, expected_frames: int | None, overwrite: bool) -> None:
         directory = self.path.parent
         if self.path.suffix != ".rrd":
             raise RecordingError(f"the recording file must end in .rrd, got {self.path}")
+        if self.path.is_dir():
+            raise RecordingError(f"{self.path} is a directory; give a file name ending in .rrd")
+        if self.path.exists() and not overwrite:
+            raise RecordingError(f"{self.path} already exists; use --force to replace it")
         try:
             directory.mkdir(parents=True, exist_ok=True)
             with open(self.partial_path, "wb"):
@@ -513,6 +523,7 @@ class Recorder:
             runner.subscribe(
                 functools.partial(self._enqueue, track),
                 strains=self.plan.springs, velocities=wants_velocities,
+                on_error=self._subscriber_failed,
             )
         )
         if snapshot:
@@ -529,6 +540,20 @@ class Recorder:
         track.log_static()
         self.tracks[tree] = track
         return track
+
+    @property
+    def failure(self) -> BaseException | None:
+        """The error that stopped the recording (a failed write, a full disk), or None."""
+        return self._failure
+
+    def _subscriber_failed(self, error: BaseException) -> None:
+        """The runner detached us because a callback raised: end the file cleanly now."""
+        if self._failure is None:
+            self._failure = error
+        try:
+            self.close()
+        except (RecordingError, OSError):
+            pass  # failure keeps the cause; the owner's close() reports it
 
     def _enqueue(self, track: _Track, frame: Frame) -> None:
         if self._failure is not None:
@@ -567,7 +592,6 @@ class Recorder:
                 self._check_space()
         except Exception as error:  # reported to the producer; Ctrl-C passes through
             self._failure = error
-            print(f"recording error: {error!r}", file=sys.stderr)
 
     def _submit(self, item: Any) -> None:
         """Hand an item to the worker (background) or log it now; the caller holds _lock."""
@@ -577,8 +601,11 @@ class Recorder:
             self._process(item)
 
     def _check_space(self) -> None:
-        if shutil.disk_usage(self.path.parent).free < MIN_FREE_BYTES // 4:
-            raise RecordingError(f"disk nearly full in {self.path.parent}; recording stopped")
+        free = shutil.disk_usage(self.path.parent).free
+        if free < MIN_FREE_BYTES // 4:
+            raise RecordingError(
+                f"disk nearly full in {self.path.parent} ({free / 2**20:.1f} MB free)"
+            )
 
     # --- closing ----------------------------------------------------------------------------------
 
@@ -599,9 +626,14 @@ class Recorder:
 
     def close(self, interrupted: bool = False) -> Path:
         """Stop listening, log what is queued, flush, close the file and give it its final name.
-        Returns the final path."""
+        Returns the final path; raises ``RecordingError`` if writing failed (the file is kept,
+        ending with an ERROR entry when that could still be written)."""
         with self._lock:
             if self._closed:
+                if self._failure is not None:
+                    raise RecordingError(
+                        f"recording failed: {self._failure}; what was recorded is in {self.path}"
+                    ) from self._failure
                 return self.path
             if interrupted:
                 for name in self.tracks:
@@ -611,11 +643,16 @@ class Recorder:
             for track in self.tracks.values():
                 self._submit(track.finish)
             self._closed = True
-        if self._worker is not None:
+        if self._worker is not None and self._worker is not threading.current_thread():
             self._queue.put(_STOP)
             self._worker.join()
+        if self._failure is not None:
+            self._log_failure()
         try:
             self.stream.flush(timeout_sec=120.0)
+        except Exception:  # noqa: BLE001 - the file keeps what reached the disk
+            if self._failure is None:
+                raise
         finally:
             self.stream.disconnect()
         os.replace(self.partial_path, self.path)
@@ -624,6 +661,18 @@ class Recorder:
                 f"recording failed: {self._failure}; what was recorded is in {self.path}"
             ) from self._failure
         return self.path
+
+    def _log_failure(self) -> None:
+        """An ERROR entry in every tree saying why the recording stopped, if it can be written."""
+        text = f"recording stopped: {self._failure}"
+        try:
+            for track in self.tracks.values():
+                track.set_last_time()
+                track.event(text, "ERROR")
+            if not self.tracks:
+                self.stream.log("/log", rr.TextLog(text, level="ERROR"))
+        except Exception:  # noqa: BLE001 - the disk may be full: the file ends where it ends
+            pass
 
     def _interrupted_event(self, tree: str | None) -> None:
         track = self.tracks[tree]

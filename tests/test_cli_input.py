@@ -1,0 +1,175 @@
+"""Bad command-line input: exit code 2, one clear line on stderr, no traceback, nothing lost."""
+
+from __future__ import annotations
+
+import errno
+import shutil
+from pathlib import Path
+
+import pytest
+
+from app.cli import main
+from app.recording import Recorder, RecordingError
+from app.recording.recorder import _Track
+from sim import scenes
+from tests.test_recording import read_chunks, temporal, texts
+
+
+def run_cli(arguments: list[str]) -> int:
+    """``main(arguments)``, with argparse's SystemExit turned into its exit code."""
+    try:
+        return main(arguments)
+    except SystemExit as exit_request:
+        return int(exit_request.code or 0)
+
+
+def assert_refused(capsys, arguments: list[str], *fragments: str) -> str:
+    """The command exits with 2 and says why in one line naming every fragment."""
+    assert run_cli(arguments) == 2
+    error = capsys.readouterr().err
+    lines = [line for line in error.splitlines() if line.strip()]
+    assert len(lines) == 1, error
+    assert "Traceback" not in error
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+# --- run: counts, durations, time steps ----------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "option, value",
+    [
+        ("--duration", "inf"), ("--duration", "nan"), ("--duration", "-1"), ("--duration", "0"),
+        ("--dt", "0"), ("--dt", "-1"), ("--dt", "nan"), ("--dt", "inf"), ("--dt", "abc"),
+        ("--steps", "-5"), ("--steps", "0"), ("--steps", "2.5"),
+    ],
+)
+def test_run_refuses_non_positive_or_non_finite_numbers(capsys, option, value):
+    assert_refused(capsys, ["run", "chain", option, value, "--quiet"], option, value)
+
+
+@pytest.mark.parametrize(
+    "arguments",
+    [["--dt", "1e-300"], ["--duration", "1e15"], ["--steps", "1000000000000"]],
+)
+def test_run_refuses_a_plan_too_long_and_says_how_long(capsys, arguments):
+    line = assert_refused(capsys, ["run", "chain", *arguments, "--quiet"], "about", "limit")
+    assert any(unit in line for unit in ("years", "days", "hours"))
+
+
+def test_run_still_accepts_sensible_input(capsys):
+    assert run_cli(["run", "chain", "--dt", "0.01", "--duration", "0.5", "--quiet"]) == 0
+    assert "ran 50 steps" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "arguments",
+    [["--set", "nx"], ["--set", "nx=0"], ["--set", "nx=-3"], ["--set", "nx=2.5"]],
+)
+def test_bad_overrides_are_one_line(capsys, arguments):
+    assert_refused(capsys, ["run", "grid", *arguments, "--quiet"], "nx")
+
+
+# --- record: options and output file ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "option, value",
+    [
+        ("--every", "0"), ("--every", "-2"), ("--steps", "0"), ("--duration", "nan"),
+        ("--dt", "-0.1"), ("--jpeg-quality", "0"), ("--jpeg-quality", "200"),
+        ("--field-scale", "0"), ("--positions", "0"), ("--positions", "some"),
+    ],
+)
+def test_record_refuses_bad_options_before_running(tmp_path, capsys, option, value):
+    output = tmp_path / "x.rrd"
+    assert_refused(capsys, ["record", "chain", option, value, "-o", str(output), "--quiet"],
+                   option)
+    assert not list(tmp_path.iterdir())
+
+
+def test_record_refuses_to_overwrite_without_force(tmp_path, capsys):
+    output = tmp_path / "kept.rrd"
+    output.write_bytes(b"precious")
+    assert_refused(capsys, ["record", "chain", "--steps", "5", "-o", str(output), "--quiet"],
+                   str(output), "--force")
+    assert output.read_bytes() == b"precious"
+    assert not list(tmp_path.glob("*.partial"))
+    assert run_cli(["record", "chain", "--steps", "5", "-o", str(output), "--force",
+                    "--quiet"]) == 0
+    assert output.read_bytes() != b"precious"
+    assert len(read_chunks(output)) > 0
+
+
+def test_record_refuses_a_directory_as_output(tmp_path, capsys):
+    assert_refused(capsys, ["record", "chain", "--steps", "5", "-o", f"{tmp_path}/", "--quiet"],
+                   str(tmp_path), "directory")
+    assert not list(tmp_path.iterdir())
+
+
+def test_recorder_refuses_an_existing_file_unless_told_to_overwrite(tmp_path):
+    scene = scenes.build("chain")
+    output = tmp_path / "there.rrd"
+    output.write_bytes(b"precious")
+    with pytest.raises(RecordingError, match="already exists"):
+        Recorder(output, scene)
+    assert output.read_bytes() == b"precious"
+    Recorder(output, scene, overwrite=True).close()
+    assert len(read_chunks(output)) > 0
+
+
+def _assert_stopped_cleanly(capsys, output: Path) -> list[tuple[int, str, str]]:
+    """One error line; the file has its final name, reads back and ends with an ERROR entry."""
+    error = capsys.readouterr().err
+    lines = [line for line in error.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in error, error
+    assert str(output) in lines[0]
+    assert output.exists() and not Path(f"{output}.partial").exists()
+    chunks = read_chunks(output)
+    errors = [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
+    assert len(errors) == 1
+    steps = temporal(chunks, "/energy/total", "Scalars:scalars")
+    assert 0 < len(steps) < 300  # the run stopped early, and what came before is there
+    assert errors[0][0] == max(steps)
+    return errors
+
+
+def test_a_disk_that_fills_during_record_stops_it_and_keeps_a_readable_file(
+    tmp_path, capsys, monkeypatch
+):
+    real = shutil.disk_usage
+    calls = []
+
+    def filling_disk(path):
+        calls.append(path)  # the first look (before the run) sees space, later ones do not
+        usage = real(path)
+        return usage if len(calls) == 1 else usage._replace(free=0)
+
+    monkeypatch.setattr(shutil, "disk_usage", filling_disk)
+    output = tmp_path / "full.rrd"
+    status = run_cli(["record", "grid", "--steps", "300", "--every", "1", "-o", str(output),
+                      "--quiet"])
+    assert status == 2
+    errors = _assert_stopped_cleanly(capsys, output)
+    assert "disk nearly full" in errors[0][1]
+
+
+def test_a_write_error_during_record_stops_it_and_keeps_a_readable_file(
+    tmp_path, capsys, monkeypatch
+):
+    real = _Track.log_frame
+
+    def failing_log_frame(track, frame):
+        if track.frames_logged >= 20:
+            raise OSError(errno.EIO, "Input/output error")
+        real(track, frame)
+
+    monkeypatch.setattr(_Track, "log_frame", failing_log_frame)
+    output = tmp_path / "broken.rrd"
+    status = run_cli(["record", "grid", "--steps", "300", "--every", "1", "-o", str(output),
+                      "--quiet"])
+    assert status == 2
+    errors = _assert_stopped_cleanly(capsys, output)
+    assert "Input/output error" in errors[0][1]
