@@ -173,3 +173,58 @@ def test_a_write_error_during_record_stops_it_and_keeps_a_readable_file(
     assert status == 2
     errors = _assert_stopped_cleanly(capsys, output)
     assert "Input/output error" in errors[0][1]
+
+
+# --- lattice size and memory ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "overrides, fragment",
+    [
+        (["nx=20000", "ny=20000"], "particles"), (["nx=1e12"], "nx must be at most"),
+        (["ny=1e12"], "ny must be at most"), (["nx=0"], "nx"), (["ny=-4"], "ny"),
+        (["nx=2.5"], "whole number"),
+    ],
+)
+def test_huge_or_invalid_lattices_are_refused(capsys, overrides, fragment):
+    arguments = [item for pair in overrides for item in ("--set", pair)]
+    assert_refused(capsys, ["run", "grid", *arguments, "--steps", "1", "--quiet"], fragment)
+
+
+def test_a_lattice_larger_than_the_memory_is_refused_before_allocating(monkeypatch):
+    import tracemalloc
+
+    import sim.model
+
+    monkeypatch.setattr(sim.model, "available_memory", lambda: 100 * 2**20)
+    tracemalloc.start()
+    try:
+        with pytest.raises(sim.model.ModelError, match=r"GB of memory.*0\.10 GB are available"):
+            sim.model.Model.create(4000, 4000)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2**20  # 16 million particles: nothing of that size was allocated
+
+
+def test_the_memory_estimate_covers_a_real_simulation():
+    import tracemalloc
+
+    import sim
+    from sim.model import estimated_bytes
+
+    warm = sim.Simulation(sim.scenes.build("grid", nx=8, ny=8), integrator="verlet")
+    warm.step(70)
+    warm.strains()
+    for dim in (2, 3):
+        tracemalloc.start()
+        try:
+            scene = sim.scenes.build("grid", nx=300, ny=200, dim=dim)
+            simulation = sim.Simulation(scene, integrator="verlet")
+            simulation.step(70)  # past a blow-up checkpoint
+            simulation.energy()
+            simulation.strains()
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert peak <= estimated_bytes(300, 200, dim)
