@@ -12,12 +12,19 @@ Anyone may ``post(command)``: a callable taking the ``Simulation``, run by the l
 (never in the middle of one).  ``post`` returns a ``concurrent.futures.Future`` with the command's
 result or exception.  A blow-up pauses the loop, keeps the state before the bad step and publishes
 a frame whose ``error`` says what happened.
+
+A subscriber that raises is detached: the runner logs it, keeps the message in
+``subscriber_errors``, calls the subscriber's ``on_error(exception)`` (so a recorder can close its
+file cleanly) and carries on stepping.  One failing viewer or recorder never stops the others or
+the simulation.
 """
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import dataclasses
+import logging
 import queue
 import threading
 import time
@@ -29,6 +36,10 @@ import numpy as np
 from sim.model import Model
 from sim.observables import Energy
 from sim.simulation import BlowUpError, Simulation
+
+LOGGER = logging.getLogger("oscillators.runner")
+SUBSCRIBER_ERRORS_KEPT = 20
+"""How many detached-subscriber messages ``Runner.subscriber_errors`` keeps."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,11 +64,12 @@ class Frame:
     playing: bool = False
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(eq=False)
 class _Subscriber:
     callback: Callable[[Frame], Any]
     strains: bool
     velocities: bool
+    on_error: Callable[[BaseException], Any] | None = None
 
 
 class Runner:
@@ -79,15 +91,25 @@ class Runner:
         self._running = False
         self._lock = threading.Lock()
         self.frames_published = 0
+        self.steps_taken = 0
+        """Steps run by ``guarded_step`` since the runner was made (across scene changes)."""
+        self.before_step: Callable[[Simulation], Any] | None = None
+        """Called before every step and after the last while set (see ``guarded_step``)."""
+        self.subscriber_errors: collections.deque[str] = collections.deque(
+            maxlen=SUBSCRIBER_ERRORS_KEPT
+        )
+        """Messages about subscribers that raised and were detached, oldest first."""
 
     # --- subscribers -----------------------------------------------------------------------------
 
     def subscribe(
-        self, callback: Callable[[Frame], Any], *, strains: bool = False, velocities: bool = False
+        self, callback: Callable[[Frame], Any], *, strains: bool = False, velocities: bool = False,
+        on_error: Callable[[BaseException], Any] | None = None,
     ) -> Callable[[], None]:
         """Call ``callback(frame)`` for every published frame; ask for strains / velocities only
-        if you show them.  Returns a function that unsubscribes."""
-        subscriber = _Subscriber(callback, strains, velocities)
+        if you show them.  If ``callback`` raises, it is detached and ``on_error(exception)`` is
+        called once (in the publishing thread).  Returns a function that unsubscribes."""
+        subscriber = _Subscriber(callback, strains, velocities, on_error)
         with self._lock:
             self._subscribers.append(subscriber)
 
@@ -127,9 +149,27 @@ class Runner:
         with self._lock:
             subscribers = list(self._subscribers)
         for subscriber in subscribers:
-            subscriber.callback(frame)
+            try:
+                subscriber.callback(frame)
+            except Exception as error:  # contained: detach this one, keep the others running
+                self._detach(subscriber, error)
         self.frames_published += 1
         return frame
+
+    def _detach(self, subscriber: _Subscriber, error: Exception) -> None:
+        with self._lock:
+            if subscriber in self._subscribers:
+                self._subscribers.remove(subscriber)
+        target = getattr(subscriber.callback, "func", subscriber.callback)  # functools.partial
+        name = getattr(target, "__qualname__", None) or type(target).__name__
+        message = f"{name} stopped receiving frames: {error}"
+        self.subscriber_errors.append(message)
+        LOGGER.error("subscriber detached: %s", message, exc_info=error)
+        if subscriber.on_error is not None:
+            try:
+                subscriber.on_error(error)
+            except Exception as second:  # the error handler itself failed: log and go on
+                LOGGER.error("the error handler of %s failed: %r", name, second)
 
     # --- commands --------------------------------------------------------------------------------
 
@@ -201,15 +241,29 @@ class Runner:
 
     def guarded_step(self, steps: int) -> bool:
         """Advance ``steps`` steps in the loop's thread; on a blow-up pause, keep the state and
-        publish a frame with the error.  Returns whether the steps ran.  Subclasses override it
-        to constrain the motion between steps (the web app holds dragged particles this way)."""
+        publish a frame with the error.  Returns whether the steps ran.
+
+        While ``before_step`` is set, the steps run one at a time and ``before_step(simulation)``
+        is called before each and after the last (the web app holds dragged particles this way);
+        without it they run as one compiled chunk."""
+        hook = self.before_step
+        before = self.simulation.step_count
         try:
-            self.simulation.step(steps)
+            if hook is None:
+                self.simulation.step(steps)
+            else:
+                for _ in range(steps):
+                    hook(self.simulation)
+                    self.simulation.step(1)
+                hook(self.simulation)
         except BlowUpError as error:
             self._playing = False
             self.error = str(error)
             self.publish(error=self.error)
             return False
+        finally:
+            with self._lock:
+                self.steps_taken += max(0, self.simulation.step_count - before)
         return True
 
     def start(self) -> None:
@@ -234,7 +288,13 @@ class Runner:
         while self._running:
             changed = self.apply_commands() > 0
             if self._playing:
-                if self.guarded_step(max(1, int(self.steps_per_frame))):
+                try:
+                    if self.guarded_step(max(1, int(self.steps_per_frame))):
+                        changed = True
+                except Exception as error:  # not a blow-up: a bug or a bad state; pause, say why
+                    LOGGER.error("simulation step failed", exc_info=error)
+                    self._playing = False
+                    self.error = f"the step failed: {error!r}"
                     changed = True
             if changed:
                 now = time.perf_counter()
@@ -244,8 +304,8 @@ class Runner:
                 last_frame = time.perf_counter()
                 try:
                     self.publish(error=None if self._playing or self.error is None else self.error)
-                except Exception:  # a failing subscriber must not kill the simulation
-                    pass
+                except Exception as error:  # building the frame failed: report, keep looping
+                    LOGGER.error("could not publish a frame: %r", error)
             if not self._playing:
                 self._wake.wait(0.05)
                 self._wake.clear()

@@ -99,9 +99,9 @@ def test_mass_pattern_and_selection_mass(running):
     assert runner.simulation.masses[3] == 7.5 and runner.simulation.masses[5] == 7.5
 
 
-def test_replace_scene_and_save_load(running, tmp_path):
+def test_replace_scene_and_snapshot_keep_the_state(running):
     runner, control = running
-    control.build_preset("chain").result(timeout=10)
+    control.replace_scene(sim.scenes.build("chain")).result(timeout=10)
     assert runner.simulation.model.nx == 5
 
     def displace(simulation: sim.Simulation) -> tuple:
@@ -111,15 +111,23 @@ def test_replace_scene_and_save_load(running, tmp_path):
         return simulation.peek_positions(), simulation.state.particle_velocities().copy()
 
     positions, velocities = runner.post(displace).result(timeout=5)
-    saved = control.save(tmp_path / "chain.toml").result(timeout=5)
-    control.build_preset("grid").result(timeout=10)
-    control.load(saved).result(timeout=10)
+    scene = control.snapshot().result(timeout=5)
+    control.replace_scene(sim.scenes.build("grid")).result(timeout=10)
+    control.replace_scene(scene).result(timeout=10)
     loaded = runner.post(lambda s: (s.model, s.peek_positions(), s.velocities.copy())).result(5)
     model, loaded_positions, loaded_velocities = loaded
     assert model.nx == 5 and model.ny == 1
     np.testing.assert_array_equal(model.masses.ravel(), [1.0, 2.0, 3.0, 4.0, 5.0])
     np.testing.assert_allclose(loaded_positions, positions)
     np.testing.assert_allclose(loaded_velocities, velocities)
+
+
+def test_steps_per_frame_outside_the_range_is_refused(running):
+    runner, control = running
+    for bad in (0, -3, 10**9, 2.5, True):
+        with pytest.raises(ValueError):
+            control.set_steps_per_frame(bad)
+    assert runner.steps_per_frame == 1
 
 
 def test_click_ray_selects_the_particle_under_it(web_app):
@@ -166,16 +174,13 @@ def test_disconnect_mid_drag_releases_the_pins(web_app):
     assert not web_app.runner.pins and web_app._drag is None
 
 
-def test_record_button_records_the_running_lattice(running, tmp_path):
-    from app.web.panel import _find_recorder
-
-    factory = _find_recorder()
-    if factory is None:
-        pytest.skip("app.recording is not installed")
+def test_page_recording_records_the_running_lattice(running, tmp_path):
+    from app.web.recording import WebRecordings
     from tests.test_recording import read_chunks, temporal
 
     runner, control = running
-    recording = factory(runner, tmp_path)
+    recordings = WebRecordings(runner, tmp_path)
+    recordings.start(control.snapshot().result(timeout=5))
     started_at = runner.simulation.step_count
     runner.play()
     assert wait_for(lambda: runner.simulation.step_count > started_at + 20)
@@ -183,7 +188,7 @@ def test_record_button_records_the_running_lattice(running, tmp_path):
     runner.post(lambda s: None).result(timeout=5)  # the last frame has been published
     energy_before_stop = runner.simulation.energy().total
     last_step = runner.simulation.step_count
-    path = recording.stop()
+    path = recordings.stop()
     assert path.exists() and path.suffix == ".rrd"
     totals = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     recorded_steps = sorted(totals)

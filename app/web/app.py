@@ -13,12 +13,21 @@ particle (shift+click adds to the selection; clicks outside the lattice are igno
 transform gizmo sits on the selection; dragging it moves the selection (held in place while
 dragging if "hold while dragging" is on) and releasing lets go.  A client that disconnects
 mid-drag is released.
+
+The app owns the scene, the runner and its pacing: ``replace_scene`` swaps a new lattice in and
+then asks the panel to show it.  The panel (``app.web.panel``) only shows the app's state and
+turns what a user does into commands; it does not import this module.  Every request to the
+server passes ``app.web.security``'s Host/Origin check; the page reaches scene files only by name
+in one directory (``app.web.scene_files``) and records only into one directory
+(``app.web.recording``).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,8 +35,17 @@ import viser
 
 import sim
 from app.web.control import LatticeRunner, SimulationControl
+from app.web.panel import ControlPanel
+from app.web.recording import WebRecordings
+from app.web.scene_files import SceneDirectory
+from app.web.security import AccessPolicy, checked_server
 from app.web.view import LatticeView
 from sim.runner import Frame
+
+DEFAULT_SCENES_DIR = Path("scenes")
+"""Where ``serve`` looks for scene files the page may open (by name)."""
+DEFAULT_RECORDINGS_DIR = Path("recordings")
+"""Where recordings started from the page are written."""
 
 LARGE_LATTICE = 50_000
 """From this many particles on, the app uses the large-lattice pacing below."""
@@ -38,7 +56,6 @@ def runner_pacing(model: sim.Model) -> tuple[int, float, float]:
     if model.n_particles >= LARGE_LATTICE:
         return 5, 25.0, 25.0
     return 1, 60.0, 90.0
-
 
 
 def camera_pose(model: sim.Model) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -53,14 +70,25 @@ def camera_pose(model: sim.Model) -> tuple[tuple[float, float, float], tuple[flo
     return (0.0, 0.0, distance), (0.0, 1.0, 0.0)
 
 class WebApp:
-    """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end."""
+    """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end.
+
+    scenes_dir: the directory whose ``.toml`` files the page may open by name;
+    recordings_dir: where the page's recordings go;
+    allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app.
+    """
 
     def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
-                 verbose: bool = False, play: bool = False) -> None:
+                 verbose: bool = False, play: bool = False,
+                 scenes_dir: str | Path = DEFAULT_SCENES_DIR,
+                 recordings_dir: str | Path = DEFAULT_RECORDINGS_DIR,
+                 allow_origins: Sequence[str] = ()) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation.model)
         self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
         self.control = SimulationControl(self.runner)
-        self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
+        self.scene_files = SceneDirectory(scenes_dir)
+        self.recordings = WebRecordings(self.runner, recordings_dir)
+        self.access = AccessPolicy(allowed_origins=tuple(allow_origins))
+        self.server = checked_server(self.access, host=host, port=port, verbose=verbose)
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.view = LatticeView(self.server)
         self.play_on_start = play
@@ -77,8 +105,8 @@ class WebApp:
         self._camera_layout: tuple | None = None
         self.frames_delivered = 0
         self.last_error: str | None = None
-
-        from app.web.panel import ControlPanel
+        self.scene_source = f"preset {simulation.scene.name}"
+        """Where the current scene came from (shown in the Scene folder)."""
 
         self.panel = ControlPanel(self)
         self._install_interaction()
@@ -103,6 +131,13 @@ class WebApp:
         return self
 
     def stop(self) -> None:
+        """Close a running recording (so its file verifies), stop the loop and the server."""
+        try:
+            self.recordings.stop()
+        finally:
+            self._stop_threads()
+
+    def _stop_threads(self) -> None:
         self._pumping = False
         self._frame_ready.set()
         self.runner.stop()
@@ -117,6 +152,22 @@ class WebApp:
 
     def __exit__(self, *_: object) -> None:
         self.stop()
+
+    # --- scenes ----------------------------------------------------------------------------------
+
+    def replace_scene(self, scene: sim.Scene, source: str, timeout: float = 120.0) -> sim.Simulation:
+        """Run ``scene`` instead of the current one (its own integrator and dt), with the pacing
+        its size needs, and show it in the panel.  ``source`` says where it came from ("preset
+        grid", "file my.toml", "upload x.zip").  Raises what building it raised."""
+        simulation = self.control.replace_scene(scene).result(timeout=timeout)
+        steps, sim_fps, render_fps = runner_pacing(simulation.model)
+        self.runner.steps_per_frame = steps
+        self.runner.max_fps = sim_fps
+        self.render_fps = render_fps
+        self.scene_source = source
+        self.panel.show_scene(simulation)
+        self.refresh()
+        return simulation
 
     # --- frames ----------------------------------------------------------------------------------
 

@@ -13,9 +13,7 @@ mid-drag is released with ``release(owner)`` and nothing stays stuck.
 from __future__ import annotations
 
 import concurrent.futures
-import threading
 from collections.abc import Hashable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,22 +23,23 @@ from sim.runner import Runner
 
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
+MAX_STEPS_PER_FRAME = 100
+"""Most steps the loop runs between two published frames (Pause waits for at most that many)."""
 
 
 class LatticeRunner(Runner):
     """A ``Runner`` that can hold particles in place (pins) while they are dragged.
 
     Pins are only touched from commands (the simulation thread), so they need no lock.  While any
-    pin exists the loop steps one step at a time and puts pinned particles back (velocity zero)
-    before each step and after the last, so a dragged particle follows the pointer exactly.
+    pin exists the runner's public ``before_step`` hook puts pinned particles back (velocity
+    zero) before each step and after the last, so a dragged particle follows the pointer exactly;
+    without pins the hook is off and the steps run as one compiled chunk.
     """
 
     def __init__(self, simulation: sim.Simulation, steps_per_frame: int = 1,
                  max_fps: float = 60.0) -> None:
         super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps)
         self.pins: dict[Hashable, dict[int, np.ndarray]] = {}
-        self.steps_taken = 0
-        self._steps_lock = threading.Lock()
 
     def pinned_particles(self) -> dict[int, np.ndarray]:
         """Every held particle index -> its target position (dim,) in m (later owners win)."""
@@ -48,6 +47,20 @@ class LatticeRunner(Runner):
         for held in self.pins.values():
             merged.update(held)
         return merged
+
+    def hold(self, owner: Hashable, targets: dict[int, np.ndarray]) -> None:
+        """Hold particles (index -> position) for ``owner`` (call from a command)."""
+        self.pins.setdefault(owner, {}).update(targets)
+        self.before_step = self.apply_pins
+
+    def let_go(self, owner: Hashable | None = None, everyone: bool = False) -> None:
+        """Release ``owner``'s particles, or every pin (call from a command)."""
+        if everyone:
+            self.pins.clear()
+        else:
+            self.pins.pop(owner, None)
+        if not self.pins:
+            self.before_step = None
 
     def apply_pins(self, simulation: sim.Simulation) -> None:
         """Put every held particle at its target, at rest (runs in the simulation thread)."""
@@ -59,24 +72,6 @@ class LatticeRunner(Runner):
         positions = simulation.positions
         positions[indices] = targets
         simulation.velocities[indices] = 0.0
-
-    def guarded_step(self, steps: int) -> bool:
-        if not self.pins:
-            before = self.simulation.step_count
-            ok = super().guarded_step(steps)
-            self._count_steps(self.simulation.step_count - before)
-            return ok
-        for _ in range(steps):
-            self.apply_pins(self.simulation)
-            if not super().guarded_step(1):
-                return False
-            self._count_steps(1)
-        self.apply_pins(self.simulation)
-        return True
-
-    def _count_steps(self, steps: int) -> None:
-        with self._steps_lock:
-            self.steps_taken += max(0, steps)
 
 
 class SimulationControl:
@@ -103,14 +98,19 @@ class SimulationControl:
 
     def reset(self) -> concurrent.futures.Future:
         def command(simulation: sim.Simulation) -> None:
-            self.runner.pins.clear()
+            self.runner.let_go(everyone=True)
             self.runner.error = None
             simulation.reset()
 
         return self.runner.post(command)
 
     def set_steps_per_frame(self, steps: int) -> None:
-        self.runner.steps_per_frame = max(1, int(steps))
+        """Steps between two frames, 1 to ``MAX_STEPS_PER_FRAME``; anything else: ValueError."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+            raise ValueError(f"steps per frame must be a whole number, got {steps!r}")
+        if not 1 <= steps <= MAX_STEPS_PER_FRAME:
+            raise ValueError(f"steps per frame must be 1 to {MAX_STEPS_PER_FRAME}, got {steps}")
+        self.runner.steps_per_frame = int(steps)
 
     # --- integrator ------------------------------------------------------------------------------
 
@@ -205,39 +205,30 @@ class SimulationControl:
             simulation.positions[chosen] = where
             simulation.velocities[chosen] = 0.0
             if pin:
-                held = self.runner.pins.setdefault(owner, {})
-                held.update({int(p): where[k].copy() for k, p in enumerate(chosen)})
+                self.runner.hold(owner, {int(p): where[k].copy() for k, p in enumerate(chosen)})
 
         return self.runner.post(command)
 
     def release(self, owner: Hashable | None = None) -> concurrent.futures.Future:
         """Let go of every particle held by ``owner``."""
-        return self.runner.post(lambda simulation: self.runner.pins.pop(owner, None) and None)
+        return self.runner.post(lambda simulation: self.runner.let_go(owner))
 
     # --- scenes ----------------------------------------------------------------------------------
 
     def replace_scene(self, scene: sim.Scene, integrator: str | None = None,
                       dt: float | None = None) -> concurrent.futures.Future:
-        """Swap in a new simulation of ``scene`` (built here, swapped between steps)."""
+        """Swap in a new simulation of ``scene`` (built here, swapped between steps).  The Future
+        holds the new ``Simulation``."""
         simulation = sim.Simulation(scene, integrator=integrator, dt=dt)
 
         def command(_: sim.Simulation) -> sim.Simulation:
-            self.runner.pins.clear()
+            self.runner.let_go(everyone=True)
             self.runner.error = None
             self.runner.simulation = simulation
             return simulation
 
         return self.runner.post(command)
 
-    def build_preset(self, name: str, **overrides: Any) -> concurrent.futures.Future:
-        """Replace the lattice by the preset ``name`` (``sim.scenes.build`` overrides)."""
-        return self.replace_scene(sim.scenes.build(name, **overrides))
-
-    def save(self, path: str | Path) -> concurrent.futures.Future:
-        """Save the current state as a scene file; the Future holds the .toml path."""
-        return self.runner.post(
-            lambda simulation: sim.scenes.save(sim.scenes.scene_from_simulation(simulation), path)
-        )
-
-    def load(self, path: str | Path) -> concurrent.futures.Future:
-        return self.replace_scene(sim.scenes.load(path))
+    def snapshot(self) -> concurrent.futures.Future:
+        """The current state and parameters as a ``sim.Scene`` (taken between steps)."""
+        return self.runner.post(sim.scenes.scene_from_simulation)

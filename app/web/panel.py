@@ -1,30 +1,49 @@
 """The GUI panel of the web app: folders of controls, the status line and the energy plot.
 
-Callbacks only post commands through ``SimulationControl`` (or change view settings); they never
-touch the simulation's arrays.  Callbacks that depend on ordering are ``async`` so viser runs them
-on its event loop in arrival order; ones that build a new lattice run in viser's thread pool.
-``update(frame)`` is called by the app's frame pump for every frame drawn.
+The panel is a view of the app.  It shows the app's state (``show_scene`` after a new lattice,
+``update(frame)`` for every frame drawn) and turns what a *user* does into commands through
+``SimulationControl`` or the app's own methods.  Two rules keep it honest:
+
+* viser runs a widget's ``on_update`` callbacks also when the server assigns ``.value``.  Every
+  callback here is wrapped by ``from_user``, which ignores events that no browser sent, so
+  refreshing the panel never posts a command (showing a scene never changes it);
+* the browser's min/max are hints: every value a page sends is checked on the server
+  (``app.web.inputs``) and a bad one is refused with a red message, never clamped.
+
+Messages are shown with ``as_html`` (escaped), so text from a page is never rendered as markup.
+The panel does not import the app; it talks to it through the ``PanelHost`` protocol.
 """
 
 from __future__ import annotations
 
 import collections
-import importlib
+import functools
+import inspect
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import viser
 
 import sim
-from app.web.control import MASS_PATTERNS
-from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT
+from app.web.control import MASS_PATTERNS, MAX_STEPS_PER_FRAME, LatticeRunner, SimulationControl
+from app.web.inputs import (
+    InputRefused,
+    amber_html,
+    as_html,
+    choice,
+    number,
+    ok_html,
+    warning_html,
+    whole_number,
+)
+from app.web.recording import RecordingBusy, WebRecordings
+from app.web.scene_files import SceneDirectory
+from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT, LatticeView
 from sim.runner import Frame
-
-if TYPE_CHECKING:
-    from app.web.app import WebApp
 
 MAX_STIFFNESS = 100.0
 """The stiffness slider's maximum (N/m); the paper's default 35 N/m is 35 % of it."""
@@ -32,25 +51,88 @@ ENERGY_HISTORY = 600
 """Points kept in the energy plot."""
 PLOT_INTERVAL = 0.25
 """Seconds between energy plot updates."""
-SCENE_DIRECTORY = Path("scenes")
-RECORDING_DIRECTORY = Path("recordings")
 STUDY_PARTICLE_LIMIT = 2_500
 """Largest lattice the page measures speed against accuracy on (bigger: use the CLI)."""
+MAX_SIDE = 2_000
+"""Largest nx or ny the page builds."""
+MAX_PAGE_PARTICLES = 1_000_000
+"""Largest lattice (nx * ny) the page builds; bigger ones: the command line."""
+MAX_DT = 10.0
+"""Largest time step (s) the page accepts."""
+MAX_UPLOAD_BYTES = 64 * 2**20
+"""Largest scene file the page accepts as an upload."""
+AS_LOADED = "as loaded"
+"""Mass-pattern entry shown for masses that are neither uniform nor the ionic checkerboard."""
+
+ERROR_TYPES = (InputRefused, sim.ModelError, sim.SceneError, ValueError, RecordingBusy)
+"""What a refused user action raises; shown in the page, never a traceback."""
 
 
-def _ok(text: str) -> str:
-    return f'<div style="font-size:0.85em;color:#2b7a2b;padding:0 0.6em">{text}</div>'
+class PanelHost(Protocol):
+    """What the panel needs of the web app (``app.web.app.WebApp`` provides it)."""
+
+    server: viser.ViserServer
+    runner: LatticeRunner
+    control: SimulationControl
+    view: LatticeView
+    scene_files: SceneDirectory
+    recordings: WebRecordings
+    scene_source: str
+    hold_while_dragging: bool
+
+    def set_selection(self, indices: np.ndarray) -> None: ...
+
+    def refresh(self) -> None: ...
+
+    def replace_scene(self, scene: sim.Scene, source: str,
+                      timeout: float = 120.0) -> sim.Simulation: ...
 
 
-def _warn(text: str) -> str:
-    style = "font-size:0.85em;color:#c0392b;font-weight:600;padding:0 0.6em"
-    return f'<div style="{style}">{text}</div>'
+def from_user(function: Callable[[viser.GuiEvent], Any]) -> Callable[[viser.GuiEvent], Any]:
+    """Run ``function`` only for events a browser sent (``event.client`` set); viser also calls
+    ``on_update`` when the server itself assigns a value, and those must not post commands.
+    Keeps ``function`` async (ordered on viser's event loop) or sync (its thread pool)."""
+    if inspect.iscoroutinefunction(function):
+
+        @functools.wraps(function)
+        async def wrapper_async(event: viser.GuiEvent) -> Any:
+            if event.client is None:
+                return None
+            return await function(event)
+
+        return wrapper_async
+
+    @functools.wraps(function)
+    def wrapper(event: viser.GuiEvent) -> Any:
+        if event.client is None:
+            return None
+        return function(event)
+
+    return wrapper
+
+
+def _file_name(name: str) -> str:
+    """A harmless download name from a scene name."""
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)[:60] or "scene"
+
+
+def mass_pattern_of(model: sim.Model) -> str:
+    """The page's mass pattern for a model: uniform, ionic (the checkerboard), or as loaded."""
+    if model.uniform_mass:
+        return "uniform"
+    masses = np.asarray(model.masses).reshape(model.ny, model.nx)
+    rows, columns = np.indices(masses.shape)
+    even = masses[(rows + columns) % 2 == 0]
+    odd = masses[(rows + columns) % 2 == 1]
+    if even.size and odd.size and np.all(even == even.flat[0]) and np.all(odd == 1.0):
+        return "ionic"
+    return AS_LOADED
 
 
 class ControlPanel:
     """Builds the GUI for ``app`` and keeps it in step with the frames."""
 
-    def __init__(self, app: WebApp) -> None:
+    def __init__(self, app: PanelHost) -> None:
         self.app = app
         self.control = app.control
         self.gui = app.server.gui
@@ -68,7 +150,8 @@ class ControlPanel:
         self._stable_dt: float | None = None
         self._stability_text = ""
         self._error_shown: str | None = None
-        self.recorder: Any = None
+        self._subscriber_errors_seen = 0
+        self._recording_failure_shown: str | None = None
 
         self._build_run_folder()
         self._build_scene_folder(simulation)
@@ -79,6 +162,15 @@ class ControlPanel:
         self._build_recording_folder()
         self._build_study_folder()
         self._build_energy_plot()
+        self.show_scene(simulation)
+
+    @staticmethod
+    def _say(area: Any, error: BaseException | str | None, verb: str = "refused") -> None:
+        """Show ``error`` in a message ``area`` (red), or clear it."""
+        if error is None:
+            area.content = ""
+        else:
+            area.content = warning_html(f"{verb}: {error}")
 
     # --- folders ---------------------------------------------------------------------------------
 
@@ -90,10 +182,12 @@ class ControlPanel:
             self.step_button = gui.add_button("Single step", icon=viser.Icon.PLAYER_TRACK_NEXT)
             self.reset_button = gui.add_button("Reset", icon=viser.Icon.REFRESH,
                                                hint="back to the scene's initial state")
-            self.status = gui.add_markdown("")
+            self.status = gui.add_html("")
             self.error_html = gui.add_html("", visible=False)
+            self.part_html = gui.add_html("", visible=False)
 
         @self.play_button.on_click
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
             if self.app.runner.playing:
                 self.control.pause()
@@ -102,11 +196,13 @@ class ControlPanel:
             self._show_playing()
 
         @self.step_button.on_click
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
             self.control.single_step()
             self._show_playing()
 
         @self.reset_button.on_click
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
             self.control.reset()
             self._clear_history()
@@ -115,60 +211,127 @@ class ControlPanel:
         gui = self.gui
         names = sim.scenes.names()
         current = simulation.scene.name if simulation.scene.name in names else "grid"
+        directory = self.app.scene_files.root.name or str(self.app.scene_files.root)
         with gui.add_folder("Scene", expand_by_default=False):
+            self.scene_info = gui.add_html("")
             self.preset = gui.add_dropdown("Preset", names, initial_value=current)
-            self.nx = gui.add_number("Columns (nx)", simulation.model.nx, min=1, max=2000, step=1)
-            self.ny = gui.add_number("Rows (ny)", simulation.model.ny, min=1, max=2000, step=1)
-            self.build_button = gui.add_button("Build scene", icon=viser.Icon.HAMMER,
-                                               hint="replace the lattice by this preset and size")
-            self.scene_path = gui.add_text(
-                "File", str(SCENE_DIRECTORY / f"{simulation.scene.name}.toml")
+            self.nx = gui.add_number("Columns (nx)", simulation.model.nx, min=1, max=MAX_SIDE,
+                                     step=1)
+            self.ny = gui.add_number("Rows (ny)", simulation.model.ny, min=1, max=MAX_SIDE,
+                                     step=1)
+            self.build_button = gui.add_button(
+                "Build scene", icon=viser.Icon.HAMMER,
+                hint="replace the lattice by this preset (its own parameters) at this size",
             )
-            with gui.add_folder("Save / load"):
-                self.save_button = gui.add_button("Save", icon=viser.Icon.DEVICE_FLOPPY,
-                                                  hint="save the current state as a scene file")
-                self.load_button = gui.add_button("Load", icon=viser.Icon.FOLDER_OPEN)
-            self.scene_message = gui.add_markdown("")
+            with gui.add_folder("Files"):
+                self.download_button = gui.add_button(
+                    "Download this scene", icon=viser.Icon.DOWNLOAD,
+                    hint="save the current state and parameters to your computer "
+                    "(.toml, or .zip when it carries per-particle arrays)",
+                )
+                self.upload_button = gui.add_upload_button(
+                    "Open a scene file…", icon=viser.Icon.UPLOAD, mime_type=".toml,.zip",
+                    hint="a .toml or .zip scene file from your computer",
+                )
+                self.server_scenes = gui.add_dropdown(
+                    f"In {directory}/", ["(none)"], initial_value="(none)",
+                    hint=f"scene files in the server's {directory}/ directory "
+                    "(serve --scenes-dir)",
+                )
+                self.open_button = gui.add_button("Open", icon=viser.Icon.FOLDER_OPEN)
+                self.list_button = gui.add_button("Refresh list", icon=viser.Icon.REFRESH)
+            self.scene_message = gui.add_html("")
+        self._list_server_scenes()
 
         @self.preset.on_update
+        @from_user
         def _(_: viser.GuiEvent) -> None:
-            model = sim.scenes.build(self.preset.value).model
-            self.nx.value, self.ny.value = model.nx, model.ny
+            try:
+                name = choice(self.preset.value, "preset", sim.scenes.names())
+            except InputRefused as error:
+                self._say(self.scene_message, error)
+                return
+            parameters = sim.scenes.PRESETS[name].parameters
+            self.nx.value = int(parameters.get("nx", 1))
+            self.ny.value = int(parameters.get("ny", 1))
 
         @self.build_button.on_click
+        @from_user
         def _(_: viser.GuiEvent) -> None:
             try:
-                future = self.control.build_preset(
-                    self.preset.value, nx=int(self.nx.value), ny=int(self.ny.value)
-                )
-                future.result(timeout=30)
-            except Exception as error:
-                self.scene_message.content = f"**could not build:** {error}"
+                name = choice(self.preset.value, "preset", sim.scenes.names())
+                nx = whole_number(self.nx.value, "nx", 1, MAX_SIDE)
+                ny = whole_number(self.ny.value, "ny", 1, MAX_SIDE)
+                if nx * ny > MAX_PAGE_PARTICLES:
+                    raise InputRefused(
+                        f"{nx}x{ny} = {nx * ny:,} particles; the page builds up to "
+                        f"{MAX_PAGE_PARTICLES:,} (use `oscillators run` for larger lattices)"
+                    )
+                parameters = sim.scenes.PRESETS[name].parameters
+                overrides = {}
+                if nx != parameters.get("nx", 1):
+                    overrides["nx"] = nx
+                if ny != parameters.get("ny", 1):
+                    overrides["ny"] = ny
+                self.scene_message.content = as_html(f"building {name} {nx}x{ny}…")
+                scene = sim.scenes.build(name, **overrides)
+                self.app.replace_scene(scene, source=f"preset {name}")
+            except ERROR_TYPES as error:
+                self._say(self.scene_message, error, "could not build")
                 return
-            size = f"{int(self.nx.value)}x{int(self.ny.value)}"
-            self.scene_message.content = f"built {self.preset.value} {size}"
-            self._after_new_scene()
+            self.scene_message.content = ok_html(f"built {name} {nx}x{ny}")
 
-        @self.save_button.on_click
-        def _(_: viser.GuiEvent) -> None:
-            path = Path(self.scene_path.value)
+        @self.download_button.on_click
+        @from_user
+        def _(event: viser.GuiEvent) -> None:
             try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                saved = self.control.save(path).result(timeout=30)
-            except Exception as error:
-                self.scene_message.content = f"**could not save:** {error}"
+                scene = self.control.snapshot().result(timeout=30)
+                suffix, content = sim.scenes.to_bytes(scene)
+            except Exception as error:  # a failed save must not take the page down
+                self._say(self.scene_message, error, "could not save")
                 return
-            self.scene_message.content = f"saved `{saved}`"
+            name = _file_name(scene.name) + suffix
+            event.client.send_file_download(name, content, save_immediately=True)
+            self.scene_message.content = ok_html(f"sent {name} ({len(content):,} bytes)")
 
-        @self.load_button.on_click
-        def _(_: viser.GuiEvent) -> None:
+        @self.upload_button.on_upload
+        @from_user
+        def _(event: viser.GuiEvent) -> None:
+            upload = self.upload_button.value
+            name = str(upload.name)[:200]
             try:
-                self.control.load(self.scene_path.value).result(timeout=30)
-            except Exception as error:
-                self.scene_message.content = f"**could not load:** {error}"
+                if len(upload.content) > MAX_UPLOAD_BYTES:
+                    raise InputRefused(f"the file is larger than {MAX_UPLOAD_BYTES // 2**20} MiB")
+                scene = sim.scenes.from_bytes(bytes(upload.content), name)
+                self.app.replace_scene(scene, source=f"upload {name}")
+            except ERROR_TYPES as error:
+                self._say(self.scene_message, error, f"could not open {name}")
                 return
-            self.scene_message.content = f"loaded `{self.scene_path.value}`"
-            self._after_new_scene()
+            self.scene_message.content = ok_html(f"opened {name}")
+
+        @self.open_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            chosen = self.server_scenes.value
+            try:
+                scene = self.app.scene_files.load(chosen)
+                self.app.replace_scene(scene, source=f"file {chosen}")
+            except ERROR_TYPES as error:
+                self._say(self.scene_message, error, "could not open")
+                return
+            self.scene_message.content = ok_html(f"opened {chosen}")
+
+        @self.list_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            self._list_server_scenes()
+
+    def _list_server_scenes(self) -> None:
+        names = self.app.scene_files.names() or ["(none)"]
+        self.server_scenes.options = names
+        if self.server_scenes.value not in names:
+            self.server_scenes.value = names[0]
+        self.open_button.disabled = names == ["(none)"]
 
     def _build_integrator_folder(self, simulation: sim.Simulation) -> None:
         gui = self.gui
@@ -177,107 +340,137 @@ class ControlPanel:
                 "Method", list(sim.INTEGRATORS), initial_value=simulation.integrator,
                 hint="euler (1st order), heun (2nd), verlet (symplectic 2nd), rk4 (4th)",
             )
-            self.dt = gui.add_number("Time step dt (s)", simulation.dt, min=1e-5, max=1.0,
+            self.dt = gui.add_number("Time step dt (s)", simulation.dt, min=1e-6, max=MAX_DT,
                                      step=1e-4)
             self.stability_html = gui.add_html("")
             self.steps_per_frame = gui.add_slider(
-                "Steps per frame", 1, 50, 1, int(self.app.runner.steps_per_frame),
+                "Steps per frame", 1, MAX_STEPS_PER_FRAME, 1, int(self.app.runner.steps_per_frame),
                 hint="simulation steps between two pictures: faster, coarser animation",
             )
+            self.integrator_message = gui.add_html("")
 
         @self.integrator.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            self.control.set_integrator(self.integrator.value)
+            try:
+                name = choice(self.integrator.value, "integrator", list(sim.INTEGRATORS))
+            except InputRefused as error:
+                self._say(self.integrator_message, error)
+                self.integrator.value = self.app.runner.simulation.integrator
+                return
+            self._say(self.integrator_message, None)
+            self.control.set_integrator(name)
             self._stability_key = None
 
         @self.dt.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            value = float(self.dt.value)
-            if value > 0 and math.isfinite(value):
-                self.control.set_dt(value)
-                self._stability_key = None
+            try:
+                value = number(self.dt.value, "dt (s)", 0.0, MAX_DT, low_open=True)
+            except InputRefused as error:
+                self._say(self.integrator_message, error)
+                self.dt.value = self.app.runner.simulation.dt
+                return
+            self._say(self.integrator_message, None)
+            self.control.set_dt(value)
+            self._stability_key = None
 
         @self.steps_per_frame.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            self.control.set_steps_per_frame(int(self.steps_per_frame.value))
+            try:
+                steps = whole_number(self.steps_per_frame.value, "steps per frame", 1,
+                                     MAX_STEPS_PER_FRAME)
+            except InputRefused as error:
+                self._say(self.integrator_message, error)
+                self.steps_per_frame.value = int(self.app.runner.steps_per_frame)
+                return
+            self._say(self.integrator_message, None)
+            self.control.set_steps_per_frame(steps)
 
     def _build_physics_folder(self, model: sim.Model) -> None:
         gui = self.gui
         with gui.add_folder("Physics"):
             self.stiffness = gui.add_slider(
-                "Stiffness k (N/m)", 1.0, MAX_STIFFNESS, 1.0, float(round(model.stiffness)),
+                "Stiffness k (N/m)", 1.0, MAX_STIFFNESS, 1.0, 35.0,
                 hint="35 N/m is the paper's 35 % of maximum",
             )
             self.rest_ratio = gui.add_slider(
-                "Rest length L/a", 0.5, 1.2, 0.01, round(model.rest_length / model.spacing, 2),
+                "Rest length L/a", 0.5, 1.2, 0.01, 1.0,
                 hint="below 1 the springs are pre-tensioned (transverse waves spread)",
             )
-            self.damping_on = gui.add_checkbox("Damping", model.damping > 0)
-            self.damping = gui.add_slider("Dashpot c (N s/m)", 0.0, 10.0, 0.1,
-                                          float(model.damping) or 0.5)
-            gravity = float(-model.gravity[1])
-            self.gravity_on = gui.add_checkbox("Gravity", model.has_gravity)
-            self.gravity = gui.add_slider("g (m/s²)", 0.0, 30.0, 0.01, gravity or 9.81)
-            self.linear = gui.add_checkbox("Linearised springs", model.linear,
+            self.damping_on = gui.add_checkbox("Damping", False)
+            self.damping = gui.add_slider("Dashpot c (N s/m)", 0.0, 10.0, 0.1, 0.5)
+            self.gravity_on = gui.add_checkbox("Gravity", False)
+            self.gravity = gui.add_slider("g (m/s²)", 0.0, 30.0, 0.01, 9.81)
+            self.linear = gui.add_checkbox("Linearised springs", False,
                                            hint="springs linearised about the rest lattice")
             self.mass_pattern = gui.add_dropdown(
-                "Mass pattern", list(MASS_PATTERNS),
-                initial_value="uniform" if model.uniform_mass else "ionic",
+                "Mass pattern", [*MASS_PATTERNS, AS_LOADED], initial_value="uniform",
+                hint="uniform: 1 kg everywhere; ionic: heavy/light checkerboard; "
+                "as loaded: the scene's own masses (shown, not chosen)",
             )
             self.heavy_mass = gui.add_slider("Heavy mass (kg)", 0.1, 20.0, 0.1, 4.0)
-            self.physics_message = gui.add_markdown("")
+            self.physics_message = gui.add_html("")
+        # The server's own limits; show_scene widens them to show a scene's larger values.
+        self._limits: dict[str, tuple[float, float]] = {
+            "stiffness": (1.0, MAX_STIFFNESS), "rest_ratio": (0.5, 1.2), "damping": (0.0, 10.0),
+            "gravity": (0.0, 30.0), "heavy_mass": (0.1, 20.0), "selection_mass": (0.1, 20.0),
+        }
 
         def report(future: Any) -> None:
             error = future.exception()
-            self.physics_message.content = f"**rejected:** {error}" if error else ""
+            self._say(self.physics_message, error)
 
-        @self.stiffness.on_update
-        async def _(_: viser.GuiEvent) -> None:
-            self.control.set_stiffness(self.stiffness.value).add_done_callback(report)
-            self._stability_key = None
+        def checked(key: str, handle: Any, label: str) -> float:
+            low, high = self._limits[key]
+            return number(handle.value, label, low, high, low_open=key in ("stiffness",
+                                                                           "heavy_mass"))
 
-        @self.rest_ratio.on_update
-        async def _(_: viser.GuiEvent) -> None:
-            self.control.set_rest_length_ratio(self.rest_ratio.value).add_done_callback(report)
-            self._stability_key = None
+        def physics_callback(post: Callable[[], Any]) -> Callable[[viser.GuiEvent], Any]:
+            @from_user
+            async def callback(_: viser.GuiEvent) -> None:
+                try:
+                    future = post()
+                except InputRefused as error:
+                    self._say(self.physics_message, error)
+                    return
+                future.add_done_callback(report)
+                self._stability_key = None
 
-        async def damping_changed(_: viser.GuiEvent) -> None:
-            self.control.set_damping(self.damping_on.value, self.damping.value).add_done_callback(
-                report
-            )
-            self._stability_key = None
+            return callback
 
-        self.damping_on.on_update(damping_changed)
-        self.damping.on_update(damping_changed)
+        self.stiffness.on_update(physics_callback(lambda: self.control.set_stiffness(
+            checked("stiffness", self.stiffness, "stiffness (N/m)"))))
+        self.rest_ratio.on_update(physics_callback(lambda: self.control.set_rest_length_ratio(
+            checked("rest_ratio", self.rest_ratio, "L/a"))))
+        damping = physics_callback(lambda: self.control.set_damping(
+            bool(self.damping_on.value), checked("damping", self.damping, "dashpot c (N s/m)")))
+        self.damping_on.on_update(damping)
+        self.damping.on_update(damping)
+        gravity = physics_callback(lambda: self.control.set_gravity(
+            bool(self.gravity_on.value), checked("gravity", self.gravity, "g (m/s²)")))
+        self.gravity_on.on_update(gravity)
+        self.gravity.on_update(gravity)
+        self.linear.on_update(physics_callback(
+            lambda: self.control.set_linear(bool(self.linear.value))))
 
-        async def gravity_changed(_: viser.GuiEvent) -> None:
-            self.control.set_gravity(self.gravity_on.value, self.gravity.value).add_done_callback(
-                report
-            )
+        def masses() -> Any:
+            pattern = choice(self.mass_pattern.value, "mass pattern", [*MASS_PATTERNS, AS_LOADED])
+            heavy = checked("heavy_mass", self.heavy_mass, "heavy mass (kg)")
+            if pattern == AS_LOADED:  # nothing to choose: the scene keeps its masses
+                return self.app.runner.post(lambda simulation: None)
+            return self.control.set_mass_pattern(pattern, heavy=heavy, light=1.0)
 
-        self.gravity_on.on_update(gravity_changed)
-        self.gravity.on_update(gravity_changed)
-
-        @self.linear.on_update
-        async def _(_: viser.GuiEvent) -> None:
-            self.control.set_linear(self.linear.value).add_done_callback(report)
-            self._stability_key = None
-
-        async def masses_changed(_: viser.GuiEvent) -> None:
-            self.control.set_mass_pattern(
-                self.mass_pattern.value, heavy=self.heavy_mass.value, light=1.0
-            ).add_done_callback(report)
-            self._stability_key = None
-
-        self.mass_pattern.on_update(masses_changed)
-        self.heavy_mass.on_update(masses_changed)
+        self.mass_pattern.on_update(physics_callback(masses))
+        self.heavy_mass.on_update(physics_callback(masses))
 
     def _build_selection_folder(self) -> None:
         gui = self.gui
         with gui.add_folder("Selection"):
-            self.selection_text = gui.add_markdown(
+            self.selection_text = gui.add_html(as_html(
                 "Click a particle to select it (shift+click adds); drag the gizmo to move it."
-            )
+            ))
             self.row = gui.add_number("Row", 0, min=0, step=1)
             self.column = gui.add_number("Column", 0, min=0, step=1)
             self.select_buttons = gui.add_button_group("Select", ("particle", "row", "column",
@@ -287,32 +480,50 @@ class ControlPanel:
                                                  hint="mass of the selected particles")
             self.hold = gui.add_checkbox("Hold while dragging", True,
                                          hint="pin the selection to the gizmo during a drag")
+            self.selection_message = gui.add_html("")
 
         @self.select_buttons.on_click
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
             model = self.app.runner.simulation.model
-            row = min(max(int(self.row.value), 0), model.ny - 1)
-            column = min(max(int(self.column.value), 0), model.nx - 1)
-            choice = self.select_buttons.value
-            if choice == "particle":
+            try:
+                what = choice(self.select_buttons.value, "selection",
+                              ["particle", "row", "column", "none"])
+                row = whole_number(self.row.value, "row", 0, model.ny - 1)
+                column = whole_number(self.column.value, "column", 0, model.nx - 1)
+            except InputRefused as error:
+                self._say(self.selection_message, error)
+                return
+            self._say(self.selection_message, None)
+            if what == "particle":
                 chosen = np.array([row * model.nx + column])
-            elif choice == "row":
+            elif what == "row":
                 chosen = row * model.nx + np.arange(model.nx)
-            elif choice == "column":
+            elif what == "column":
                 chosen = np.arange(model.ny) * model.nx + column
             else:
                 chosen = np.zeros(0, dtype=np.int64)
             self.app.set_selection(chosen)
 
         @self.selection_mass.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
             selection = self.app.view.selection
-            if selection.size:
-                self.control.set_particle_masses(selection, self.selection_mass.value)
+            if not selection.size:
+                return
+            low, high = self._limits["selection_mass"]
+            try:
+                mass = number(self.selection_mass.value, "mass (kg)", low, high)
+            except InputRefused as error:
+                self._say(self.selection_message, error)
+                return
+            self._say(self.selection_message, None)
+            self.control.set_particle_masses(selection, mass)
 
         @self.hold.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            self.app.hold_while_dragging = bool(self.hold.value)
+            self.app.hold_while_dragging = self.hold.value is True
 
     def _build_view_folder(self) -> None:
         gui = self.gui
@@ -332,56 +543,86 @@ class ControlPanel:
             self.color_by = gui.add_dropdown("Colour particles by", list(COLOR_MODES),
                                              initial_value=settings.coloring(model))
             self.particle_scale = gui.add_slider("Particle size", 0.2, 3.0, 0.1, 1.0)
+            self.view_message = gui.add_html("")
 
         @self.show_springs.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            settings.show_springs = bool(self.show_springs.value)
+            settings.show_springs = self.show_springs.value is True
             self.app.refresh()
 
         @self.move_points.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            settings.move_points = bool(self.move_points.value)
+            settings.move_points = self.move_points.value is True
             self.app.refresh()
 
         @self.color_by.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            settings.color_by = self.color_by.value
+            try:
+                settings.color_by = choice(self.color_by.value, "colour", list(COLOR_MODES))
+            except InputRefused as error:
+                self._say(self.view_message, error)
+                return
+            self._say(self.view_message, None)
             self.app.refresh()
 
         @self.particle_scale.on_update
+        @from_user
         async def _(_: viser.GuiEvent) -> None:
-            settings.particle_scale = float(self.particle_scale.value)
+            try:
+                settings.particle_scale = number(self.particle_scale.value, "particle size",
+                                                 0.2, 3.0)
+            except InputRefused as error:
+                self._say(self.view_message, error)
+                return
+            self._say(self.view_message, None)
             self.app.refresh()
 
     def _build_recording_folder(self) -> None:
         gui = self.gui
-        recorder_factory = _find_recorder()
+        recordings = self.app.recordings
+        available = recordings.available()
         with gui.add_folder("Recording", expand_by_default=False):
             self.record_button = gui.add_button(
-                "Start recording", icon=viser.Icon.PLAYER_RECORD,
-                disabled=recorder_factory is None,
-                hint=(f"record the run to {RECORDING_DIRECTORY}/ (rerun .rrd)"
-                      if recorder_factory else "the recorder (app.recording) is not installed yet"),
+                "Start recording", icon=viser.Icon.PLAYER_RECORD, disabled=not available,
+                hint=(f"record the run to {recordings.directory.name}/ on the server (rerun .rrd)"
+                      if available else "the recorder (app.recording) is not installed"),
             )
-            self.record_text = gui.add_markdown("")
+            self.record_text = gui.add_html("")
 
         @self.record_button.on_click
-        def _(_: viser.GuiEvent) -> None:
-            if recorder_factory is None:
+        @from_user
+        def _(_: viser.GuiEvent) -> None:  # thread pool: starting takes a snapshot
+            if self.record_button.disabled:
                 return
-            if self.recorder is None:
-                try:
-                    self.recorder = recorder_factory(self.app.runner, RECORDING_DIRECTORY)
-                except Exception as error:
-                    self.record_text.content = f"**could not record:** {error}"
-                    return
-                self.record_button.label = "Stop recording"
-                self.record_text.content = "recording…"
-            else:
-                path = self.recorder.stop()
-                self.recorder = None
-                self.record_button.label = "Start recording"
-                self.record_text.content = f"saved `{path}`" if path else "stopped"
+            self.record_button.disabled = True
+            try:
+                if recordings.active:
+                    path = recordings.stop()
+                    self._show_recording_stopped(path)
+                else:
+                    self.record_text.content = as_html("starting…")
+                    scene = self.control.snapshot().result(timeout=30)
+                    path = recordings.start(scene)
+                    self._recording_failure_shown = None
+                    self.record_button.label = "Stop recording"
+                    self.record_button.icon = viser.Icon.PLAYER_STOP
+                    self.record_text.content = as_html(f"recording to {path.name}…")
+            except Exception as error:  # a failed recording must not take the page down
+                self._say(self.record_text, error, "could not record")
+            finally:
+                self.record_button.disabled = False
+
+    def _show_recording_stopped(self, path: Path | None) -> None:
+        self.record_button.label = "Start recording"
+        self.record_button.icon = viser.Icon.PLAYER_RECORD
+        error = self.app.recordings.last_error
+        if error:
+            self._say(self.record_text, error, f"recording stopped ({path.name if path else ''})")
+        else:
+            self.record_text.content = ok_html(f"saved {path.name}" if path else "stopped")
 
     def _build_study_folder(self) -> None:
         """Speed against accuracy on the scene as it is now: the work-precision picture and the
@@ -397,18 +638,24 @@ class ControlPanel:
                 hint="time every integrator at several dt against a reference solution "
                 "(the same study as `oscillators accuracy`)",
             )
-            self.study_text = gui.add_markdown("")
+            self.study_text = gui.add_html("")
             self.study_image = gui.add_image(np.full((8, 8, 3), 255, np.uint8), visible=False)
 
         @self.study_button.on_click
+        @from_user
         def _(_: viser.GuiEvent) -> None:  # runs in viser's thread pool: it may take a while
             if self.study_button.disabled:
                 return
+            try:
+                tolerance = number(self.study_tolerance.value, "target error", 1e-10, 0.5)
+            except InputRefused as error:
+                self._say(self.study_text, error)
+                return
             self.study_button.disabled = True
             try:
-                self._run_study(float(self.study_tolerance.value))
+                self._run_study(tolerance)
             except Exception as error:  # a failed study must not take the page down
-                self.study_text.content = f"**could not measure:** {error}"
+                self._say(self.study_text, error, "could not measure")
             finally:
                 self.study_button.disabled = False
 
@@ -421,17 +668,17 @@ class ControlPanel:
 
         scene = self.app.runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
         if scene.model.n_particles > STUDY_PARTICLE_LIMIT:
-            self.study_text.content = (
+            self.study_text.content = as_html(
                 f"This lattice has {scene.model.n_particles:,} particles; the page measures up to "
                 f"{STUDY_PARTICLE_LIMIT:,}. Run `oscillators accuracy` with this scene's file "
-                "(Scene → Save) from the command line instead."
+                "(Scene → Files → Download this scene) from the command line instead."
             )
             return
         total = [0]
 
         def progress(label: str) -> None:
             total[0] += 1
-            self.study_text.content = f"measuring… run {total[0]}: {label}"
+            self.study_text.content = as_html(f"measuring… run {total[0]}: {label}")
 
         study = accuracy_study(scene, tolerance=tolerance, progress=progress)
         with tempfile.TemporaryDirectory() as folder:
@@ -440,7 +687,8 @@ class ControlPanel:
             image = imageio.imread(picture)
         self.study_image.image = np.ascontiguousarray(image[..., :3])
         self.study_image.visible = True
-        self.study_text.content = f"**Recommendation:** {study.recommendation.reason}"
+        self.study_text.content = as_html(f"Recommendation: {study.recommendation.reason}",
+                                          bold=True)
 
     def _build_energy_plot(self) -> None:
         gui = self.gui
@@ -470,49 +718,72 @@ class ControlPanel:
         self._times.clear()
         self._energies.clear()
 
-    def _after_new_scene(self) -> None:
-        simulation = self.app.runner.simulation
+    def _show_number(self, handle: Any, key: str | None, value: float) -> None:
+        """Show ``value`` in a slider, widening its range (and the server's limit ``key``) if the
+        scene's value lies outside it: shown as it is, never rounded or clamped."""
+        if key is not None:
+            low, high = self._limits[key]
+            self._limits[key] = (min(low, value), max(high, value))
+        if value > handle.max:
+            handle.max = value
+        if value < handle.min:
+            handle.min = value
+        handle.value = value
+
+    def show_scene(self, simulation: sim.Simulation) -> None:
+        """Show a (new) simulation's scene and parameters.  Assigning widget values here posts
+        no command (``from_user``), so the scene runs exactly as it was built or loaded."""
         model = simulation.model
+        scene = simulation.scene
         self._clear_history()
         self._stability_key = None
+        if scene.name in sim.scenes.names():
+            self.preset.value = scene.name
+        self.nx.value, self.ny.value = model.nx, model.ny
+        self.scene_info.content = as_html(
+            f"{scene.name} ({self.app.scene_source}): {model.nx}x{model.ny}, "
+            f"{model.n_particles:,} particles\n{model.describe()}\n"
+            f"{scene.description}".rstrip()
+        )
         self.integrator.value = simulation.integrator
         self.dt.value = simulation.dt
-        self.stiffness.value = float(min(max(round(model.stiffness), 1.0), MAX_STIFFNESS))
-        self.rest_ratio.value = float(min(max(round(model.rest_length / model.spacing, 2), 0.5),
-                                          1.2))
+        self._show_number(self.stiffness, "stiffness", float(model.stiffness))
+        self._show_number(self.rest_ratio, "rest_ratio", float(model.rest_length / model.spacing))
         self.damping_on.value = model.damping > 0
+        if model.damping > 0:
+            self._show_number(self.damping, "damping", float(model.damping))
         self.gravity_on.value = model.has_gravity
+        if model.has_gravity:
+            self._show_number(self.gravity, "gravity", float(np.linalg.norm(model.gravity)))
         self.linear.value = model.linear
-        self.mass_pattern.value = "uniform" if model.uniform_mass else "ionic"
-        self.scene_path.value = str(SCENE_DIRECTORY / f"{simulation.scene.name}.toml")
+        pattern = mass_pattern_of(model)
+        self.mass_pattern.value = pattern
+        if pattern == "ionic":
+            masses = np.asarray(model.masses).reshape(-1)
+            self._show_number(self.heavy_mass, "heavy_mass", float(masses[0]))
+        self.steps_per_frame.value = int(self.app.runner.steps_per_frame)
         self.show_springs.disabled = model.n_springs > SPRING_HARD_LIMIT
         settings = self.app.view.settings
         settings.show_springs = settings.move_points = settings.color_by = None
         self.show_springs.value = settings.springs_on(model)
         self.move_points.value = settings.points_move(model)
         self.color_by.value = settings.coloring(model)
-        from app.web.app import runner_pacing
-
-        steps, sim_fps, render_fps = runner_pacing(model)
-        self.app.runner.steps_per_frame = steps
-        self.app.runner.max_fps = sim_fps
-        self.app.render_fps = render_fps
-        self.steps_per_frame.value = steps
-        self.app.refresh()
+        self._say(self.physics_message, None)
 
     def selection_changed(self, selection: np.ndarray) -> None:
         model = self.app.runner.simulation.model
         self.selection_mass.disabled = selection.size == 0
         if selection.size == 0:
-            self.selection_text.content = "Nothing selected: click a particle (shift+click adds)."
+            self.selection_text.content = as_html(
+                "Nothing selected: click a particle (shift+click adds).")
             return
         first = int(selection[0])
         row, column = divmod(first, model.nx)
         masses = model.masses.reshape(-1)[selection]
         where = (f"particle {first} (row {row}, column {column})" if selection.size == 1
                  else f"{selection.size} particles")
-        self.selection_text.content = f"Selected {where}, mass {masses.mean():.3g} kg"
-        self.selection_mass.value = float(min(max(masses.mean(), 0.1), 20.0))
+        self.selection_text.content = as_html(f"Selected {where}, mass {masses.mean():.3g} kg")
+        self._show_number(self.selection_mass, "selection_mass", float(masses.mean()))
 
     def update(self, frame: Frame) -> None:
         """Refresh the status, the stability note and (a few times a second) the energy plot."""
@@ -526,6 +797,7 @@ class ControlPanel:
                                    energy.dissipated))
         self._update_stability(frame)
         self._update_error(frame)
+        self._update_part_failures()
         if now - self._last_status > 0.5:
             started, steps = self._status_steps
             taken = self.app.runner.steps_taken
@@ -534,16 +806,32 @@ class ControlPanel:
             self._status_steps = (now, taken)
             self._last_status = now
             self._show_playing()
-            self.status.content = (
+            self.status.content = as_html(
                 f"t = {frame.time:.3f} s, step {frame.step}, "
                 f"{'running' if frame.playing else 'paused'}, "
-                f"{self._steps_per_second:.0f} steps/s  \n"
-                f"{frame.model.describe()}"
+                f"{self._steps_per_second:.0f} steps/s\n{frame.model.describe()}"
             )
         if now - self._last_plot > PLOT_INTERVAL and len(self._times) > 1:
             self._last_plot = now
             columns = np.array(self._energies).T
             self.plot.data = (np.array(self._times), *columns)
+
+    def _update_part_failures(self) -> None:
+        """Say in the page when a subscriber (a recorder, a plot) failed and was detached."""
+        errors = self.app.runner.subscriber_errors
+        failure = self.app.recordings.failure()
+        if failure and failure != self._recording_failure_shown:
+            self._recording_failure_shown = failure
+            path = self.app.recordings.stop()
+            self._show_recording_stopped(path)
+            self._say(self.record_text, failure, f"recording stopped ({path.name if path else ''})")
+        if self.app.runner.frames_published and len(errors) and (
+            len(errors) != self._subscriber_errors_seen
+        ):
+            self._subscriber_errors_seen = len(errors)
+            self.part_html.content = amber_html(
+                f"A part of the app stopped (the simulation goes on): {errors[-1]}")
+            self.part_html.visible = True
 
     def _update_stability(self, frame: Frame) -> None:
         key = (id(frame.model), frame.integrator)
@@ -560,15 +848,15 @@ class ControlPanel:
             future.add_done_callback(done)
         stable = self._stable_dt
         if stable is None:
-            text = _warn(f"no stable dt for {frame.integrator} here (add damping or change "
-                         "integrator)") if self._stability_text else ""
+            text = warning_html(f"no stable dt for {frame.integrator} here (add damping or change "
+                                "integrator)") if self._stability_text else ""
         elif math.isinf(stable):
-            text = _ok("stable for any dt")
+            text = ok_html("stable for any dt")
         elif frame.dt > stable:
-            text = _warn(f"dt = {frame.dt:.4g} s exceeds the stability limit "
-                         f"{stable:.4g} s: the run will blow up")
+            text = warning_html(f"dt = {frame.dt:.4g} s exceeds the stability limit "
+                                f"{stable:.4g} s: the run will blow up")
         else:
-            text = _ok(f"stable for dt ≤ {stable:.4g} s ({frame.dt / stable:.0%} of the limit)")
+            text = ok_html(f"stable for dt ≤ {stable:.4g} s ({frame.dt / stable:.0%} of the limit)")
         if self.stability_html.content != text:
             self.stability_html.content = text
 
@@ -578,40 +866,8 @@ class ControlPanel:
             return
         self._error_shown = error
         if error:
-            self.error_html.content = _warn(f"Stopped: {error}")
+            self.error_html.content = warning_html(f"Stopped: {error}")
             self.error_html.visible = True
             self._show_playing()
         else:
             self.error_html.visible = False
-
-
-def _find_recorder() -> Any:
-    """A factory ``(runner, directory) -> recording`` if ``app.recording`` is installed, else None.
-
-    The recording subscribes a ``app.recording.Recorder`` to the runner; ``stop()`` closes it and
-    returns the ``.rrd`` path.
-    """
-    try:
-        recording = importlib.import_module("app.recording")
-    except ImportError:
-        return None
-    recorder_class = getattr(recording, "Recorder", None)
-    if recorder_class is None:
-        return None
-
-    class WebRecording:
-        def __init__(self, runner: Any, directory: Path) -> None:
-            # the snapshot is taken by the simulation thread between steps, never mid-step
-            scene = runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
-            directory.mkdir(parents=True, exist_ok=True)
-            stamp = time.strftime("%Y%m%d-%H%M%S")
-            self.recorder = recorder_class(
-                directory / f"{scene.name}-{stamp}.rrd", scene,
-                integrator=scene.integrator, dt=scene.dt,
-            )
-            self.recorder.attach(runner, snapshot=True)
-
-        def stop(self) -> Path:
-            return self.recorder.close()
-
-    return WebRecording

@@ -6,8 +6,12 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
+import signal
 import socket
+import sys
 import time
+from pathlib import Path
 
 EPILOG = """examples:
   oscillators serve                          # the 12x8 grid on http://127.0.0.1:8080
@@ -16,9 +20,18 @@ EPILOG = """examples:
   oscillators serve grid --set nx=25 --set ny=20 --integrator verlet
   oscillators serve my_scene.toml            # a saved scene file
   oscillators serve --host 0.0.0.0 --port 8000   # let a classroom connect to this machine
+  oscillators serve --scenes-dir lessons/        # offer the .toml files in lessons/ by name
 
 in the page: click a particle to select it (shift+click adds), drag the arrows to move it,
 press Play; the panel changes integrator, time step, stiffness, damping, gravity and more.
+
+files: the page never names a file on this machine.  "Download this scene" saves to the
+browser, "Open a scene file" uploads one from it, and the scene files in --scenes-dir are
+offered by name.  Recordings started in the page go to --recordings-dir.
+
+security: only pages served by this server drive it (the websocket checks the Origin and Host
+headers); --allow-origin admits another page (e.g. behind a proxy).  Binding stays on this
+machine (127.0.0.1) unless you pass --host; anyone who can then reach the port controls the app.
 """
 
 
@@ -38,6 +51,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--port", type=_port, default=8080,
                         help="port (default 8080; if it is taken, the next free one is used)")
     parser.add_argument("--play", action="store_true", help="start running immediately")
+    parser.add_argument("--scenes-dir", default="scenes", metavar="DIR",
+                        help="directory whose .toml scene files the page offers by name "
+                        "(default ./scenes; nothing outside it is ever opened)")
+    parser.add_argument("--recordings-dir", default="recordings", metavar="DIR",
+                        help="where recordings started in the page are written "
+                        "(default ./recordings)")
+    parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
+                        help="also let pages from ORIGIN (http://name:port) drive the app, or "
+                        "'*' for any page (repeatable; default: only this server's own page)")
     parser.set_defaults(handler=command_serve)
 
 
@@ -67,24 +89,50 @@ def check_host(host: str) -> None:
             ) from None
 
 
+def _loopback(host: str) -> bool:
+    """Whether ``host`` only listens on this machine (127.0.0.0/8, ::1, localhost)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def command_serve(arguments: argparse.Namespace) -> int:
     from app.cli import simulation_from_arguments
     from app.web.app import WebApp
+    from app.web.security import check_origins, network_warning
 
     check_host(arguments.host)
+    check_origins(arguments.allow_origin)
+    scenes_dir = Path(arguments.scenes_dir)
+    if scenes_dir.exists() and not scenes_dir.is_dir():
+        raise ValueError(f"--scenes-dir {scenes_dir} is not a directory")
     simulation = simulation_from_arguments(arguments)
-    app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play)
+    app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play,
+                 scenes_dir=scenes_dir, recordings_dir=arguments.recordings_dir,
+                 allow_origins=arguments.allow_origin)
     app.start()
     print(f"{simulation.scene.summary()}")
     print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
-    if arguments.host in ("0.0.0.0", "::"):
-        print("listening on every network interface: others open http://<this machine>:"
+    print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
+          f"recordings go to {arguments.recordings_dir}/", flush=True)
+    if not _loopback(arguments.host):
+        print(network_warning(arguments.host, app.server.get_port(), str(scenes_dir),
+                              str(arguments.recordings_dir)), file=sys.stderr, flush=True)
+        print("others open http://<this machine's address>:"
               f"{app.server.get_port()}", flush=True)
+    def terminate(number: int, frame: object) -> None:  # SIGTERM: stop as Ctrl+C does
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, terminate)
     try:
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
         print("stopping", flush=True)
     finally:
-        app.stop()
+        app.stop()  # closes a running recording so that its file verifies
+        signal.signal(signal.SIGTERM, previous)
     return 0

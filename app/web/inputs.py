@@ -1,0 +1,73 @@
+"""Checks for every value a page sends, and safe display of text.
+
+A browser's min/max are hints, not limits: a page (or anything speaking viser's protocol) can send
+any number, NaN or infinity included, and any string for a dropdown.  The panel passes every value
+through these functions before it becomes a command; a bad one raises ``InputRefused`` with a
+message for the page, and nothing changes.  Text shown in the page goes through ``as_html`` so a
+name or an error message is always shown as text, never as markup.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from collections.abc import Sequence
+from typing import Any
+
+
+class InputRefused(ValueError):
+    """A value from the page was refused (the message says why, for the page)."""
+
+
+def number(value: Any, name: str, low: float, high: float, *, low_open: bool = False) -> float:
+    """``value`` as a finite float in [low, high] (or (low, high] with ``low_open``)."""
+    if isinstance(value, bool):
+        raise InputRefused(f"{name} must be a number, got {value!r}")
+    try:
+        result = float(value)
+    except (TypeError, ValueError):
+        raise InputRefused(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(result):
+        raise InputRefused(f"{name} must be a finite number, got {result!r}")
+    below = result <= low if low_open else result < low
+    if below or result > high:
+        bracket = "(" if low_open else "["
+        raise InputRefused(f"{name} must be in {bracket}{low:g}, {high:g}], got {result:g}")
+    return result
+
+
+def whole_number(value: Any, name: str, low: int, high: int) -> int:
+    """``value`` as an int in [low, high]; a fractional number is refused, not rounded."""
+    result = number(value, name, low, high)
+    if not result.is_integer():
+        raise InputRefused(f"{name} must be a whole number, got {result:g}")
+    return int(result)
+
+
+def choice(value: Any, name: str, options: Sequence[str]) -> str:
+    """``value`` if it is one of ``options``."""
+    if not isinstance(value, str) or value not in options:
+        raise InputRefused(f"{name} must be one of {', '.join(options)}; got {value!r}")
+    return value
+
+
+def as_html(text: str, color: str | None = None, bold: bool = False) -> str:
+    """``text`` escaped into a small ``<div>`` (line breaks kept), safe to show in the page."""
+    style = "font-size:0.85em;padding:0 0.6em;white-space:pre-wrap;overflow-wrap:anywhere"
+    if color:
+        style += f";color:{color}"
+    if bold:
+        style += ";font-weight:600"
+    return f'<div style="{style}">{html.escape(text)}</div>'
+
+
+def ok_html(text: str) -> str:
+    return as_html(text, color="#2b7a2b")
+
+
+def warning_html(text: str) -> str:
+    return as_html(text, color="#c0392b", bold=True)
+
+
+def amber_html(text: str) -> str:
+    return as_html(text, color="#b9770e")

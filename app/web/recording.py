@@ -1,0 +1,105 @@
+"""Recording the live run from the web page: one recording at a time, never losing a file.
+
+``WebRecordings`` starts and stops an ``app.recording.Recorder`` subscribed to the app's runner.
+Only one recording runs at a time (a second start while one is starting or running is refused),
+every recording gets a new file name in the recordings directory chosen when the server started
+(``<scene>-<date>-<time>.rrd``, with ``-2``, ``-3``… if that name is taken; nothing the page sends
+names a file), and ``stop()`` (the page's button, the server stopping, Ctrl+C) closes the file so
+that it verifies.  A recorder that fails (a full disk) is detached by the runner, closes its file
+with an ERROR entry, and ``status()`` says so.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import sim
+from sim.runner import Runner
+
+
+class RecordingBusy(RuntimeError):
+    """A recording is already starting or running."""
+
+
+class WebRecordings:
+    """Start/stop recordings of ``runner`` into ``directory`` (created on the first start)."""
+
+    def __init__(self, runner: Runner, directory: str | Path) -> None:
+        self.runner = runner
+        self.directory = Path(directory)
+        self._lock = threading.Lock()
+        self._busy = False
+        self._recorder: Any = None
+        self.last_path: Path | None = None
+        self.last_error: str | None = None
+
+    @property
+    def active(self) -> bool:
+        return self._recorder is not None
+
+    @staticmethod
+    def available() -> bool:
+        try:
+            import app.recording  # noqa: F401
+        except ImportError:
+            return False
+        return True
+
+    def _free_name(self, scene_name: str) -> Path:
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in scene_name)[:40] or "scene"
+        for number in range(1, 1000):
+            suffix = "" if number == 1 else f"-{number}"
+            path = self.directory / f"{safe}-{stamp}{suffix}.rrd"
+            partial = path.with_name(path.name + ".partial")
+            if not path.exists() and not partial.exists():
+                return path
+        raise RecordingBusy(f"too many recordings named {safe}-{stamp}* in {self.directory}")
+
+    def start(self, scene: sim.Scene) -> Path:
+        """Start recording ``scene`` (a snapshot of the running state) now; returns the file
+        path.  Raises ``RecordingBusy`` while another recording is starting or running."""
+        from app.recording import Recorder
+
+        with self._lock:
+            if self._busy or self._recorder is not None:
+                raise RecordingBusy("a recording is already running; stop it first")
+            self._busy = True
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            path = self._free_name(scene.name)
+            recorder = Recorder(path, scene, integrator=scene.integrator, dt=scene.dt)
+            recorder.attach(self.runner, snapshot=True)
+            with self._lock:
+                self._recorder = recorder
+            self.last_error = None
+            return path
+        finally:
+            with self._lock:
+                self._busy = False
+
+    def failure(self) -> str | None:
+        """Why the running recording stopped by itself (a full disk), or None."""
+        recorder = self._recorder
+        if recorder is None:
+            return None
+        error = getattr(recorder, "failure", None) or getattr(recorder, "_failure", None)
+        return None if error is None else str(error)
+
+    def stop(self) -> Path | None:
+        """Close the running recording (idempotent); returns its final path, or None if none
+        was running.  A recording that failed is closed as far as it got; ``last_error`` says
+        why."""
+        with self._lock:
+            recorder, self._recorder = self._recorder, None
+        if recorder is None:
+            return None
+        try:
+            self.last_path = recorder.close()
+        except Exception as error:  # the file is renamed and readable; say what went wrong
+            self.last_error = str(error)
+            self.last_path = recorder.path
+        return self.last_path
