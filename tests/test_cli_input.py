@@ -228,3 +228,44 @@ def test_the_memory_estimate_covers_a_real_simulation():
         finally:
             tracemalloc.stop()
         assert peak <= estimated_bytes(300, 200, dim)
+
+
+# --- the study commands ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "arguments, fragment",
+    [
+        (["stability", "--precision", "0"], "--precision"),
+        (["stability", "--precision", "-0.1"], "--precision"),
+        (["stability", "--precision", "1e-300"], "--precision"),
+        (["stability", "--precision", "nan"], "--precision"),
+        (["stability", "--steps", "0"], "--steps"),
+        (["stability", "--steps", "-5"], "--steps"),
+        (["stability", "--steps", "10000000000"], "--steps"),
+        (["stability", "--cases"], "--cases"),
+        (["stability", "--cases", "no-such-case"], "no-such-case"),
+        (["stability", "--integrators"], "--integrators"),
+        (["stability", "--integrators", "leapfrog"], "leapfrog"),
+        (["stability", "--plot", "/no/such/directory/s.png"], "/no/such/directory"),
+        (["accuracy", "--dts"], "--dts"),
+        (["accuracy", "--dts", "0.01", "0"], "--dts"),
+        (["accuracy", "--dts", "inf"], "--dts"),
+        (["accuracy", "--until", "0"], "--until"),
+        (["accuracy", "--until", "nan"], "--until"),
+        (["accuracy", "--tolerance", "0"], "--tolerance"),
+        (["accuracy", "--tolerance", "2"], "--tolerance"),
+        (["accuracy", "--integrators"], "--integrators"),
+        (["accuracy", "--dts", "1e-12"], "limit"),
+        (["accuracy", "--plot", "picture.txt"], "--plot"),
+        (["dispersion", "--particles", "0"], "--particles"),
+        (["dispersion", "--particles", "-3"], "--particles"),
+        (["dispersion", "--particles", "100000000"], "--particles"),
+        (["dispersion", "--stiffness", "0"], "--stiffness"),
+        (["dispersion", "--mass", "-1"], "--mass"),
+        (["dispersion", "--heavy", "inf"], "--heavy"),
+        (["dispersion", "--stiffness", "1e12"], "limit"),
+    ],
+)
+def test_study_options_are_checked_before_anything_runs(capsys, arguments, fragment):
+    assert_refused(capsys, [*arguments, "--quiet"], fragment)

@@ -2,16 +2,34 @@
 
 ``app.cli`` imports this module and calls ``register(subparsers)``.  Each command prints a table
 (or JSON with ``--json``), can save a picture (``--plot PATH.png``) and shows a progress bar on
-stderr while it runs.
+stderr while it runs.  Every option is checked before anything runs (argparse types, then the
+planned number of steps against ``app.cli.MAX_STEPS`` / ``MAX_ESTIMATED_SECONDS``): bad values exit
+with code 2 and one line.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
+
+INTEGRATOR_NAMES = ("euler", "heun", "verlet", "rk4")
+
+STABILITY_STEPS = (10, 100_000)
+"""Smallest and largest --steps of a stability trial."""
+
+STABILITY_PRECISION = (1e-6, 1.0)
+"""Range of --precision: below 1e-6 the bisection would stall at float resolution."""
+
+DISPERSION_PARTICLES = (4, 6000)
+"""Range of --particles: the wave-speed chain has 3x as many, at most ``sim.model.MAX_SIDE``."""
+
+DISPERSION_SAMPLES = 2000
+"""Samples of each spectrum (200 s every 0.1 s), to estimate the run time."""
 
 ACCURACY_DESCRIPTION = """\
 Speed against accuracy.  Runs each integrator over a range of time steps on a scene, from its
@@ -84,7 +102,7 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the accuracy, stability and dispersion subcommands to the ``oscillators`` parser."""
-    from app.cli import add_scene_arguments
+    from app.cli import add_scene_arguments, bounded_int, positive_float
 
     formatter = argparse.RawDescriptionHelpFormatter
     accuracy = subparsers.add_parser(
@@ -93,19 +111,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_scene_arguments(accuracy, default_scene="grid")
     accuracy.add_argument(
-        "--integrators", nargs="+", metavar="NAME", default=None,
+        "--integrators", nargs="+", metavar="NAME", default=None, choices=INTEGRATOR_NAMES,
         help="integrators to compare (default: euler heun verlet rk4)",
     )
     accuracy.add_argument(
-        "--dts", nargs="+", type=float, metavar="DT",
+        "--dts", nargs="+", type=positive_float, metavar="DT",
         help="time steps in seconds (default: 0.9 of the RK4 limit down to 1/400 of it)",
     )
     accuracy.add_argument(
-        "--until", type=float, metavar="T",
+        "--until", type=positive_float, metavar="T",
         help="time (s) at which the error is measured (default: 5 periods of the dominant mode)",
     )
     accuracy.add_argument(
-        "--tolerance", type=float, default=1e-3,
+        "--tolerance", type=_fraction, default=1e-3,
         help="target relative position error for the recommendation (default 1e-3)",
     )
     accuracy.add_argument("--no-refine", action="store_true",
@@ -128,14 +146,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     stability.add_argument("--cases", nargs="+", metavar="CASE",
                            help="only these built-in cases (see --list)")
     stability.add_argument("--list", action="store_true", help="list the built-in cases and exit")
-    stability.add_argument("--integrators", nargs="+", metavar="NAME", default=None)
+    stability.add_argument("--integrators", nargs="+", metavar="NAME", default=None,
+                           choices=INTEGRATOR_NAMES)
     stability.add_argument(
-        "--steps", type=int, default=400,
+        "--steps", type=bounded_int(*STABILITY_STEPS), default=400,
         help="steps per trial run (default 400; fewer on lattices above 100,000 particles)",
     )
     stability.add_argument(
-        "--precision", type=float, default=0.005,
-        help="relative width at which the bisection stops (default 0.005)",
+        "--precision", type=_precision, default=0.005,
+        help="relative width at which the bisection stops (default 0.005; from 1e-6 to 1)",
     )
     _add_output_arguments(stability)
     stability.set_defaults(handler=command_stability)
@@ -144,14 +163,64 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "dispersion", help="wave speed and dispersion relation measured on long chains",
         description=DISPERSION_DESCRIPTION, epilog=DISPERSION_EPILOG, formatter_class=formatter,
     )
-    dispersion.add_argument("--particles", type=int, default=400,
-                            help="particles in the chain (default 400)")
-    dispersion.add_argument("--stiffness", type=float, default=35.0, help="k in N/m (default 35)")
-    dispersion.add_argument("--mass", type=float, default=1.0, help="m in kg (default 1)")
-    dispersion.add_argument("--heavy", type=float, default=4.0,
+    dispersion.add_argument("--particles", type=bounded_int(*DISPERSION_PARTICLES), default=400,
+                            help="particles in the chain (default 400; from {} to {})".format(
+                                *DISPERSION_PARTICLES))
+    dispersion.add_argument("--stiffness", type=positive_float, default=35.0,
+                            help="k in N/m (default 35)")
+    dispersion.add_argument("--mass", type=positive_float, default=1.0, help="m in kg (default 1)")
+    dispersion.add_argument("--heavy", type=positive_float, default=4.0,
                             help="heavy mass M of the ionic chain in kg (default 4)")
     _add_output_arguments(dispersion)
     dispersion.set_defaults(handler=command_dispersion)
+
+
+def _fraction(text: str) -> float:
+    """argparse type of --tolerance: a number in (0, 1]."""
+    from app.cli import positive_float
+
+    value = positive_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"must be a relative error in (0, 1], got {text!r}")
+    return value
+
+
+def _precision(text: str) -> float:
+    """argparse type of --precision: within STABILITY_PRECISION (0 would bisect forever)."""
+    from app.cli import positive_float
+
+    value = positive_float(text)
+    low, high = STABILITY_PRECISION
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be from {low:g} to {high:g}, got {text!r}")
+    return value
+
+
+def _check_plot_path(arguments: argparse.Namespace) -> None:
+    """--plot must name a PNG file in an existing directory: checked before a long study runs."""
+    if not arguments.plot:
+        return
+    path = Path(arguments.plot)
+    if path.suffix.lower() != ".png":
+        raise ValueError(f"--plot takes a .png file name, got {arguments.plot}")
+    if path.is_dir():
+        raise ValueError(f"--plot {arguments.plot} is a directory; give a .png file name")
+    if not path.parent.is_dir():
+        raise ValueError(f"--plot {arguments.plot}: the directory {path.parent} does not exist")
+
+
+def _check_plan(runs: list[tuple[float, int, str]], what: str) -> None:
+    """Refuse a study whose (steps, particles, integrator) runs exceed the step or time limits."""
+    from app.cli import MAX_ESTIMATED_SECONDS, MAX_STEPS, describe_seconds, estimated_seconds
+
+    most = max(steps for steps, _, _ in runs)
+    wall = sum(estimated_seconds(steps, particles, name) for steps, particles, name in runs)
+    if most > MAX_STEPS or wall > MAX_ESTIMATED_SECONDS:
+        raise ValueError(
+            f"{what} plans runs of up to {most:.3g} steps, about {describe_seconds(wall)} of "
+            f"computing, over the limit of {MAX_STEPS:.0e} steps or "
+            f"{describe_seconds(MAX_ESTIMATED_SECONDS)}"
+        )
 
 
 def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
@@ -188,13 +257,25 @@ def _emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> Non
 def command_accuracy(arguments: argparse.Namespace) -> int:
     import sim
     from app.cli import scene_from_arguments
-    from app.study.accuracy import accuracy_study, format_report, plot_work_precision
+    from app.study.accuracy import (
+        accuracy_study,
+        default_until,
+        format_report,
+        plot_work_precision,
+    )
 
+    _check_plot_path(arguments)
     scene = scene_from_arguments(arguments)
     if arguments.integrator and not arguments.integrators:
         arguments.integrators = [arguments.integrator]
     integrators = arguments.integrators or list(sim.INTEGRATORS)
     dts = arguments.dts or ([arguments.dt] if arguments.dt else None)
+    if dts:
+        until = arguments.until or default_until(scene)
+        particles = scene.model.n_particles
+        runs = [(until / dt, particles, name) for name in integrators for dt in dts]
+        runs.append((8 * until / min(dts), particles, "rk4"))  # the numerical reference
+        _check_plan(runs, "accuracy")
     planned = len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
     with _progress_bar(planned, arguments.quiet) as bar:
         study = accuracy_study(
@@ -216,6 +297,7 @@ def command_stability(arguments: argparse.Namespace) -> int:
         for case in stability.default_cases():
             print(f"{case.name:22s} {case.description}")
         return 0
+    _check_plot_path(arguments)
     if arguments.scene is not None:
         from app.cli import scene_from_arguments
 
@@ -238,6 +320,14 @@ def command_stability(arguments: argparse.Namespace) -> int:
 def command_dispersion(arguments: argparse.Namespace) -> int:
     from app.study import dispersion
 
+    _check_plot_path(arguments)
+    lightest = min(arguments.mass, arguments.heavy)
+    steps_per_sample = math.ceil(2 * math.sqrt(arguments.stiffness / lightest))
+    particles = arguments.particles
+    _check_plan([(DISPERSION_SAMPLES * steps_per_sample, particles, "rk4"),
+                 (DISPERSION_SAMPLES * steps_per_sample, particles, "rk4"),
+                 (DISPERSION_SAMPLES * steps_per_sample, max(3 * particles, 1200), "rk4")],
+                "dispersion")
     with _progress_bar(None, arguments.quiet) as bar:
         study = dispersion.dispersion_study(
             particles=arguments.particles, stiffness=arguments.stiffness, mass=arguments.mass,
