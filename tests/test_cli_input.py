@@ -269,3 +269,34 @@ def test_the_memory_estimate_covers_a_real_simulation():
 )
 def test_study_options_are_checked_before_anything_runs(capsys, arguments, fragment):
     assert_refused(capsys, [*arguments, "--quiet"], fragment)
+
+
+def test_a_recorder_whose_writes_fail_closes_its_file_and_the_runner_goes_on(
+    tmp_path, monkeypatch
+):
+    import sim
+    from sim.runner import Runner
+
+    real = shutil.disk_usage
+    calls = []
+
+    def filling_disk(path):
+        calls.append(path)
+        usage = real(path)
+        return usage if len(calls) == 1 else usage._replace(free=0)
+
+    monkeypatch.setattr(shutil, "disk_usage", filling_disk)
+    scene = sim.scenes.build("grid")
+    runner = Runner(sim.Simulation(scene))
+    output = tmp_path / "live.rrd"
+    recorder = Recorder(output, scene)
+    recorder.attach(runner)
+    runner.advance(120, every=1)  # the recorder fails at its first flush (50 frames)
+    assert runner.simulation.step_count == 120  # the simulation was not stopped
+    assert recorder.failure is not None
+    assert output.exists() and not Path(f"{output}.partial").exists()  # closed by on_error
+    with pytest.raises(RecordingError, match="disk nearly full"):
+        recorder.close()
+    chunks = read_chunks(output)
+    errors = [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
+    assert len(errors) == 1 and errors[0][0] < 120
