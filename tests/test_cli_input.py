@@ -300,3 +300,11 @@ def test_a_recorder_whose_writes_fail_closes_its_file_and_the_runner_goes_on(
     chunks = read_chunks(output)
     errors = [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
     assert len(errors) == 1 and errors[0][0] < 120
+
+
+def test_the_accuracy_library_still_refuses_a_reference_beyond_the_rk4_limit():
+    import sim
+    from app.study.accuracy import accuracy_study
+
+    with pytest.raises(ValueError, match="too long for a numerical reference"):
+        accuracy_study(sim.scenes.build("chain"), integrators=["verlet"], dts=[1.0], until=1e12)
