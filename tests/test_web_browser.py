@@ -12,6 +12,7 @@ import math
 import os
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -147,3 +148,50 @@ def test_two_clients_share_the_lattice(web_app, browser):
     assert wait_for(lambda: len(web_app.server.get_clients()) == 1)
     steps = web_app.runner.simulation.step_count
     assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 10)
+
+
+def test_paths_typed_into_the_page_touch_no_file_on_the_server(browser, tmp_path):
+    """Hostile input in every box and every button pressed: nothing outside the scenes and
+    recordings directories is created, and no scene outside the scenes directory is opened."""
+    scenes, recordings = tmp_path / "scenes", tmp_path / "recordings"
+    scenes.mkdir()
+    secret = tmp_path / "secret.toml"
+    sim.scenes.save(sim.scenes.build("single"), secret)
+    secret.write_text(secret.read_text().replace('name = "single"', 'name = "canary"'))
+    (scenes / "link.toml").symlink_to(secret)
+    cwd_before = set(os.listdir("."))
+    hostile = ["../escape/x", str(tmp_path / "absolute" / "x.toml"), "/dev/zero"]
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=6, ny=4)), port=free_port(),
+                 scenes_dir=scenes, recordings_dir=recordings)
+    app.start()
+    try:
+        page = open_page(browser, app)
+        for folder in ("Scene", "View", "Recording"):  # open the closed folders
+            page.get_by_text(folder, exact=True).first.click()
+        boxes = page.locator("input[type=text], input:not([type]), textarea")
+        for text in hostile:
+            for index in range(boxes.count()):
+                box = boxes.nth(index)
+                if box.is_visible() and box.is_enabled() and box.is_editable():
+                    box.fill(text)
+                    box.press("Enter")
+            for name in ("Build scene", "Download this scene", "Open", "Refresh list",
+                         "Start recording", "Stop recording", "Single step", "Reset"):
+                button = page.get_by_role("button", name=name, exact=True)
+                if button.count() and button.first.is_enabled():
+                    button.first.click()
+        page.locator("input[type=file]").set_input_files(
+            files=[{"name": "../escape.toml", "mimeType": "text/plain",
+                    "buffer": secret.read_bytes()}])
+        assert wait_for(lambda: "escape.toml" in app.panel.scene_message.content)
+        assert app.runner.simulation.scene.name != "canary" or "upload" in app.scene_source
+        time.sleep(0.5)
+    finally:
+        app.stop()
+    assert not (tmp_path / "escape").exists() and not (tmp_path / "absolute").exists()
+    assert not Path("../escape").exists()
+    assert set(os.listdir(".")) == cwd_before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["recordings", "scenes", "secret.toml"]
+    assert sorted(p.name for p in scenes.iterdir()) == ["link.toml"]
+    assert all(p.suffix == ".rrd" for p in recordings.glob("*"))
+    assert "link.toml" not in app.scene_files.names()

@@ -1,0 +1,356 @@
+"""The web app is safe to run in a classroom: checked values, no server paths, contained failures.
+
+Events "from a page" are made the way viser makes them for a browser's message: the widget's
+value is set and its callbacks run with an event that names a client (``press`` / ``send``).
+Events the server makes itself (assigning ``.value``) name no client; the panel must ignore them.
+The Host/Origin checks are tested over real HTTP and websocket connections.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import http.client
+import inspect
+import os
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import viser
+import websockets.exceptions
+from websockets.sync.client import connect
+
+import sim
+from app.web.app import WebApp
+from app.web.scene_files import SceneDirectory, SceneFileRefused
+from tests.helpers import free_port, wait_for
+
+
+class PageClient:
+    """Stands in for a connected browser: keeps what the server sends it to download."""
+
+    client_id = 1
+
+    def __init__(self) -> None:
+        self.downloads: list[tuple[str, bytes]] = []
+
+    def send_file_download(self, name: str, content: bytes, chunk_size: int = 0,
+                           save_immediately: bool = False) -> None:
+        self.downloads.append((name, content))
+
+
+def send(handle: Any, value: Any = None, client: PageClient | None = None) -> None:
+    """Do what viser does when a page sends ``value`` for ``handle``: store it unchecked (the page
+    may send anything) and run the callbacks with an event naming the client."""
+    if value is not None:
+        handle._impl.value = value
+    event = viser.GuiEvent(client=client or PageClient(), client_id=1, target=handle)
+    for callback in list(handle._impl.update_cb):
+        result = callback(event)
+        if inspect.iscoroutine(result):
+            asyncio.run(result)
+
+
+def press(handle: Any, client: PageClient | None = None) -> None:
+    send(handle, True, client)
+
+
+def settle(app: WebApp) -> None:
+    """Let viser's event loop run what the server scheduled, then the runner's command queue."""
+    for _ in range(3):
+        asyncio.run_coroutine_threadsafe(asyncio.sleep(0.01), app.server.get_event_loop()).result(5)
+    app.runner.post(lambda simulation: None).result(timeout=10)
+
+
+@pytest.fixture
+def folders(tmp_path: Path) -> tuple[Path, Path]:
+    scenes, recordings = tmp_path / "scenes", tmp_path / "recordings"
+    scenes.mkdir()
+    return scenes, recordings
+
+
+@pytest.fixture
+def web_app(folders):
+    scenes, recordings = folders
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port(),
+                 scenes_dir=scenes, recordings_dir=recordings)
+    app.start()
+    assert wait_for(lambda: app.view.last_positions is not None)
+    yield app
+    app.stop()
+
+
+def assert_same_scene(simulation: sim.Simulation, expected: sim.Scene) -> None:
+    model, wanted = simulation.model, expected.model
+    assert model.parameters() == wanted.parameters()
+    for field in ("nx", "ny", "dim", "spacing", "stiffness", "rest_length", "damping", "drag",
+                  "linear"):
+        assert getattr(model, field) == getattr(wanted, field), field
+    assert tuple(model.gravity) == tuple(wanted.gravity)
+    np.testing.assert_array_equal(model.masses, wanted.masses)
+    np.testing.assert_array_equal(simulation.scene.initial_positions, expected.initial_positions)
+    np.testing.assert_array_equal(simulation.scene.initial_velocities,
+                                  expected.initial_velocities)
+    assert simulation.integrator == expected.integrator
+    assert simulation.dt == expected.dt
+
+
+# --- the panel is a view ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", [n for n in sim.scenes.names() if n != "interference"])
+def test_a_preset_built_in_the_page_is_exactly_the_preset(web_app, name):
+    panel = web_app.panel
+    send(panel.preset, name)
+    press(panel.build_button)
+    settle(web_app)
+    assert_same_scene(web_app.runner.simulation, sim.scenes.build(name))
+    assert name in panel.scene_info.content
+    # showing the scene assigned many widget values; none of them may have posted a change
+    settle(web_app)
+    assert_same_scene(web_app.runner.simulation, sim.scenes.build(name))
+
+
+@pytest.mark.slow
+def test_the_interference_preset_built_in_the_page_is_exactly_the_preset(web_app):
+    send(web_app.panel.preset, "interference")
+    press(web_app.panel.build_button)
+    settle(web_app)
+    assert_same_scene(web_app.runner.simulation, sim.scenes.build("interference"))
+
+
+def test_typed_size_is_the_only_change_to_the_preset(web_app):
+    panel = web_app.panel
+    send(panel.preset, "catenary")
+    send(panel.nx, 9)
+    press(panel.build_button)
+    settle(web_app)
+    assert_same_scene(web_app.runner.simulation, sim.scenes.build("catenary", nx=9))
+
+
+def chain_with_masses() -> sim.Scene:
+    scene = sim.scenes.build("chain")
+    model = scene.model.replace(mass=np.array([1.0, 2.0, 3.0, 4.0, 5.0]))
+    positions = model.rest_positions.copy()
+    positions[1] += (0.1, -0.2)
+    velocities = np.zeros_like(positions)
+    velocities[3] = (0.5, 0.25)
+    return sim.Scene(name="heavy-chain", model=model, description="masses 1 to 5 kg",
+                     integrator="verlet", dt=0.02, initial_positions=positions,
+                     initial_velocities=velocities, duration=12.0)
+
+
+def test_download_then_upload_gives_back_the_same_scene(web_app):
+    panel = web_app.panel
+    scene = chain_with_masses()
+    web_app.replace_scene(scene, source="test")
+    client = PageClient()
+    press(panel.download_button, client)
+    (name, content), = client.downloads
+    assert name.startswith("heavy-chain")
+    web_app.replace_scene(sim.scenes.build("grid"), source="test")
+    send(panel.upload_button, viser.UploadedFile(name, content))
+    settle(web_app)
+    assert_same_scene(web_app.runner.simulation, scene)
+    assert "heavy-chain" in panel.scene_info.content and "5x1" in panel.scene_info.content
+
+
+def test_a_scene_file_in_the_scenes_directory_opens_by_name(web_app, folders):
+    scenes, _ = folders
+    scene = chain_with_masses()
+    sim.scenes.save(scene, scenes / "lesson.toml")
+    panel = web_app.panel
+    press(panel.list_button)
+    assert panel.server_scenes.options == ("lesson.toml",)
+    send(panel.server_scenes, "lesson.toml")
+    press(panel.open_button)
+    settle(web_app)
+    assert_same_scene(web_app.runner.simulation, scene)
+    assert "lesson.toml" in panel.scene_info.content
+
+
+# --- every value from the page is checked --------------------------------------------------------
+
+
+def test_bad_values_from_the_page_are_refused_and_change_nothing(web_app):
+    panel = web_app.panel
+    simulation = web_app.runner.simulation
+    dt, stiffness = simulation.dt, simulation.model.stiffness
+    for bad in (-0.01, 0.0, float("nan"), float("inf"), 1e9):
+        send(panel.dt, bad)
+        settle(web_app)
+        assert web_app.runner.simulation.dt == dt
+        assert "refused" in panel.integrator_message.content
+        assert panel.dt.value == dt  # the widget shows the simulation's dt again, not a clamp
+    send(panel.steps_per_frame, 1e9)
+    assert web_app.runner.steps_per_frame == 1
+    assert "steps per frame" in panel.integrator_message.content
+    send(panel.integrator, "warp-drive")
+    settle(web_app)
+    assert web_app.runner.simulation.integrator == simulation.integrator
+    for bad in (1e9, float("nan"), -5.0):
+        send(panel.stiffness, bad)
+        settle(web_app)
+        assert web_app.runner.simulation.model.stiffness == stiffness
+        assert "refused" in panel.physics_message.content
+    model = web_app.runner.simulation.model
+    for nx in (1e12, 0, -4, 2.5, 3000):
+        send(panel.nx, nx)
+        press(panel.build_button)
+        assert web_app.runner.simulation.model is model
+        assert "could not build" in panel.scene_message.content
+    send(panel.nx, 2000)
+    send(panel.ny, 2000)
+    press(panel.build_button)
+    assert web_app.runner.simulation.model is model
+    assert "particles" in panel.scene_message.content
+    send(panel.row, 10**6)
+    press(panel.select_buttons)
+    assert "row" in panel.selection_message.content
+    send(panel.color_by, "<script>")
+    assert "&lt;script&gt;" in panel.view_message.content
+
+
+def test_text_from_the_page_is_shown_as_text(web_app):
+    panel = web_app.panel
+    name = '<img src=x onerror="alert(1)"><b>lesson</b>.toml'
+    send(panel.upload_button, viser.UploadedFile(name, b"not [a scene"))
+    message = panel.scene_message.content
+    assert "could not open" in message
+    assert "<img" not in message and "<b>" not in message
+    assert "&lt;img" in message
+
+
+def test_programmatic_values_post_no_commands(web_app):
+    """The server assigning widget values (as it does to show a scene) must not change it."""
+    panel = web_app.panel
+    before = web_app.runner.simulation.model
+    panel.stiffness.value = 77.0
+    panel.damping_on.value = True
+    panel.gravity_on.value = True
+    panel.mass_pattern.value = "ionic"
+    panel.dt.value = 0.5
+    settle(web_app)
+    assert web_app.runner.simulation.model is before
+    assert web_app.runner.simulation.dt != 0.5
+
+
+# --- files: by name, in one directory ---------------------------------------------------------------
+
+
+def test_only_regular_scene_files_inside_the_directory_are_offered(tmp_path):
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    sim.scenes.save(sim.scenes.build("chain"), scenes / "chain.toml")
+    outside = tmp_path / "secret.toml"
+    sim.scenes.save(sim.scenes.build("single"), outside)
+    (scenes / "escape.toml").symlink_to(outside)
+    (scenes / "folder.toml").mkdir()
+    os.mkfifo(scenes / "pipe.toml")
+    (scenes / "notes.txt").write_text("not a scene")
+    directory = SceneDirectory(scenes)
+    assert directory.names() == ["chain.toml"]
+    assert directory.load("chain.toml").model.nx == 5
+    for name in ("escape.toml", "pipe.toml", "folder.toml", "../secret.toml", str(outside),
+                 "/dev/zero", "notes.txt", "missing.toml", None):
+        with pytest.raises(SceneFileRefused):
+            directory.load(name)  # type: ignore[arg-type]
+
+
+def test_a_missing_scenes_directory_lists_nothing_and_is_not_created(tmp_path):
+    directory = SceneDirectory(tmp_path / "nowhere")
+    assert directory.names() == []
+    assert not (tmp_path / "nowhere").exists()
+
+
+# --- who may connect -----------------------------------------------------------------------------
+
+
+def _websocket(app: WebApp, origin: str | None) -> bool:
+    """Whether a websocket handshake with this Origin header is accepted."""
+    url = f"ws://127.0.0.1:{app.server.get_port()}"
+    try:
+        with connect(url, origin=origin, subprotocols=["viser-v1.1.1"], open_timeout=10):
+            return True
+    except websockets.exceptions.InvalidStatus as refused:
+        assert refused.response.status_code == 403
+        return False
+
+
+def test_a_foreign_page_may_not_open_the_websocket(web_app):
+    port = web_app.server.get_port()
+    assert not _websocket(web_app, "http://evil.example")
+    assert not _websocket(web_app, f"http://127.0.0.1:{port + 1}")
+    assert _websocket(web_app, f"http://127.0.0.1:{port}")
+    assert web_app.access.refused >= 2
+
+
+def test_allow_origin_admits_that_page_only(folders):
+    scenes, recordings = folders
+    app = WebApp(sim.Simulation(sim.scenes.build("single")), port=free_port(),
+                 scenes_dir=scenes, recordings_dir=recordings,
+                 allow_origins=["http://teacher.example:9000"])
+    app.start()
+    try:
+        assert _websocket(app, "http://teacher.example:9000")
+        assert not _websocket(app, "http://student.example:9000")
+    finally:
+        app.stop()
+
+
+def test_a_rebound_host_name_is_refused(web_app):
+    port = web_app.server.get_port()
+    for host, status in ((f"attacker.example:{port}", 403), (f"127.0.0.1:{port}", 200),
+                         (f"localhost:{port}", 200)):
+        connection = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+        connection.request("GET", "/", headers={"Host": host})
+        assert connection.getresponse().status == status, host
+        connection.close()
+
+
+# --- failures are contained --------------------------------------------------------------------------
+
+
+def test_a_failing_subscriber_is_detached_and_the_simulation_goes_on(web_app):
+    failures: list[BaseException] = []
+
+    def broken(frame: Any) -> None:
+        raise OSError(28, "No space left on device")
+
+    web_app.runner.subscribe(broken, on_error=failures.append)
+    web_app.runner.play()
+    step = web_app.runner.simulation.step_count
+    assert wait_for(lambda: web_app.runner.simulation.step_count > step + 50)
+    assert len(failures) == 1 and "No space left" in str(failures[0])
+    assert wait_for(lambda: "No space left" in web_app.panel.part_html.content)
+    assert web_app.panel.part_html.visible
+    web_app.control.reset().result(timeout=5)
+    assert wait_for(lambda: web_app.runner.simulation.step_count > 10)  # Reset and Play still work
+
+
+def test_double_click_on_record_and_stopping_the_server_leave_valid_recordings(folders):
+    from tests.test_recording import read_chunks
+
+    scenes, recordings = folders
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=6, ny=4)), port=free_port(),
+                 scenes_dir=scenes, recordings_dir=recordings)
+    app.start()
+    try:
+        app.runner.play()
+        clicks = [threading.Thread(target=press, args=(app.panel.record_button,))
+                  for _ in range(2)]
+        for click in clicks:
+            click.start()
+        for click in clicks:
+            click.join(30)
+        press(app.panel.record_button)  # start (or stop) once more: a new, unique file
+        assert wait_for(lambda: app.runner.simulation.step_count > 30)
+    finally:
+        app.stop()  # closes whatever is still recording
+    files = sorted(recordings.glob("*"))
+    assert files and all(path.suffix == ".rrd" for path in files), files  # no .partial left
+    assert len({path.name for path in files}) == len(files)
+    for path in files:
+        assert read_chunks(path)  # rerun reads every file back
