@@ -165,13 +165,15 @@ def _parse_value(text: str) -> Any:
 
 
 def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | None = None) -> None:
-    """SCENE (preset name or .toml file), --integrator, --dt, --set key=value."""
+    """SCENE (preset name or scene file), --integrator, --dt, --set key=value."""
     if default_scene is None:
-        parser.add_argument("scene", help="preset name (see `oscillators scenes`) or a .toml file")
+        parser.add_argument(
+            "scene", help="preset name (see `oscillators scenes`) or a .toml or .zip scene file"
+        )
     else:
         parser.add_argument(
             "scene", nargs="?", default=default_scene,
-            help=f"preset name or a .toml scene file (default: {default_scene})",
+            help=f"preset name or a .toml or .zip scene file (default: {default_scene})",
         )
     parser.add_argument(
         "--integrator", choices=["euler", "heun", "verlet", "rk4"],
@@ -191,10 +193,10 @@ def scene_from_arguments(arguments: argparse.Namespace):
     from sim import scenes
 
     overrides = parse_overrides(arguments.overrides)
-    if arguments.scene.endswith(".toml"):
-        scene = scenes.load(arguments.scene)
+    if arguments.scene.endswith((".toml", ".zip")):
+        scene = scenes.load_file(arguments.scene)
         if overrides:
-            raise ValueError("--set applies to presets; edit the .toml file instead")
+            raise ValueError("--set applies to presets; edit the scene file instead")
     else:
         scene = scenes.build(arguments.scene, **overrides)
     return scene

@@ -557,6 +557,15 @@ def load(path: str | Path, *, within: str | Path | None = None) -> Scene:
     return _scene_from_document(document, str(path), path.stem, arrays_for)
 
 
+def load_file(path: str | Path) -> Scene:
+    """A scene file of either kind: a ``.toml`` (``load``) or the ``.zip`` that ``to_bytes``
+    makes (read as a regular file of at most ``MAX_UPLOAD_BYTES``, then ``from_bytes``)."""
+    path = Path(path)
+    if path.suffix.lower() == ".zip":
+        return from_bytes(_read_regular_file(path, MAX_UPLOAD_BYTES, "scene archive"), path.name)
+    return load(path)
+
+
 def from_bytes(data: bytes, filename: str) -> Scene:
     """A scene from the content of an uploaded file: a TOML scene (UTF-8 text) or the ``.zip``
     that ``to_bytes`` makes (decided by the content, not by ``filename``, which only names the

@@ -1,4 +1,4 @@
-"""Recordings (issue 3): real ``.rrd`` files written by ``app.recording`` and read back with
+"""Recordings: real ``.rrd`` files written by ``app.recording`` and read back with
 rerun's own reader (``rerun.chunk.RrdReader``) and CLI (``rerun rrd verify``)."""
 
 from __future__ import annotations
@@ -375,7 +375,7 @@ def test_interference_default_recording_fits_the_budget(tmp_path):
 
 @pytest.mark.slow
 def test_interference_thousand_frames_end_to_end(tmp_path):
-    """The issue's size budget, measured whole: 1000 frames in under 50 MB (the time budget is
+    """The size budget, measured whole: 1000 frames in under 50 MB (the time budget is
     measured by benchmarks/recording_speed.py)."""
     path = tmp_path / "interference.rrd"
     assert main(["record", "interference", "--steps", "1000", "-o", str(path), "--quiet"]) == 0

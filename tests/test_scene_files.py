@@ -287,3 +287,16 @@ def test_the_command_line_refuses_bad_scene_files_in_one_line(tmp_path, capsys):
         assert main(["run", str(path), "--quiet"]) == 2
         error = capsys.readouterr().err
         assert len(error.strip().splitlines()) == 1 and str(path) in error
+
+
+def test_the_cli_runs_a_downloaded_zip_scene(tmp_path, capsys):
+    from app.cli import main
+
+    scene = sim.scenes.build("ionic", nx=4, ny=3)
+    suffix, content = sim.scenes.to_bytes(scene)
+    assert suffix == ".zip"
+    archive = tmp_path / "ionic.zip"
+    archive.write_bytes(content)
+    assert main(["run", str(archive), "--steps", "3", "--quiet", "--json"]) == 0
+    loaded = sim.scenes.load_file(archive)
+    np.testing.assert_array_equal(loaded.model.masses, scene.model.masses)

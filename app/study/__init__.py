@@ -1,4 +1,4 @@
-"""Speed against accuracy (issue 5): how fast each integrator reaches a given accuracy, where it
+"""Speed against accuracy: how fast each integrator reaches a given accuracy, where it
 stops being stable, and how well the lattice reproduces the continuum wave equation.
 
 Functions return plain data (dataclasses with ``as_dict``) so that the CLI, the docs and the web

@@ -69,7 +69,7 @@ Euler and Heun are unstable at every dt without damping and stable only with eno
 A run is unstable when it raises sim.BlowUpError, its energy runs away (x100), or its energy grows
 at every checkpoint (the slow, steady growth of Euler and Heun).  A tiny random perturbation
 (1e-6 spacing) excites every mode, so the fastest mode is always present.  The cases are the
-extremes of the issue: very stiff springs, mass ratios up to 1e6 (one heavy particle among light
+extremes: very stiff springs, mass ratios up to 1e6 (one heavy particle among light
 ones and the reverse), near-zero pre-tension, strong and over-damping, strong gravity, large
 drags (particles crossing their neighbours, through the zero-length spring singularity; a NaN
 that is not reported as a BlowUpError is flagged), 1x1, 1x1000 and 682x383 lattices.

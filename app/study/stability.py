@@ -75,7 +75,7 @@ def _crossing(displacement: tuple[float, float]) -> sim.Scene:
 
 
 def default_cases(names: Sequence[str] | None = None) -> list[Case]:
-    """The extreme cases of issue 5 (all of them, or those named)."""
+    """The extreme cases (all of them, or those named)."""
     builders: dict[str, tuple[str, Callable[[], sim.Scene], int | None]] = {
         "grid": ("12x8, k = 35 N/m, m = 1 kg, nonlinear springs (the baseline)", _grid, None),
         "grid-linear": ("the baseline with linearised springs", lambda: _grid(linear=True), None),

@@ -59,8 +59,6 @@ MAX_PAGE_PARTICLES = 1_000_000
 """Largest lattice (nx * ny) the page builds; bigger ones: the command line."""
 MAX_DT = 10.0
 """Largest time step (s) the page accepts."""
-MAX_UPLOAD_BYTES = 64 * 2**20
-"""Largest scene file the page accepts as an upload."""
 AS_LOADED = "as loaded"
 """Mass-pattern entry shown for masses that are neither uniform nor the ionic checkerboard."""
 
@@ -300,8 +298,9 @@ class ControlPanel:
             upload = self.upload_button.value
             name = str(upload.name)[:200]
             try:
-                if len(upload.content) > MAX_UPLOAD_BYTES:
-                    raise InputRefused(f"the file is larger than {MAX_UPLOAD_BYTES // 2**20} MiB")
+                limit = sim.scenes.MAX_UPLOAD_BYTES
+                if len(upload.content) > limit:
+                    raise InputRefused(f"the file is larger than {limit / 1e6:g} MB")
                 scene = sim.scenes.from_bytes(bytes(upload.content), name)
                 self.app.replace_scene(scene, source=f"upload {name}")
             except ERROR_TYPES as error:
