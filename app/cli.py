@@ -257,6 +257,8 @@ def command_run(arguments: argparse.Namespace) -> int:
         "steps": simulation.step_count, "time": simulation.time, "wall_seconds": elapsed,
         "steps_per_second": simulation.step_count / elapsed if elapsed > 0 else None,
         "energy_start": start_energy.as_dict(), "energy_end": end_energy.as_dict(),
+        "energy_balance_error": simulation.energy_balance_error(),
+        "energy_scale": simulation.energy_scale(),
     }
     if arguments.json:
         print(json.dumps(summary, indent=2))
@@ -267,7 +269,9 @@ def command_run(arguments: argparse.Namespace) -> int:
         for key in ("kinetic", "spring", "gravity", "potential", "dissipated", "total"):
             print(f"{key:12s} {start_energy[key]:12.6g} {end_energy[key]:12.6g}")
         balance_error = end_energy.balance - start_energy.balance
-        print(f"energy balance drift (total + dissipated): {balance_error:.3g} J")
+        print(f"energy balance error: {summary['energy_balance_error']:+.3%} of the energy in play "
+              f"({balance_error:+.3g} J of {summary['energy_scale']:.4g} J; kinetic + potential + "
+              "dissipated should stay constant)")
     return status
 
 

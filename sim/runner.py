@@ -48,7 +48,8 @@ class Frame:
 
     positions: (n_particles, dim) m; velocities: (n_particles, dim) m/s or None if no subscriber
     asked; strains: (n_springs,) or None if no subscriber asked; energy: the energy account;
-    error: the blow-up message if the run just stopped on one, else None.
+    error: the blow-up message if the run just stopped on one, else None;
+    energy_balance_error: ``Simulation.energy_balance_error()`` of this state (relative, 0 exact).
     """
 
     step: int
@@ -62,6 +63,7 @@ class Frame:
     strains: np.ndarray | None = None
     error: str | None = None
     playing: bool = False
+    energy_balance_error: float = 0.0
 
 
 @dataclasses.dataclass(eq=False)
@@ -141,6 +143,7 @@ class Runner:
             strains=simulation.strains() if any(s.strains for s in subscribers) else None,
             error=error,
             playing=self._playing,
+            energy_balance_error=simulation.energy_balance_error(),
         )
 
     def publish(self, error: str | None = None) -> Frame:

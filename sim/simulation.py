@@ -95,6 +95,7 @@ class Simulation:
         self._integrator = make_integrator(self._integrator_name, self._model)
         self._stability_cache: dict[str, observables.StabilityLimit] = {}
         self._reference_energy: float | None = None
+        self._balance_reference: tuple[float, float] | None = None
         self._energy_cache: tuple[tuple, observables.Energy] | None = None
         self._checkpoint = self.state.copy()
 
@@ -146,6 +147,7 @@ class Simulation:
     def _state_touched(self) -> None:
         self.state.revision += 1
         self._reference_energy = None
+        self._balance_reference = None
 
     def peek_positions(self) -> np.ndarray:
         """A copy of the positions (n_particles, dim) that does not count as an edit (for viewers)."""
@@ -188,6 +190,7 @@ class Simulation:
         self._integrator = make_integrator(self._integrator_name, model)
         self._stability_cache.clear()
         self._reference_energy = None
+        self._balance_reference = None
 
     def reset(self) -> None:
         """Back to the scene's initial state (time 0) with the current parameters."""
@@ -200,6 +203,7 @@ class Simulation:
         self.state.dissipated = 0.0
         self._integrator.invalidate()
         self._reference_energy = None
+        self._balance_reference = None
 
     # --- observables ------------------------------------------------------------------------------
 
@@ -212,6 +216,41 @@ class Simulation:
         if self._energy_cache is None or self._energy_cache[0] != key:
             self._energy_cache = (key, observables.energy(self._model, self.state))
         return self._energy_cache[1]
+
+    def energy_balance_error(self) -> float:
+        """Relative energy-balance error since the state was last set (built, reset, moved,
+        or its parameters changed): (kinetic + potential + dissipated - its value then) divided by
+        ``energy_scale()``.  Exactly 0 for the exact dynamics; its sign says whether the
+        integrator gains (+) or loses (-) energy."""
+        if self._balance_reference is None:
+            self._balance_reference = self._balance_now()
+        reference, scale = self._balance_reference
+        if scale <= 0.0:
+            return 0.0
+        return (self.energy().balance - reference) / scale
+
+    def energy_scale(self) -> float:
+        """The energy in play (J), the denominator of ``energy_balance_error``: the kinetic and
+        spring energy (above the rest lattice) when the state was last set, plus the energy
+        gravity releases as the lattice sags from rest to its equilibrium (1/2 f.K^-1 f of the
+        linearised lattice).  A scene that starts at rest under gravity (the catenary) thus
+        measures its error against the energy of its fall."""
+        if self._balance_reference is None:
+            self._balance_reference = self._balance_now()
+        return self._balance_reference[1]
+
+    def _balance_now(self) -> tuple[float, float]:
+        from sim.modes import gravity_release_energy
+
+        energy = self.energy()
+        scale = max(energy.kinetic, 0.0) + max(energy.spring, 0.0)
+        release = gravity_release_energy(self._model)
+        if math.isfinite(release):
+            scale += release
+        else:  # no small sag (no tension across the pull): the work of gravity over the lattice
+            weight = float(self._model.masses.sum()) * float(np.linalg.norm(self._model.gravity))
+            scale += weight * (max(self._model.nx, self._model.ny) + 1) * self._model.spacing
+        return energy.balance, scale
 
     def strains(self) -> np.ndarray:
         """(n_springs,) strain of every spring, in ``model.springs`` order."""
@@ -238,6 +277,8 @@ class Simulation:
         remaining = int(n)
         if self._reference_energy is None:
             self._reference_energy = self._energy_scale()
+        if self._balance_reference is None:
+            self._balance_reference = self._balance_now()
         while remaining > 0:
             chunk = min(remaining, self.chunk_steps)
             self._save_checkpoint()

@@ -1,0 +1,186 @@
+"""Normal modes of the lattice linearised about rest, and what they give exactly.
+
+About its rest state the lattice is linear: each displacement component (polarisation) obeys
+M u'' + C u' + K u = f with K = k_c D_columns + k_r D_rows (five-point stiffness with fixed walls;
+x moves along the horizontal springs: k_c = k, k_r = T/a; y the other way round; z has T/a
+both ways), C the same with the dashpot coefficient on the along-spring part plus ``drag`` on the
+diagonal, and f the particles' weights.  This module diagonalises it:
+
+* **equal masses**: the modes are separable sines, u = sum_pq c_pq sin(p pi i/(nx+1)) sin(q pi
+  j/(ny+1)), found by the orthonormal type-I discrete sine transform (``sine_transform``, numpy's
+  FFT; O(N log N)); K and C are both diagonal there, so every damping is exact;
+* **unequal masses**: the eigenvectors of M^-1/2 K M^-1/2 (dense ``eigh``, up to
+  ``DENSE_PARTICLE_LIMIT`` particles); there only uniform drag (C proportional to M) is exact.
+
+``ModalBasis`` maps displacements/velocities to modal coordinates and back; ``static_offset``
+solves K u = f for the sag under gravity (sine basis for any masses: K does not depend on them).
+Used by the exact solver (``sim.exact``), the error prediction (``sim.prediction``) and the
+energy scale of the energy-balance error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from sim.model import Model, ModelError
+
+DENSE_PARTICLE_LIMIT = 2_000
+"""Largest unequal-mass lattice (particles) decomposed with a dense eigen-solver (per
+polarisation an (n, n) float64 matrix: 32 MB and about 2 s at this size)."""
+
+
+def sine_transform(values: np.ndarray, axis: int) -> np.ndarray:
+    """Orthonormal DST-I along ``axis`` (its own inverse): X_p = sqrt(2/(n+1)) sum_i x_i
+    sin(p i pi/(n+1)), i, p = 1..n, computed with an FFT of the odd extension."""
+    values = np.moveaxis(np.asarray(values, dtype=float), axis, -1)
+    n = values.shape[-1]
+    extended = np.zeros(values.shape[:-1] + (2 * (n + 1),))
+    extended[..., 1 : n + 1] = values
+    extended[..., n + 2 :] = -values[..., ::-1]
+    transformed = -np.fft.rfft(extended, axis=-1).imag[..., 1 : n + 1] / 2.0
+    return np.moveaxis(transformed * np.sqrt(2.0 / (n + 1)), -1, axis)
+
+
+def second_difference_eigenvalues(n: int) -> np.ndarray:
+    """Eigenvalues 4 sin^2(p pi / (2 (n + 1))), p = 1..n, of the fixed-wall second difference."""
+    p = np.arange(1, n + 1)
+    return 4.0 * np.sin(p * np.pi / (2.0 * (n + 1))) ** 2
+
+
+def polarisations(model: Model) -> list[tuple[float, float, float, float]]:
+    """(stiffness across columns, across rows, dashpot across columns, across rows) per
+    displacement component (N/m, N s/m): x along the horizontal springs, y along the vertical
+    ones, z across all (linearised springs; dashpots act along springs only)."""
+    k, tension, c = model.stiffness, model.tension_stiffness, model.damping
+    result = [(k, tension, c, 0.0), (tension, k, 0.0, c)]
+    if model.dim == 3:
+        result.append((tension, tension, 0.0, 0.0))
+    return result
+
+
+def _stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float) -> np.ndarray:
+    """Dense (n, n) five-point matrix with fixed walls for one polarisation (row-major j*nx+i)."""
+    n = nx * ny
+    matrix = np.zeros((n, n))
+    index = np.arange(n).reshape(ny, nx)
+    matrix[np.arange(n), np.arange(n)] = 2.0 * across_columns + 2.0 * across_rows
+    left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
+    matrix[left, right] = matrix[right, left] = -across_columns
+    lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
+    matrix[lower, upper] = matrix[upper, lower] = -across_rows
+    return matrix
+
+
+@dataclasses.dataclass(frozen=True)
+class ModalBasis:
+    """The modes of one model.  Per polarisation c: ``omega_squared[c]`` (rad^2/s^2) and
+    ``damping_rate[c]`` (1/s; each mode obeys q'' + beta q' + omega^2 q = 0), shaped (ny, nx)
+    for sine modes (entry [q-1, p-1]) or (n,) for eigenvectors.  ``damping_exact`` says whether
+    the damping is diagonal in these modes (else the rates are Rayleigh quotients)."""
+
+    model: Model
+    separable: bool
+    omega_squared: tuple[np.ndarray, ...]
+    damping_rate: tuple[np.ndarray, ...]
+    damping_exact: bool
+    vectors: tuple[np.ndarray, ...] | None = None
+    """Unequal masses: M^-1/2-scaled eigenvectors per polarisation, columns are modes."""
+
+    @classmethod
+    def of(cls, model: Model) -> ModalBasis:
+        """The modes of ``model``; unequal masses above ``DENSE_PARTICLE_LIMIT`` raise ModelError."""
+        nx, ny = model.nx, model.ny
+        if model.uniform_mass:
+            mass = float(model.masses.flat[0])
+            columns = second_difference_eigenvalues(nx)[None, :]
+            rows = second_difference_eigenvalues(ny)[:, None]
+            omega, rate = [], []
+            for k_columns, k_rows, c_columns, c_rows in polarisations(model):
+                omega.append((k_columns * columns + k_rows * rows) / mass)
+                rate.append((c_columns * columns + c_rows * rows + model.drag) / mass)
+            return cls(model, True, tuple(omega), tuple(rate), True)
+        if model.n_particles > DENSE_PARTICLE_LIMIT:
+            raise ModelError(
+                f"the modes of an unequal-mass lattice are computed up to {DENSE_PARTICLE_LIMIT:,} "
+                f"particles (dense eigen-decomposition); this one has {model.n_particles:,}"
+            )
+        scale = 1.0 / np.sqrt(np.asarray(model.masses, dtype=float).ravel())
+        omega, rate, vectors = [], [], []
+        for k_columns, k_rows, c_columns, c_rows in polarisations(model):
+            stiffness = _stiffness_matrix(nx, ny, k_columns, k_rows) * np.outer(scale, scale)
+            values, eigenvectors = np.linalg.eigh(stiffness)
+            damping = _stiffness_matrix(nx, ny, c_columns, c_rows) * np.outer(scale, scale)
+            damping += np.diag(model.drag * scale**2)
+            omega.append(values)
+            rate.append(np.einsum("im,ij,jm->m", eigenvectors, damping, eigenvectors))
+            vectors.append(eigenvectors)
+        # with unequal masses neither the dashpots nor a uniform drag (M^-1 drag in acceleration
+        # units) is diagonal in these modes: only undamped lattices are exact
+        exact = model.damping == 0.0 and model.drag == 0.0
+        return cls(model, False, tuple(omega), tuple(rate), exact, tuple(vectors))
+
+    # --- transforms: fields are (ny, nx) per polarisation --------------------------------------
+
+    def to_modes(self, field: np.ndarray, polarisation: int) -> np.ndarray:
+        """Modal coordinates (in mass-weighted units: energy = 1/2 (q'^2 + omega^2 q^2)) of one
+        displacement or velocity component (ny, nx)."""
+        model = self.model
+        if self.separable:
+            root_mass = np.sqrt(float(model.masses.flat[0]))
+            return sine_transform(sine_transform(field, 0), 1) * root_mass
+        root_masses = np.sqrt(np.asarray(model.masses, dtype=float).ravel())
+        assert self.vectors is not None
+        return self.vectors[polarisation].T @ (np.asarray(field).ravel() * root_masses)
+
+    def from_modes(self, coordinates: np.ndarray, polarisation: int) -> np.ndarray:
+        """The (ny, nx) field of modal coordinates (inverse of ``to_modes``)."""
+        model = self.model
+        if self.separable:
+            root_mass = np.sqrt(float(model.masses.flat[0]))
+            return sine_transform(sine_transform(coordinates, 0), 1) / root_mass
+        root_masses = np.sqrt(np.asarray(model.masses, dtype=float).ravel())
+        assert self.vectors is not None
+        return (self.vectors[polarisation] @ coordinates / root_masses).reshape(model.ny, model.nx)
+
+
+def static_offset(model: Model) -> np.ndarray:
+    """(dim, ny, nx) displacement of the linearised lattice's equilibrium under gravity (m):
+    the solution of K u = m g per component, through the sine transform (K is separable for any
+    masses).  Zeros without gravity."""
+    offset = np.zeros((model.dim, model.ny, model.nx))
+    if not model.has_gravity:
+        return offset
+    columns = second_difference_eigenvalues(model.nx)[None, :]
+    rows = second_difference_eigenvalues(model.ny)[:, None]
+    masses = np.asarray(model.masses, dtype=float).reshape(model.ny, model.nx)
+    for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
+        g = float(model.gravity[component])
+        if g == 0.0:
+            continue
+        force = sine_transform(sine_transform(masses * g, 0), 1)
+        offset[component] = sine_transform(
+            sine_transform(force / (k_columns * columns + k_rows * rows), 0), 1
+        )
+    return offset
+
+
+def gravity_release_energy(model: Model) -> float:
+    """Energy (J) gravity releases as the linearised lattice sags from rest to equilibrium,
+    1/2 f . K^-1 f (half of it ends in the springs); zero without gravity.  A lattice without
+    stiffness in some direction of the pull (or is compressed) gives +inf: no small sag."""
+    if not model.has_gravity:
+        return 0.0
+    if any(
+        model.gravity[component] != 0.0
+        and (k_columns < 0.0 or k_rows < 0.0 or k_columns + k_rows == 0.0)
+        for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model))
+    ):
+        return float("inf")
+    masses = np.asarray(model.masses, dtype=float).reshape(model.ny, model.nx)
+    offset = static_offset(model)
+    work = 0.0
+    for component in range(model.dim):
+        work += float((masses * model.gravity[component] * offset[component]).sum())
+    return 0.5 * work
