@@ -164,8 +164,28 @@ def _parse_value(text: str) -> Any:
     return int(number) if number.is_integer() and "." not in text and "e" not in lowered else number
 
 
+class IntegratorChoices:
+    """The registered integrators' names (``sim.integrators.ALL_INTEGRATORS``), read when
+    argparse checks or lists them, so the CLI never keeps its own list."""
+
+    def _names(self) -> Sequence[str]:
+        from sim.integrators import ALL_INTEGRATORS
+
+        return ALL_INTEGRATORS
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+    def __iter__(self):
+        return iter(tuple(self._names()))
+
+    def __len__(self) -> int:
+        return len(self._names())
+
+
 def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | None = None) -> None:
-    """SCENE (preset name or scene file), --integrator, --dt, --set key=value."""
+    """SCENE (preset name or scene file), --integrator, --dt, --precision, --threads,
+    --set key=value."""
     if default_scene is None:
         parser.add_argument(
             "scene", help="preset name (see `oscillators scenes`) or a .toml or .zip scene file"
@@ -176,11 +196,20 @@ def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | No
             help=f"preset name or a .toml or .zip scene file (default: {default_scene})",
         )
     parser.add_argument(
-        "--integrator", choices=["euler", "heun", "verlet", "rk4"],
+        "--integrator", choices=IntegratorChoices(),
         help="time integrator (default: the scene's)",
     )
     parser.add_argument("--dt", type=positive_float,
                         help="time step in seconds (default: the scene's)")
+    parser.add_argument(
+        "--precision", choices=("float64", "float32"),
+        help="floating-point precision of the state and the kernels (default: the scene's, "
+        "float64); float32 is faster, energies are still summed in float64",
+    )
+    parser.add_argument(
+        "--threads", type=positive_int, default=1,
+        help="threads the compiled sweeps run on, as row blocks (default: 1)",
+    )
     parser.add_argument(
         "--set", dest="overrides", action="append", metavar="KEY=VALUE",
         help="override a scene parameter: nx, ny, spacing, mass, stiffness, rest_length, damping, "
@@ -206,7 +235,10 @@ def simulation_from_arguments(arguments: argparse.Namespace):
     from sim import Simulation
 
     scene = scene_from_arguments(arguments)
-    return Simulation(scene, integrator=arguments.integrator, dt=arguments.dt)
+    return Simulation(
+        scene, integrator=arguments.integrator, dt=arguments.dt,
+        precision=getattr(arguments, "precision", None), threads=getattr(arguments, "threads", 1),
+    )
 
 
 # --- subcommands -----------------------------------------------------------------------------------

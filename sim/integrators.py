@@ -1,103 +1,297 @@
-"""The four time integrators as objects that advance a ``State`` of a ``Model``.
+"""The time integrators, described as data, and the steppers that advance a ``State`` of a ``Model``.
 
-An integrator owns its work arrays (allocated once per model shape) and calls the compiled step
-loops of ``sim.stepping``.  Switching integrator mid-run loses nothing: the state is (x, v, t) and
-only Verlet caches the current acceleration, which it recomputes whenever the state or the model
-may have changed (``invalidate``).
+Every integrator is one ``IntegratorDescription`` in one registry: its name, labels, order, force
+evaluations per step, stability factor, amplification matrices (for the damped stability limit)
+and the stepper class that runs it.  Every table elsewhere (``INTEGRATORS``, ``ORDERS``,
+``LABELS``, ``FORCE_EVALUATIONS``, ``STABILITY_FACTORS``, the CLI's choices, the web app's
+dropdown, the studies' lists, the stability code in ``sim.observables``) is a live view of that
+registry, so adding an integrator is one ``register(...)`` call (``docs/api.md`` shows one).
+
+A stepper owns its work arrays (allocated once per model shape, in the simulation's precision)
+and calls the compiled step loops of ``sim.stepping``.  Switching integrator mid-run loses
+nothing: the state is (x, v, t) and only Verlet caches the current acceleration, which it
+recomputes whenever the state or the model may have changed (``invalidate``).
+
+An integrator need not be a compiled kernel stepper (``kernel=False``, e.g. a normal-mode solver
+for linear scenes), and it may apply to some models only (``applies_to``): ``INTEGRATORS`` lists
+the integrators that apply to every model, ``names(model)`` those that apply to one model, and
+``names(kernel_only=True)`` the compiled steppers (what ``oscillators bench`` measures).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import ClassVar
+import math
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any, ClassVar, NamedTuple, Protocol
 
 import numpy as np
 
 from sim import stepping
+from sim.kernels import SpringParameters
 from sim.model import Model
 from sim.state import State
 
-INTEGRATORS: tuple[str, ...] = ("euler", "heun", "verlet", "rk4")
-"""Integrator names accepted everywhere (``Simulation(integrator=...)``, the CLI, the web app)."""
-
-LABELS: dict[str, str] = {
-    "euler": "explicit Euler",
-    "heun": "Heun (predictor-corrector)",
-    "verlet": "velocity Verlet",
-    "rk4": "classic Runge-Kutta 4",
-}
-
-ORDERS: dict[str, int] = {"euler": 1, "heun": 2, "verlet": 2, "rk4": 4}
-"""Order of accuracy of each integrator (global error ~ dt**order)."""
-
-FORCE_EVALUATIONS: dict[str, int] = {"euler": 1, "heun": 2, "verlet": 1, "rk4": 4}
-"""Force evaluations per step (the cost of a step)."""
+PRECISIONS: dict[str, type[np.floating]] = {"float64": np.float64, "float32": np.float32}
+"""Floating-point precisions of the state and the kernels (energies always sum in float64)."""
 
 
 class IntegratorError(ValueError):
-    """Unknown integrator name."""
+    """Unknown integrator name, or an integrator that does not apply to the model."""
 
 
-def check_integrator_name(name: str) -> str:
-    """Normalise an integrator name or raise a clear error listing the valid ones."""
-    aliases = {"velocity-verlet": "verlet", "velocity_verlet": "verlet", "runge-kutta": "rk4"}
-    key = str(name).strip().lower()
-    key = aliases.get(key, key)
-    if key not in INTEGRATORS:
+class Stepper(Protocol):
+    """What a ``Simulation`` needs from an integrator: advance a state, drop cached forces."""
+
+    def advance(self, state: State, n: int, dt: float) -> None: ...
+
+    def invalidate(self) -> None: ...
+
+
+AmplificationFunction = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
+"""(omega_squared (n_modes,), damping_rate (n_modes,), dt) -> (n_modes, s, s) matrices G with
+z_{n+1} = G z_n for u'' + beta u' + omega^2 u = 0, the integrator as implemented."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IntegratorDescription:
+    """Everything the rest of the program needs to know about one integrator.
+
+    ``stability_factor``: on an undamped lattice the step is stable iff omega_max * dt <= factor;
+    None means no step is stable there (energy grows at every dt), ``math.inf`` any step is.
+    ``amplification`` gives the damped limit by bisection (None: not analysed, the undamped
+    factor is used).  ``stepper(model, dtype, threads)`` builds the object that advances states;
+    ``kernel`` says whether it is one of the compiled row-sweep steppers; ``applies_to(model)``
+    returns None when the integrator can run the model, else the reason it cannot.
+    """
+
+    name: str
+    label: str
+    short_label: str
+    order: int
+    force_evaluations: int
+    stability_factor: float | None
+    stepper: Callable[[Model, type[np.floating], int], Stepper]
+    amplification: AmplificationFunction | None = None
+    kernel: bool = True
+    symplectic: bool = False
+    aliases: tuple[str, ...] = ()
+    applies_to: Callable[[Model], str | None] | None = None
+
+    def reason_not_applicable(self, model: Model) -> str | None:
+        return None if self.applies_to is None else self.applies_to(model)
+
+
+_REGISTRY: dict[str, IntegratorDescription] = {}
+
+
+def register(description: IntegratorDescription) -> IntegratorDescription:
+    """Add (or replace) an integrator; every table and front end sees it at once."""
+    _REGISTRY[description.name] = description
+    return description
+
+
+def unregister(name: str) -> None:
+    """Remove an integrator added with ``register`` (tests use it to clean up)."""
+    _REGISTRY.pop(name, None)
+
+
+def descriptions() -> tuple[IntegratorDescription, ...]:
+    """All registered integrators, in registration order."""
+    return tuple(_REGISTRY.values())
+
+
+def names(model: Model | None = None, kernel_only: bool = False) -> tuple[str, ...]:
+    """Names of the integrators that apply to every model (``model`` None) or to ``model``;
+    with ``kernel_only`` only the compiled row-sweep steppers."""
+    return tuple(
+        d.name for d in _REGISTRY.values()
+        if (not kernel_only or d.kernel)
+        and (d.applies_to is None if model is None else d.reason_not_applicable(model) is None)
+    )
+
+
+def describe(name: str) -> IntegratorDescription:
+    """The description of the integrator called ``name`` (aliases accepted)."""
+    return _REGISTRY[check_integrator_name(name)]
+
+
+def check_integrator_name(name: str, model: Model | None = None) -> str:
+    """Normalise an integrator name or raise a clear error listing the valid ones; with
+    ``model``, also refuse an integrator that does not apply to it (saying why)."""
+    key = str(name).strip().lower().replace("_", "-")
+    for description in _REGISTRY.values():
+        if key == description.name or key in description.aliases:
+            key = description.name
+            break
+    else:
         raise IntegratorError(
-            f"unknown integrator {name!r}; choose one of: {', '.join(INTEGRATORS)}"
+            f"unknown integrator {name!r}; choose one of: {', '.join(_REGISTRY)}"
         )
+    if model is not None:
+        reason = _REGISTRY[key].reason_not_applicable(model)
+        if reason is not None:
+            raise IntegratorError(f"{_REGISTRY[key].label} does not apply here: {reason}")
     return key
 
 
-@dataclasses.dataclass
-class KernelArguments:
-    """The model as the compiled kernels take it (None marks an absent term)."""
+class _LiveNames(Sequence[str]):
+    """Integrator names, always current: those that apply to every model, or (``every=True``)
+    every registered one."""
+
+    def __init__(self, every: bool = False) -> None:
+        self._every = every
+
+    def _names(self) -> tuple[str, ...]:
+        return tuple(_REGISTRY) if self._every else names()
+
+    def __getitem__(self, index):  # type: ignore[override]
+        return self._names()[index]
+
+    def __len__(self) -> int:
+        return len(self._names())
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+    def __repr__(self) -> str:
+        return repr(self._names())
+
+
+class _LiveField(Mapping[str, Any]):
+    """One field of every registered description, keyed by name, always current."""
+
+    def __init__(self, field: str) -> None:
+        self._field = field
+
+    def __getitem__(self, name: str) -> Any:
+        return getattr(_REGISTRY[name], self._field)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(tuple(_REGISTRY))
+
+    def __len__(self) -> int:
+        return len(_REGISTRY)
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+
+INTEGRATORS: Sequence[str] = _LiveNames()
+"""Names accepted for every model (``Simulation(integrator=...)``, the web app, the studies)."""
+ALL_INTEGRATORS: Sequence[str] = _LiveNames(every=True)
+"""Every registered name (the CLI's choices); some may apply to some models only."""
+LABELS: Mapping[str, str] = _LiveField("label")
+ORDERS: Mapping[str, int] = _LiveField("order")
+"""Order of accuracy of each integrator (global error ~ dt**order)."""
+FORCE_EVALUATIONS: Mapping[str, int] = _LiveField("force_evaluations")
+"""Force evaluations per step (the cost of a step)."""
+STABILITY_FACTORS: Mapping[str, float | None] = _LiveField("stability_factor")
+"""Largest stable omega_max * dt on an undamped lattice (None: no stable step)."""
+
+
+# --- amplification matrices of the integrators as implemented in sim.stepping --------------------
+
+
+def taylor_amplification(terms: int) -> AmplificationFunction:
+    """G = sum_{k <= terms} (dt A)^k / k! on z = (u, u'): explicit Euler (1), Heun (2) and RK4 (4)
+    reduce to this on a linear system."""
+
+    def amplification(omega_squared, damping_rate, dt: float) -> np.ndarray:
+        omega_squared = np.asarray(omega_squared, dtype=float)
+        count = omega_squared.shape[0]
+        system = np.zeros((count, 2, 2))
+        system[:, 0, 1] = 1.0
+        system[:, 1, 0] = -omega_squared
+        system[:, 1, 1] = -np.asarray(damping_rate, dtype=float)
+        step = dt * system
+        identity = np.broadcast_to(np.eye(2), step.shape)
+        result = identity.copy()
+        power = identity.copy()
+        for order in range(1, terms + 1):
+            power = power @ step / order
+            result = result + power
+        return result
+
+    return amplification
+
+
+def verlet_amplification(omega_squared, damping_rate, dt: float) -> np.ndarray:
+    """Velocity Verlet with the predicted velocity v + dt a in the damping force, on
+    z = (u, u', cached acceleration)."""
+    omega_squared = np.asarray(omega_squared, dtype=float)
+    beta = np.asarray(damping_rate, dtype=float)
+    count = omega_squared.shape[0]
+    h = dt
+    # v_pred = w + h a; w_half = w + h/2 a; u' = u + h w_half; a' = -omega^2 u' - beta v_pred;
+    # w' = w_half + h/2 a'
+    matrices = np.zeros((count, 3, 3))
+    u_new = np.stack([np.ones(count), np.full(count, h), np.full(count, h * h / 2)], axis=1)
+    v_pred = np.stack([np.zeros(count), np.ones(count), np.full(count, h)], axis=1)
+    a_new = -omega_squared[:, None] * u_new - beta[:, None] * v_pred
+    w_half = np.stack([np.zeros(count), np.ones(count), np.full(count, h / 2)], axis=1)
+    matrices[:, 0, :] = u_new
+    matrices[:, 1, :] = w_half + (h / 2) * a_new
+    matrices[:, 2, :] = a_new
+    return matrices
+
+
+# --- compiled kernel steppers --------------------------------------------------------------------
+
+
+class KernelArguments(NamedTuple):
+    """The model as the compiled kernels take it, in one precision (None marks an absent term).
+
+    ``inverse_mass`` (ny, nx) 1/kg; ``uniform_inverse_mass`` replaces it for equal masses;
+    ``parameters`` the spring constants; ``gravity`` (3,) m/s^2.
+    """
 
     linear: bool
     out_of_plane: object
     inverse_mass: np.ndarray
-    uniform_inverse_mass: float | None
-    parameters: tuple[float, float, float, float, float, float]
-    dashpot: float | None
-    drag: float | None
+    uniform_inverse_mass: np.floating | None
+    parameters: SpringParameters
+    dashpot: np.floating | None
+    drag: np.floating | None
     gravity: np.ndarray | None
 
     @classmethod
-    def from_model(cls, model: Model) -> KernelArguments:
-        origin_x, origin_y = model.origin
-        gravity = np.array(model.gravity, dtype=float) if model.has_gravity else None
+    def from_model(cls, model: Model, dtype: type[np.floating] = np.float64) -> KernelArguments:
+        scalar = np.dtype(dtype).type
         return cls(
             linear=model.linear,
             out_of_plane=None if model.dim == 2 else True,
-            inverse_mass=np.ascontiguousarray(model.inverse_masses),
+            inverse_mass=np.ascontiguousarray(model.inverse_masses, dtype=dtype),
             uniform_inverse_mass=(
-                float(model.inverse_masses.flat[0]) if model.uniform_mass else None
+                scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),
-            parameters=(
-                float(model.stiffness), float(model.rest_length), float(model.tension_stiffness),
-                float(model.spacing), float(origin_x), float(origin_y),
-            ),
-            dashpot=float(model.damping) if model.damping > 0 else None,
-            drag=float(model.drag) if model.drag > 0 else None,
-            gravity=gravity,
+            parameters=model.kernel_parameters.as_type(dtype),
+            dashpot=scalar(model.damping) if model.damping > 0 else None,
+            drag=scalar(model.drag) if model.drag > 0 else None,
+            gravity=np.array(model.gravity, dtype=dtype) if model.has_gravity else None,
         )
 
 
 class Integrator:
-    """Base class: ``advance(state, n, dt)`` moves the state n steps and returns nothing."""
+    """Base class of the compiled steppers: ``advance(state, n, dt)`` moves the state n steps.
+
+    ``dtype`` is the precision of the state and the arithmetic; ``threads`` the number of row
+    blocks the sweeps run on in parallel.
+    """
 
     name: ClassVar[str]
     work_arrays: ClassVar[int] = 1
     ring_rows: ClassVar[int | None] = None
     """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
 
-    def __init__(self, model: Model) -> None:
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         self.model = model
-        self.kernel = KernelArguments.from_model(model)
+        self.dtype = np.dtype(dtype).type
+        self.threads = int(threads)
+        self.kernel = KernelArguments.from_model(model, self.dtype)
         rows = model.ny if self.ring_rows is None else self.ring_rows
         shape = (model.dim, rows, model.nx)
-        self.work = [np.zeros(shape) for _ in range(self.work_arrays)]
+        self.work = [np.zeros(shape, dtype=self.dtype) for _ in range(self.work_arrays)]
 
     def invalidate(self) -> None:
         """The state was changed from outside (a drag, a reset): drop any cached forces."""
@@ -109,6 +303,9 @@ class Integrator:
             k.uniform_inverse_mass, k.parameters, k.dashpot, k.drag, k.gravity,
         )
 
+    def _dt(self, dt: float) -> np.floating:
+        return self.dtype(dt)
+
     def advance(self, state: State, n: int, dt: float) -> None:
         raise NotImplementedError
 
@@ -118,7 +315,7 @@ class Euler(Integrator):
     work_arrays = 0
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.euler_steps(n, dt, *self._common(state))
+        state.dissipated += stepping.euler_steps(n, self._dt(dt), *self._common(state))
         state.advance_clock(n, dt)
 
 
@@ -128,7 +325,7 @@ class Heun(Integrator):
     ring_rows = 2
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.heun_steps(n, dt, *self._common(state), *self.work)
+        state.dissipated += stepping.heun_steps(n, self._dt(dt), *self._common(state), *self.work)
         state.advance_clock(n, dt)
 
 
@@ -136,8 +333,8 @@ class Verlet(Integrator):
     name = "verlet"
     work_arrays = 2
 
-    def __init__(self, model: Model) -> None:
-        super().__init__(model)
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        super().__init__(model, dtype, threads)
         self._cached_for: tuple[int, float] | None = None
         self._power = 0.0
 
@@ -149,7 +346,7 @@ class Verlet(Integrator):
         if self._cached_for != stamp:
             self._power = stepping.accelerations(*self._common(state), self.work[0])
         dissipated, self._power = stepping.verlet_steps(
-            n, dt, *self._common(state), self.work[0], self._power, self.work[1]
+            n, self._dt(dt), *self._common(state), self.work[0], self._power, self.work[1]
         )
         state.dissipated += dissipated
         state.advance_clock(n, dt)
@@ -162,15 +359,53 @@ class RungeKutta4(Integrator):
     ring_rows = 4
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.rk4_steps(n, dt, *self._common(state), *self.work)
+        state.dissipated += stepping.rk4_steps(n, self._dt(dt), *self._common(state), *self.work)
         state.advance_clock(n, dt)
 
 
-_CLASSES: dict[str, type[Integrator]] = {
-    "euler": Euler, "heun": Heun, "verlet": Verlet, "rk4": RungeKutta4,
-}
+register(IntegratorDescription(
+    name="euler", label="explicit Euler", short_label="explicit Euler", order=1,
+    force_evaluations=1, stability_factor=None, stepper=Euler,
+    amplification=taylor_amplification(1),
+))
+register(IntegratorDescription(
+    name="heun", label="Heun (predictor-corrector)", short_label="Heun", order=2,
+    force_evaluations=2, stability_factor=None, stepper=Heun,
+    amplification=taylor_amplification(2),
+))
+register(IntegratorDescription(
+    name="verlet", label="velocity Verlet", short_label="velocity Verlet", order=2,
+    force_evaluations=1, stability_factor=2.0, stepper=Verlet,
+    amplification=verlet_amplification, symplectic=True,
+    aliases=("velocity-verlet",),
+))
+register(IntegratorDescription(
+    name="rk4", label="classic Runge-Kutta 4", short_label="RK4", order=4,
+    force_evaluations=4, stability_factor=2.0 * math.sqrt(2.0), stepper=RungeKutta4,
+    amplification=taylor_amplification(4), aliases=("runge-kutta",),
+))
 
 
-def make_integrator(name: str, model: Model) -> Integrator:
-    """Build the integrator called ``name`` (see ``INTEGRATORS``) for ``model``."""
-    return _CLASSES[check_integrator_name(name)](model)
+def check_precision(precision: Any) -> type[np.floating]:
+    """The numpy type of a precision name ("float64", "float32") or raise ``IntegratorError``."""
+    key = str(getattr(precision, "__name__", precision)).strip().lower()
+    if key not in PRECISIONS:
+        raise IntegratorError(
+            f"unknown precision {precision!r}; choose one of: {', '.join(PRECISIONS)}"
+        )
+    return PRECISIONS[key]
+
+
+def check_threads(threads: Any) -> int:
+    """A thread count: a whole number >= 1, or raise ``IntegratorError``."""
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise IntegratorError(f"threads must be a whole number >= 1, got {threads!r}")
+    return int(threads)
+
+
+def make_integrator(
+    name: str, model: Model, precision: str = "float64", threads: int = 1
+) -> Stepper:
+    """Build the stepper of the integrator called ``name`` for ``model`` in ``precision``."""
+    description = _REGISTRY[check_integrator_name(name, model)]
+    return description.stepper(model, check_precision(precision), check_threads(threads))

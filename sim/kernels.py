@@ -32,10 +32,33 @@ A spring squeezed to zero length exerts no force instead of producing NaN.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+class SpringParameters(NamedTuple):
+    """The spring constants as the kernels take them (a numba-friendly named tuple).
+
+    ``stiffness`` k (N/m), ``rest_length`` L (m), ``tension_stiffness`` T/a (N/m) of the
+    linearised law, ``spacing`` a (m), ``origin_x``/``origin_y`` rest position of particle (0, 0)
+    (m).  All fields have the precision of the state they are used with (``as_type``).
+    """
+
+    stiffness: float
+    rest_length: float
+    tension_stiffness: float
+    spacing: float
+    origin_x: float
+    origin_y: float
+
+    def as_type(self, dtype) -> SpringParameters:
+        """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
+        scalar = np.dtype(dtype).type
+        return SpringParameters(*(scalar(value) for value in self))
+
 
 # Below this length a spring has no defined direction; its force is taken as zero instead of NaN.
 _SMALLEST_LENGTH = 1e-12

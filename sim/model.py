@@ -234,6 +234,18 @@ class Model:
         """Stiffness across a spring in the linearised model, T / a (N/m)."""
         return self.tension / self.spacing
 
+    @cached_property
+    def kernel_parameters(self):
+        """The spring constants as the compiled kernels take them (``sim.kernels.SpringParameters``,
+        float64; ``.as_type(np.float32)`` for single precision), built once per model."""
+        from sim.kernels import SpringParameters
+
+        origin_x, origin_y = self.origin
+        return SpringParameters(
+            float(self.stiffness), float(self.rest_length), float(self.tension_stiffness),
+            float(self.spacing), float(origin_x), float(origin_y),
+        )
+
     @property
     def is_damped(self) -> bool:
         return self.damping > 0 or self.drag > 0

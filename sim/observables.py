@@ -136,16 +136,14 @@ def energy(model: Model, state: State) -> Energy:
 
 
 def _compiled_energy_terms(model: Model, state: State) -> tuple[float, float]:
-    from sim.integrators import KernelArguments
     from sim.kernels import energy_terms
 
-    arguments = KernelArguments.from_model(model)
     position, velocity = state.positions, state.velocities
     z = position[2] if model.dim == 3 else None
     vz = velocity[2] if model.dim == 3 else None
     kinetic, spring = energy_terms(
         position[0], position[1], z, velocity[0], velocity[1], vz, model.masses, model.linear,
-        arguments.parameters,
+        model.kernel_parameters,
     )
     return float(kinetic), float(spring)
 
@@ -318,36 +316,14 @@ def highest_frequency(model: Model) -> float:
 def amplification_matrices(integrator: str, omega_squared, damping_rate, dt: float) -> np.ndarray:
     """(n_modes, s, s) matrices G with z_{n+1} = G z_n when ``integrator`` (as implemented in
     ``sim.stepping``) integrates u'' + beta u' + omega^2 u = 0 with step ``dt``.  The state z is
-    (u, u') for one-step methods and (u, u', cached acceleration) for velocity Verlet."""
-    omega_squared = np.asarray(omega_squared, dtype=float)
-    beta = np.asarray(damping_rate, dtype=float)
-    count = omega_squared.shape[0]
-    if integrator == "verlet":
-        # v_pred = w + h a; w_half = w + h/2 a; u' = u + h w_half;
-        # a' = -omega^2 u' - beta v_pred; w' = w_half + h/2 a'
-        h = dt
-        matrices = np.zeros((count, 3, 3))
-        u_new = np.stack([np.ones(count), np.full(count, h), np.full(count, h * h / 2)], axis=1)
-        v_pred = np.stack([np.zeros(count), np.ones(count), np.full(count, h)], axis=1)
-        a_new = -omega_squared[:, None] * u_new - beta[:, None] * v_pred
-        w_half = np.stack([np.zeros(count), np.ones(count), np.full(count, h / 2)], axis=1)
-        matrices[:, 0, :] = u_new
-        matrices[:, 1, :] = w_half + (h / 2) * a_new
-        matrices[:, 2, :] = a_new
-        return matrices
-    system = np.zeros((count, 2, 2))
-    system[:, 0, 1] = 1.0
-    system[:, 1, 0] = -omega_squared
-    system[:, 1, 1] = -beta
-    step = dt * system
-    identity = np.broadcast_to(np.eye(2), step.shape)
-    terms = {"euler": 1, "heun": 2, "rk4": 4}[integrator]
-    result = identity.copy()
-    power = identity.copy()
-    for order in range(1, terms + 1):
-        power = power @ step / order
-        result = result + power
-    return result
+    (u, u') for one-step methods and (u, u', cached acceleration) for velocity Verlet; each
+    integrator's description (``sim.integrators``) carries its own."""
+    from sim.integrators import describe
+
+    amplification = describe(integrator).amplification
+    if amplification is None:
+        raise ValueError(f"{integrator} has no amplification matrices")
+    return amplification(omega_squared, damping_rate, dt)
 
 
 def _all_stable(integrator: str, mode_set: ModeSet, dt: float) -> bool:
@@ -382,19 +358,21 @@ def _stability_limit(model: Model, integrator: str) -> StabilityLimit:
         if buckling
         else ""
     )
-    name = {"euler": "explicit Euler", "heun": "Heun", "verlet": "velocity Verlet", "rk4": "RK4"}[
-        integrator
-    ]
-    if omega_max == 0.0:
-        return StabilityLimit(integrator, math.inf, 0.0, True, "no oscillating modes: any step")
-    if not model.is_damped:
-        if integrator in ("euler", "heun"):
+    from sim.integrators import describe
+
+    description = describe(integrator)
+    name = description.short_label
+    factor = description.stability_factor
+    if omega_max == 0.0 or factor == math.inf:
+        reason = "no oscillating modes" if omega_max == 0.0 else f"{name} is stable at any step"
+        return StabilityLimit(integrator, math.inf, omega_max, True, f"{reason}: any step")
+    if not model.is_damped or description.amplification is None:
+        if factor is None:
             return StabilityLimit(
                 integrator, None, omega_max, True,
                 f"{name} has no stable step on an undamped lattice: its energy grows at every dt "
                 f"(highest natural frequency {omega_max:.4g} rad/s).{note}",
             )
-        factor = 2.0 if integrator == "verlet" else 2.0 * math.sqrt(2.0)
         dt = factor / omega_max
         return StabilityLimit(
             integrator, dt, omega_max, True,

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.integrators import check_integrator_name
+from sim.integrators import check_integrator_name, check_precision
 from sim.model import Model, ModelError, _whole_number, check_size
 
 FORMAT_VERSION = 1
@@ -68,6 +68,8 @@ class Scene:
     duration: float = 20.0
     """Simulated seconds worth watching (the default length of `run` and `record`)."""
     initial_velocities: np.ndarray = None  # type: ignore[assignment]
+    precision: str = "float64"
+    """Floating-point precision of the simulation's state and kernels: "float64" or "float32"."""
 
     def __post_init__(self) -> None:
         shape = (self.model.n_particles, self.model.dim)
@@ -86,6 +88,10 @@ class Scene:
         object.__setattr__(self, "initial_positions", positions)
         object.__setattr__(self, "initial_velocities", velocities)
         object.__setattr__(self, "integrator", check_integrator_name(self.integrator))
+        try:
+            object.__setattr__(self, "precision", check_precision(self.precision).__name__)
+        except ValueError as error:
+            raise SceneError(str(error)) from None
         if not (math.isfinite(self.dt) and self.dt > 0):
             raise SceneError(f"dt must be a positive number of seconds, got {self.dt!r}")
         if not (math.isfinite(self.duration) and self.duration > 0):
@@ -232,7 +238,7 @@ OVERRIDES = (
     "nx", "ny", "spacing", "mass", "stiffness", "rest_length", "damping", "drag", "gravity",
     "linear", "dim",
 )
-"""Keywords accepted by ``build`` (plus ``integrator`` and ``dt``)."""
+"""Keywords accepted by ``build`` (plus ``integrator``, ``dt`` and ``precision``)."""
 
 
 def names() -> list[str]:
@@ -245,21 +251,23 @@ def build(name: str, **overrides: Any) -> Scene:
 
     Overrides: nx, ny, spacing, mass (scalar or (ny, nx) array), stiffness, rest_length
     (absolute, m), damping (dashpot coefficient), drag, gravity (vector, or a scalar meaning
-    downwards), linear (bool), dim (2 or 3), integrator, dt.  Invalid values raise ``ModelError``
+    downwards), linear (bool), dim (2 or 3), integrator, dt, precision ("float64" or
+    "float32").  Invalid values raise ``ModelError``
     or ``SceneError`` with a clear message.
     """
     if name not in PRESETS:
         raise SceneError(f"unknown scene {name!r}; choose one of: {', '.join(PRESETS)}")
     preset = PRESETS[name]
-    unknown = set(overrides) - set(OVERRIDES) - {"integrator", "dt"}
+    unknown = set(overrides) - set(OVERRIDES) - {"integrator", "dt", "precision"}
     if unknown:
         raise SceneError(
             f"unknown parameter(s) {', '.join(sorted(unknown))} for scene {name!r}; "
-            f"accepted: {', '.join(OVERRIDES + ('integrator', 'dt'))}"
+            f"accepted: {', '.join(OVERRIDES + ('integrator', 'dt', 'precision'))}"
         )
     parameters = dict(preset.parameters)
     integrator = overrides.pop("integrator", preset.integrator)
     dt = overrides.pop("dt", preset.dt)
+    precision = overrides.pop("precision", "float64")
     parameters.update(overrides)
     if "rest_length" in preset.parameters and "rest_length" not in overrides:
         # keep the preset's pre-tension ratio when only the spacing changes
@@ -277,7 +285,7 @@ def build(name: str, **overrides: Any) -> Scene:
     return Scene(
         name=name, model=model, description=preset.description, integrator=integrator,
         dt=dt_value, initial_positions=positions, initial_velocities=velocities,
-        duration=preset.duration,
+        duration=preset.duration, precision=precision,
     )
 
 
@@ -336,6 +344,7 @@ def _scene_text(scene: Scene, array_file_name: str) -> tuple[str, dict[str, np.n
         f"integrator = {_toml_value(scene.integrator)}",
         f"dt = {_toml_value(scene.dt)}",
         f"duration = {_toml_value(scene.duration)}",
+        f"precision = {_toml_value(scene.precision)}",
         "",
         "[model]",
         f"nx = {model.nx}",
@@ -693,6 +702,7 @@ def _scene_from_document(
             integrator=str(document.get("integrator", "rk4")),
             dt=dt, duration=duration, initial_positions=positions,
             initial_velocities=velocities,
+            precision=str(document.get("precision", "float64")),
         )
     except (ValueError, TypeError, OverflowError) as error:
         raise SceneError(f"{label}: {error}") from None
@@ -704,6 +714,7 @@ def scene_from_simulation(simulation: Any, name: str | None = None) -> Scene:
         name=name or simulation.scene.name, model=simulation.model,
         description=simulation.scene.description, integrator=simulation.integrator,
         dt=simulation.dt, duration=simulation.scene.duration,
+        precision=getattr(simulation, "precision", "float64"),
         initial_positions=simulation.state.particle_positions().copy(),
         initial_velocities=simulation.state.particle_velocities().copy(),
     )

@@ -19,7 +19,13 @@ from typing import Any
 import numpy as np
 
 from sim import observables
-from sim.integrators import LABELS, check_integrator_name, make_integrator
+from sim.integrators import (
+    LABELS,
+    check_integrator_name,
+    check_precision,
+    check_threads,
+    make_integrator,
+)
 from sim.model import Model, ModelError
 from sim.state import State
 
@@ -68,7 +74,8 @@ def _check_dt(dt: Any) -> float:
 class Simulation:
     """A running lattice.  See the module docstring for an example.
 
-    ``positions`` / ``velocities`` are (n_particles, dim) float64 views that may be written into
+    ``positions`` / ``velocities`` are (n_particles, dim) views (float64, or float32 with
+    ``precision="float32"``) that may be written into
     (particle p = j * nx + i); ``time`` in seconds; ``energy()``, ``strains()``, ``stable_dt()``.
     Parameters change mid-run through ``set_parameters`` / ``set_masses``; the integrator and dt
     through the ``integrator`` and ``dt`` properties.  Nothing is lost by any of these changes.
@@ -77,7 +84,8 @@ class Simulation:
     chunk_steps = 64
 
     def __init__(
-        self, scene: Any, integrator: str | None = None, dt: float | None = None
+        self, scene: Any, integrator: str | None = None, dt: float | None = None,
+        precision: str | None = None, threads: int = 1,
     ) -> None:
         from sim.scenes import Scene
 
@@ -87,12 +95,14 @@ class Simulation:
             raise TypeError(f"Simulation needs a sim.scenes.Scene or a sim.Model, got {scene!r}")
         self.scene = scene
         self._model = scene.model
-        self._integrator_name = check_integrator_name(integrator or scene.integrator)
+        self._integrator_name = check_integrator_name(integrator or scene.integrator, self._model)
         self._dt = _check_dt(dt if dt is not None else scene.dt)
+        self._precision = check_precision(precision or getattr(scene, "precision", "float64"))
+        self._threads = check_threads(threads)
         self.state = State.from_particle_arrays(
-            self._model, scene.initial_positions, scene.initial_velocities
+            self._model, scene.initial_positions, scene.initial_velocities, self._precision
         )
-        self._integrator = make_integrator(self._integrator_name, self._model)
+        self._integrator = self._make_integrator()
         self._stability_cache: dict[str, observables.StabilityLimit] = {}
         self._reference_energy: float | None = None
         self._balance_reference: tuple[float, float] | None = None
@@ -161,8 +171,43 @@ class Simulation:
 
     @integrator.setter
     def integrator(self, name: str) -> None:
-        self._integrator_name = check_integrator_name(name)
-        self._integrator = make_integrator(self._integrator_name, self._model)
+        self._integrator_name = check_integrator_name(name, self._model)
+        self._integrator = self._make_integrator()
+
+    def _make_integrator(self):
+        return make_integrator(
+            self._integrator_name, self._model, self._precision.__name__, self._threads
+        )
+
+    @property
+    def precision(self) -> str:
+        """"float64" or "float32": the precision of the state and the kernels' arithmetic
+        (energies are summed in float64 either way).  Setting it converts the state, so
+        ``positions`` / ``velocities`` views taken before refer to the old arrays."""
+        return self._precision.__name__
+
+    @precision.setter
+    def precision(self, value: str) -> None:
+        dtype = check_precision(value)
+        if dtype is self._precision:
+            return
+        self._precision = dtype
+        self.state = self.state.as_type(dtype)
+        self.state.revision += 1
+        self._checkpoint = self.state.copy()
+        self._integrator = self._make_integrator()
+        self._reference_energy = None
+
+    @property
+    def threads(self) -> int:
+        """Threads the compiled sweeps run on (row blocks); results equal one thread's to
+        round-off (see ``docs/api.md``)."""
+        return self._threads
+
+    @threads.setter
+    def threads(self, value: int) -> None:
+        self._threads = check_threads(value)
+        self._integrator = self._make_integrator()
 
     @property
     def dt(self) -> float:
@@ -187,7 +232,7 @@ class Simulation:
 
     def _set_model(self, model: Model) -> None:
         self._model = model
-        self._integrator = make_integrator(self._integrator_name, model)
+        self._integrator = self._make_integrator()
         self._stability_cache.clear()
         self._reference_energy = None
         self._balance_reference = None
@@ -195,7 +240,8 @@ class Simulation:
     def reset(self) -> None:
         """Back to the scene's initial state (time 0) with the current parameters."""
         fresh = State.from_particle_arrays(
-            self._model, self.scene.initial_positions, self.scene.initial_velocities
+            self._model, self.scene.initial_positions, self.scene.initial_velocities,
+            self._precision,
         )
         self.state.restore(fresh)
         self.state.time = 0.0
@@ -258,7 +304,7 @@ class Simulation:
 
     def stability(self, integrator: str | None = None) -> observables.StabilityLimit:
         """Stability limit of an integrator (default: the current one) with an explanation."""
-        name = check_integrator_name(integrator or self._integrator_name)
+        name = check_integrator_name(integrator or self._integrator_name, self._model)
         if name not in self._stability_cache:
             self._stability_cache[name] = observables.stability_limit(self._model, name)
         return self._stability_cache[name]
@@ -292,7 +338,8 @@ class Simulation:
 
     def _save_checkpoint(self) -> None:
         """Copy the state into the preallocated checkpoint (no allocation per chunk)."""
-        if self._checkpoint.positions.shape != self.state.positions.shape:
+        if (self._checkpoint.positions.shape != self.state.positions.shape
+                or self._checkpoint.positions.dtype != self.state.positions.dtype):
             self._checkpoint = self.state.copy()
             return
         np.copyto(self._checkpoint.positions, self.state.positions)

@@ -1,6 +1,7 @@
 """The mutable state of a simulation: positions, velocities, time, and energy dissipated so far.
 
-Arrays are stored component-major, ``(dim, ny, nx)`` C-contiguous (what the kernels want); the
+Arrays are stored component-major, ``(dim, ny, nx)`` C-contiguous (what the kernels want), in
+float64 or float32 (the simulation's precision); the
 particle-major ``(n_particles, dim)`` arrays that users see are views of the same memory, so
 writing into them moves the particles.
 """
@@ -30,20 +31,29 @@ class State:
     revision: int = 0
 
     @classmethod
-    def at_rest(cls, model: Model) -> State:
-        """The rest lattice, not moving."""
-        positions = np.array(model.rest_positions.T.reshape(model.dim, model.ny, model.nx), order="C")
+    def at_rest(cls, model: Model, dtype: type[np.floating] = np.float64) -> State:
+        """The rest lattice, not moving, stored in ``dtype`` (np.float64 or np.float32)."""
+        positions = np.array(
+            model.rest_positions.T.reshape(model.dim, model.ny, model.nx), order="C", dtype=dtype
+        )
         return cls(positions=positions, velocities=np.zeros_like(positions))
 
     @classmethod
     def from_particle_arrays(
-        cls, model: Model, positions: np.ndarray, velocities: np.ndarray
+        cls, model: Model, positions: np.ndarray, velocities: np.ndarray,
+        dtype: type[np.floating] = np.float64,
     ) -> State:
-        """Build from (n_particles, dim) arrays."""
-        state = cls.at_rest(model)
+        """Build from (n_particles, dim) arrays, stored in ``dtype``."""
+        state = cls.at_rest(model, dtype)
         state.particle_positions()[...] = positions
         state.particle_velocities()[...] = velocities
         return state
+
+    def as_type(self, dtype: type[np.floating]) -> State:
+        """A copy of this state stored in ``dtype`` (positions rounded to its precision)."""
+        return dataclasses.replace(
+            self, positions=self.positions.astype(dtype), velocities=self.velocities.astype(dtype)
+        )
 
     def copy(self) -> State:
         return dataclasses.replace(
