@@ -10,7 +10,9 @@ The physics knows nothing of any viewer.  Main entry points::
 
 Modules: ``model`` (immutable lattice description), ``state`` (positions, velocities, time),
 ``kernels`` and ``stepping`` (numba code), ``integrators``, ``observables``, ``simulation``,
-``scenes`` (presets and files), ``runner`` (the loop that viewers and recorders subscribe to).
+``scenes`` (presets and files), ``modes`` (normal modes), ``exact`` (the normal-mode solver
+for linear scenes), ``prediction`` (errors predicted before running), ``runner`` (the loop
+that viewers and recorders subscribe to).
 """
 
 # first: configures numba's target before anything is compiled
@@ -21,9 +23,10 @@ from sim.model import Model, ModelError
 from sim.observables import Energy, StabilityLimit
 from sim.scenes import Scene, SceneError
 from sim.simulation import BlowUpError, Simulation
+from sim import exact  # registers the "exact" integrator for linear scenes
 from sim.state import State
 
 __all__ = [
     "WIDE_VECTORS", "INTEGRATORS", "ORDERS", "BlowUpError", "Energy", "IntegratorError", "Model",
-    "ModelError", "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "scenes",
+    "ModelError", "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "exact", "scenes",
 ]

@@ -21,7 +21,7 @@ grid            12x8 lattice (Fig. 2), one particle near the centre displaced
 ionic           12x8 checkerboard of heavy (4 kg) and light (1 kg) particles (Fig. 7)
 catenary        15x10 under gravity with dashpots, settling into catenaries (Fig. 8)
 interference    682x383, the middle particles of the left and right boundaries displaced in
-                opposite directions, RK4, pre-tensioned (Figs. 10-14)
+                opposite directions, velocity Verlet, pre-tensioned (Figs. 10-14)
 membrane        24x24 drum skin in 3-D, pre-tensioned, a bump pushed out of the plane
 =============== ================================================================================
 """
@@ -216,7 +216,10 @@ PRESETS: dict[str, Preset] = {
             "interference", "The paper's continuum-limit run (Figs. 10-14): 682x383 = 261,206 "
             "particles, the middle particles of the left and right boundaries displaced in "
             "opposite directions; pre-tension (L = 0.8 a) lets the disturbance spread in 2-D.",
-            dict(nx=682, ny=383, stiffness=PAPER_STIFFNESS, rest_length=0.8), "rk4", 0.05,
+            # velocity Verlet at dt = 0.02 s keeps the energy balance within 1 % over 150 s at
+            # less cost than RK4 at 0.05 s, which loses 60 % of the energy by numerical damping
+            # of the short waves (README, "Speed against accuracy")
+            dict(nx=682, ny=383, stiffness=PAPER_STIFFNESS, rest_length=0.8), "verlet", 0.02,
             _displace(
                 lambda m: [
                     (_index(m, 0, m.ny // 2), (0.0, 0.5 * m.spacing)),
