@@ -1,14 +1,20 @@
-"""``oscillators bench``: steps per second of the numba integrators against plain numpy.
+"""``oscillators bench``: steps per second of the compiled integrators, against plain numpy and
+against hand-written C kernels, with what each specialisation buys measured separately.
 
-For each integrator it times, in one run on the same state:
+All figures come from one run on one host (the host, its vector width and the thread counts are
+printed beside them and included in ``--json``):
 
-* the compiled step loop alone (``Integrator.advance``),
-* ``Simulation.step`` (the loop plus the blow-up check after each chunk),
-* the same step written in plain vectorised numpy (``sim.reference``),
-
-and prints steps per second and the ratio kernel / numpy.  It also measures what the scene flags
-buy: the undamped planar kernel against the general kernel forced to carry zero-valued damping,
-drag and gravity terms (the code a scene would run if the flags did not pick a specialised one).
+* every kernel integrator, float64, one thread: the compiled loop alone
+  (``Integrator.advance``), ``Simulation.step`` (the loop plus the blow-up check after each chunk)
+  and the same step in plain vectorised numpy (``sim.reference``);
+* velocity Verlet and RK4 in float64 and float32 on 1 and N threads, each with its ratio to the C
+  reference (``app.c_reference``: gcc -O3 -march=native -ffast-math; the C leapfrog in the same
+  precision and thread count for Verlet, the C fused RK4 in float64 on one thread for RK4).  The
+  ratio uses ``Simulation.step``, which includes the blow-up checks.  Without a C compiler the
+  ratios are skipped with a note;
+* specialisation, one effect at a time, each against the kernel the scene actually runs: zero
+  damping, drag and gravity terms compiled in; a (ny, nx) 1/m array instead of the scalar one;
+  the 3-D kernel with z = 0 instead of the planar one.
 
 Timing is the best of many short bursts, which keeps the numbers meaningful on a machine that is
 busy with other work; the load average is printed beside them.
@@ -57,33 +63,56 @@ def _numpy_rate(model, integrator: str, positions, velocities, dt: float, second
     return _best_rate(run, 1, seconds)
 
 
-def measure(scene_name: str = "interference", overrides: dict | None = None,
-            seconds: float = 2.0) -> dict:
-    """Run the benchmark and return the numbers (steps per second, ratios)."""
-    import sim
-    from sim import stepping
-    from sim.integrators import KernelArguments
+def _cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as cpuinfo:
+            for line in cpuinfo:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
 
-    scene = sim.scenes.build(scene_name, **(overrides or {}))
-    simulation = sim.Simulation(scene)
-    simulation.step(2)
-    results: dict = {
-        "scene": scene_name,
-        "lattice": f"{scene.model.nx}x{scene.model.ny}",
-        "particles": scene.model.n_particles,
-        "machine": f"{platform.machine()}, {os.cpu_count()} cores, python {platform.python_version()}",
+
+def host_description() -> dict:
+    """The machine the numbers belong to."""
+    import numba
+
+    from sim import _vector_width
+
+    return {
+        "cpu": _cpu_name(),
+        "machine": platform.machine(),
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "numba": numba.__version__,
+        "vector_width_bits": _vector_width.vector_width_bits(),
         "load_average": os.getloadavg()[0],
-        "integrators": {},
     }
-    for integrator in sim.INTEGRATORS:
+
+
+_BURSTS = {"euler": 20, "heun": 10, "verlet": 100, "rk4": 20}
+
+
+def _burst(integrator: str) -> int:
+    return _BURSTS.get(integrator, 10)
+
+
+def _integrator_table(scene, seconds: float) -> dict:
+    """Every kernel integrator in float64 on one thread: loop, Simulation.step, numpy."""
+    import sim
+    from sim.integrators import describe, names
+
+    simulation = sim.Simulation(scene)
+    table = {}
+    for integrator in names(scene.model, kernel_only=True):
         simulation.reset()
         simulation.integrator = integrator
-        simulation.dt = scene.dt
-        if integrator in ("euler", "heun"):
-            simulation.dt = scene.dt / 10  # keep the unstable methods finite while timing
+        # explicit Euler and Heun gain energy at every dt: a smaller step keeps them finite while
+        # timing, and each burst starts from the scene's initial state
+        unstable = describe(integrator).stability_factor is None
+        simulation.dt = scene.dt / 10 if unstable else scene.dt
         simulation.step(1)
-        burst = {"euler": 20, "heun": 10, "verlet": 100, "rk4": 20}[integrator]
-        unstable = integrator in ("euler", "heun")
 
         def kernel(steps: int, simulation=simulation) -> None:
             simulation._integrator.advance(simulation.state, steps, simulation.dt)
@@ -91,56 +120,153 @@ def measure(scene_name: str = "interference", overrides: dict | None = None,
         def checked(steps: int, simulation=simulation) -> None:
             simulation.step(steps)
 
-        # Euler and Heun gain energy at every dt: start each burst from the scene's initial
-        # state so that long measurements never reach a blow-up
         prepare = simulation.reset if unstable else None
-        kernel_rate = _best_rate(kernel, burst, seconds, prepare=prepare)
-        checked_rate = _best_rate(checked, burst, seconds, prepare=prepare)
+        kernel_rate = _best_rate(kernel, _burst(integrator), seconds, prepare=prepare)
+        checked_rate = _best_rate(checked, _burst(integrator), seconds, prepare=prepare)
         numpy_rate = _numpy_rate(
-            scene.model, integrator, simulation.state.positions, simulation.state.velocities,
-            simulation.dt, seconds / 2,
+            scene.model, integrator, simulation.state.positions.astype(float),
+            simulation.state.velocities.astype(float), simulation.dt, seconds / 2,
         )
-        results["integrators"][integrator] = {
+        table[integrator] = {
             "kernel_steps_per_second": kernel_rate,
             "simulation_steps_per_second": checked_rate,
             "numpy_steps_per_second": numpy_rate,
             "speedup_over_numpy": kernel_rate / numpy_rate,
         }
+    return table
 
-    # what specialisation buys: the same undamped scene through the general kernel
+
+def _configurations(scene, seconds: float, thread_counts: list[int], c_reference) -> list[dict]:
+    """Verlet and RK4 in float64/float32 on each thread count, with the C ratio."""
+    import sim
+
+    model = scene.model
+    rows = []
+    c_rates: dict[tuple, float] = {}
+    for integrator in ("verlet", "rk4"):
+        for precision in ("float64", "float32"):
+            for threads in thread_counts:
+                simulation = sim.Simulation(
+                    scene, integrator=integrator, precision=precision, threads=threads
+                )
+                simulation.step(2)
+
+                def kernel(steps: int, simulation=simulation) -> None:
+                    simulation._integrator.advance(simulation.state, steps, simulation.dt)
+
+                def checked(steps: int, simulation=simulation) -> None:
+                    simulation.step(steps)
+
+                kernel_rate = _best_rate(kernel, _burst(integrator), seconds)
+                checked_rate = _best_rate(checked, _burst(integrator), seconds)
+                row = {
+                    "integrator": integrator, "precision": precision, "threads": threads,
+                    "kernel_steps_per_second": kernel_rate,
+                    "simulation_steps_per_second": checked_rate,
+                }
+                if c_reference is not None:
+                    dtype = np.float32 if precision == "float32" else np.float64
+                    key = ((integrator, np.dtype(dtype).name, threads) if integrator == "verlet"
+                           else ("rk4", "float64", 1))
+                    if key not in c_rates:
+                        run = c_reference.step_function(
+                            key[0], model.nx, model.ny, np.dtype(key[1]).type, key[2]
+                        )
+                        c_rates[key] = _best_rate(run, _burst(integrator), seconds)
+                    row["c_reference"] = c_reference.describe(key[0], np.dtype(key[1]).type, key[2])
+                    row["c_steps_per_second"] = c_rates[key]
+                    row["ratio_to_c"] = checked_rate / c_rates[key]
+                rows.append(row)
+    return rows
+
+
+def _specialisation(scene, seconds: float) -> dict | None:
+    """What each of the scene's specialisations buys, measured one at a time on RK4 and Verlet."""
+    import sim
+    from sim import stepping
+    from sim.integrators import KernelArguments
+
     model = scene.model
     arguments = KernelArguments.from_model(model)
+    if not (arguments.dashpot is None and arguments.drag is None and arguments.gravity is None
+            and arguments.uniform_inverse_mass is not None and model.dim == 2):
+        return None  # the scene already runs the general kernel
     state = sim.State.from_particle_arrays(model, scene.initial_positions, scene.initial_velocities)
-    work = [np.zeros((model.dim, 4, model.nx)) for _ in range(4)]
-    general = (0.0, 0.0, np.zeros(3))
+    planar = (state.positions, state.velocities)
+    volume = (np.concatenate([state.positions, np.zeros((1, model.ny, model.nx))]),
+              np.concatenate([state.velocities, np.zeros((1, model.ny, model.nx))]))
+    zero_terms = (0.0, 0.0, np.zeros(3))
+    variants = {
+        "specialised": dict(out_of_plane=None, arrays=planar, mass=arguments.uniform_inverse_mass,
+                            terms=(None, None, None)),
+        "zero_damping_drag_gravity": dict(out_of_plane=None, arrays=planar,
+                                          mass=arguments.uniform_inverse_mass, terms=zero_terms),
+        "inverse_mass_array": dict(out_of_plane=None, arrays=planar, mass=None,
+                                   terms=(None, None, None)),
+        "three_dimensional": dict(out_of_plane=True, arrays=volume,
+                                  mass=arguments.uniform_inverse_mass, terms=(None, None, None)),
+    }
+    results: dict = {}
+    for integrator in ("rk4", "verlet"):
+        rates = {}
+        for variant, setup in variants.items():
+            position, velocity = (a.copy() for a in setup["arrays"])
+            dim = position.shape[0]
+            common = (arguments.linear, setup["out_of_plane"], position, velocity,
+                      arguments.inverse_mass, setup["mass"], arguments.parameters, *setup["terms"])
+            if integrator == "rk4":
+                work = [np.zeros((dim, 4, model.nx)) for _ in range(4)]
 
-    def specialised(steps: int) -> None:
-        stepping.rk4_steps(steps, scene.dt, arguments.linear, arguments.out_of_plane,
-                           state.positions, state.velocities, arguments.inverse_mass,
-                           arguments.uniform_inverse_mass, arguments.parameters,
-                           arguments.dashpot, arguments.drag,
-                           arguments.gravity, *work)
+                def run(steps: int, common=common, work=work) -> None:
+                    stepping.rk4_steps(steps, scene.dt, *common, *work)
+            else:
+                acceleration = np.zeros_like(position)
+                predicted = np.zeros_like(position)
+                power = stepping.accelerations(*common, acceleration)
 
-    def unspecialised(steps: int) -> None:
-        stepping.rk4_steps(steps, scene.dt, arguments.linear, arguments.out_of_plane,
-                           state.positions, state.velocities, arguments.inverse_mass,
-                           None, arguments.parameters, *general, *work)
+                def run(steps: int, common=common, acceleration=acceleration,
+                        predicted=predicted, power=power) -> None:
+                    stepping.verlet_steps(steps, scene.dt, *common, acceleration, power, predicted)
 
-    if arguments.dashpot is None and arguments.drag is None and arguments.gravity is None:
-        specialised_rate = _best_rate(specialised, 5, seconds)
-        general_rate = _best_rate(unspecialised, 5, seconds)
-        results["specialisation"] = {
-            "integrator": "rk4",
-            "specialised_steps_per_second": specialised_rate,
-            "general_steps_per_second": general_rate,
-            "gain": specialised_rate / general_rate,
+            rates[variant] = _best_rate(run, _burst(integrator), seconds)
+        base = rates["specialised"]
+        results[integrator] = {
+            "steps_per_second": rates,
+            "gain": {variant: base / rate for variant, rate in rates.items() if variant != "specialised"},
         }
     return results
 
 
+def measure(scene_name: str = "interference", overrides: dict | None = None,
+            seconds: float = 2.0, threads: int | None = None, c_reference: bool = True) -> dict:
+    """Run the benchmark and return the numbers (steps per second, ratios, host)."""
+    import sim
+    from app import c_reference as c_module
+
+    scene = sim.scenes.build(scene_name, **(overrides or {}))
+    most = threads if threads is not None else min(2, os.cpu_count() or 1)
+    thread_counts = sorted({1, most})
+    reference, note = c_module.load() if c_reference else (None, "C reference not requested")
+    return {
+        "scene": scene_name,
+        "lattice": f"{scene.model.nx}x{scene.model.ny}",
+        "particles": scene.model.n_particles,
+        "host": host_description(),
+        "threads": thread_counts,
+        "c_reference_note": note,
+        "integrators": _integrator_table(scene, seconds),
+        "configurations": _configurations(scene, seconds, thread_counts, reference),
+        "specialisation": _specialisation(scene, seconds),
+    }
+
+
 def print_table(results: dict) -> None:
-    print(f"scene {results['scene']} ({results['lattice']} = {results['particles']:,} particles), "
-          f"float64, one thread; {results['machine']}; load average {results['load_average']:.1f}")
+    host = results["host"]
+    print(f"scene {results['scene']} ({results['lattice']} = {results['particles']:,} particles)")
+    print(f"host: {host['cpu']}, {host['machine']}, {host['cores']} cores, "
+          f"{host['vector_width_bits']}-bit vectors, python {host['python']}, numba {host['numba']}, "
+          f"load average {host['load_average']:.1f}")
+    print("\nfloat64, one thread")
     header = f"{'integrator':10s} {'kernel steps/s':>15s} {'Simulation.step':>16s} " \
              f"{'numpy steps/s':>14s} {'kernel/numpy':>13s}"
     print(header)
@@ -149,17 +275,40 @@ def print_table(results: dict) -> None:
         print(f"{name:10s} {row['kernel_steps_per_second']:15.1f} "
               f"{row['simulation_steps_per_second']:16.1f} {row['numpy_steps_per_second']:14.2f} "
               f"{row['speedup_over_numpy']:12.1f}x")
-    if "specialisation" in results:
-        row = results["specialisation"]
-        print(f"\nscene flags pick a specialised kernel: RK4 {row['specialised_steps_per_second']:.1f} "
-              f"steps/s without damping/drag/gravity terms, {row['general_steps_per_second']:.1f} "
-              f"with them present but zero ({row['gain']:.2f}x)")
+    print(f"\nprecision and threads (ratio to C = Simulation.step / C kernel; "
+          f"threads measured: {', '.join(map(str, results['threads']))})")
+    header = f"{'integrator':10s} {'precision':9s} {'threads':>7s} {'kernel steps/s':>15s} " \
+             f"{'Simulation.step':>16s} {'C steps/s':>10s} {'ratio to C':>11s}  C kernel"
+    print(header)
+    print("-" * len(header))
+    for row in results["configurations"]:
+        c_rate = f"{row['c_steps_per_second']:10.1f}" if "c_steps_per_second" in row else f"{'-':>10s}"
+        ratio = f"{row['ratio_to_c']:10.2f}x" if "ratio_to_c" in row else f"{'-':>11s}"
+        print(f"{row['integrator']:10s} {row['precision']:9s} {row['threads']:7d} "
+              f"{row['kernel_steps_per_second']:15.1f} {row['simulation_steps_per_second']:16.1f} "
+              f"{c_rate} {ratio}  {row.get('c_reference', '')}")
+    if results["c_reference_note"]:
+        print(f"note: {results['c_reference_note']}")
+    specialisation = results.get("specialisation")
+    if specialisation:
+        print("\nscene flags pick a specialised kernel; each effect alone (specialised steps/s over "
+              "the variant's):")
+        for integrator, row in specialisation.items():
+            rates, gains = row["steps_per_second"], row["gain"]
+            print(f"  {integrator:6s} specialised {rates['specialised']:.1f} steps/s; "
+                  f"zero damping/drag/gravity terms {gains['zero_damping_drag_gravity']:.2f}x, "
+                  f"1/m array instead of scalar {gains['inverse_mass_array']:.2f}x, "
+                  f"3-D kernel with z = 0 {gains['three_dimensional']:.2f}x")
 
 
 def main(arguments: argparse.Namespace) -> int:
     from app.cli import parse_overrides
 
-    results = measure(arguments.scene, parse_overrides(arguments.overrides), arguments.seconds)
+    results = measure(
+        arguments.scene, parse_overrides(arguments.overrides), arguments.seconds,
+        threads=getattr(arguments, "threads", None),
+        c_reference=not getattr(arguments, "no_c", False),
+    )
     if arguments.json:
         print(json.dumps(results, indent=2))
     else:

@@ -41,3 +41,17 @@ def enable_wide_vectors() -> bool:
 
 
 WIDE_VECTORS = enable_wide_vectors()
+
+
+def vector_width_bits() -> int:
+    """Width of the vectors the compiled kernels use on this host: 512 with AVX-512 (when enabled
+    above), 256 with AVX/AVX2, else 128."""
+    if WIDE_VECTORS:
+        return 512
+    try:
+        import llvmlite.binding as llvm
+
+        features = set(llvm.get_host_cpu_features().flatten().split(","))
+    except Exception:
+        return 128
+    return 256 if "+avx2" in features or "+avx" in features else 128
