@@ -190,6 +190,21 @@ def _matrix_power_apply(matrices: np.ndarray, power: int, vectors: np.ndarray) -
     return result
 
 
+def energy_in_play(model: Model, energy: object) -> float:
+    """The energy in play (J) of a state with this energy account: its kinetic and spring energy
+    (above the rest lattice) plus what gravity releases as the lattice sags from rest to its
+    equilibrium (1/2 f.K^-1 f of the linearised lattice; without tension across the pull, the
+    weight times the lattice's size).  The denominator of the energy-balance error."""
+    from sim.modes import gravity_release_energy
+
+    scale = max(float(energy.kinetic), 0.0) + max(float(energy.spring), 0.0)  # type: ignore[attr-defined]
+    release = gravity_release_energy(model)
+    if math.isfinite(release):
+        return scale + release
+    weight = float(model.masses.sum()) * float(np.linalg.norm(model.gravity))
+    return scale + weight * (max(model.nx, model.ny) + 1) * model.spacing
+
+
 def predictor_for(simulation: object) -> Predictor:
     """A ``Predictor`` for a ``sim.Simulation``'s current state and energy scale."""
     state = simulation.state  # type: ignore[attr-defined]
@@ -198,3 +213,13 @@ def predictor_for(simulation: object) -> Predictor:
         state.particle_positions(), state.particle_velocities(),
         simulation.energy_scale(),  # type: ignore[attr-defined]
     )
+
+
+def predictor_for_scene(model: Model, positions: np.ndarray, velocities: np.ndarray) -> Predictor:
+    """A ``Predictor`` for ``model`` started from (positions, velocities) ((n, dim) m, m/s), e.g.
+    a scene's initial state with the parameters a user has changed since."""
+    from sim.observables import energy
+    from sim.state import State
+
+    state = State.from_particle_arrays(model, positions, velocities)
+    return Predictor(model, positions, velocities, energy_in_play(model, energy(model, state)))

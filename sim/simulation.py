@@ -286,17 +286,10 @@ class Simulation:
         return self._balance_reference[1]
 
     def _balance_now(self) -> tuple[float, float]:
-        from sim.modes import gravity_release_energy
+        from sim.prediction import energy_in_play
 
         energy = self.energy()
-        scale = max(energy.kinetic, 0.0) + max(energy.spring, 0.0)
-        release = gravity_release_energy(self._model)
-        if math.isfinite(release):
-            scale += release
-        else:  # no small sag (no tension across the pull): the work of gravity over the lattice
-            weight = float(self._model.masses.sum()) * float(np.linalg.norm(self._model.gravity))
-            scale += weight * (max(self._model.nx, self._model.ny) + 1) * self._model.spacing
-        return energy.balance, scale
+        return energy.balance, energy_in_play(self._model, energy)
 
     def strains(self) -> np.ndarray:
         """(n_springs,) strain of every spring, in ``model.springs`` order."""

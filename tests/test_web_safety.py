@@ -354,3 +354,50 @@ def test_double_click_on_record_and_stopping_the_server_leave_valid_recordings(f
     assert len({path.name for path in files}) == len(files)
     for path in files:
         assert read_chunks(path)  # rerun reads every file back
+
+
+# --- accuracy in the page ---------------------------------------------------------------------------
+
+
+def test_the_page_shows_the_energy_balance_error_and_explains_it(web_app):
+    panel = web_app.panel
+    accuracy = panel.accuracy
+    send(panel.integrator, "euler")
+    send(panel.dt, 0.02)
+    web_app.runner.play()
+    assert wait_for(lambda: "energy-balance error" in accuracy.live.content
+                    and "#c0392b" in accuracy.live.content)  # far above 1 %: red
+    web_app.runner.pause()
+    assert accuracy.why.visible and "adds energy" in accuracy.why.content
+    assert wait_for(lambda: "predicted" in accuracy.predicted.content)
+    assert "euler at dt = 0.02" in accuracy.predicted.content
+
+
+def test_choose_for_me_sets_a_run_that_meets_the_tolerance(web_app):
+    panel = web_app.panel
+    accuracy = panel.accuracy
+    send(accuracy.tolerance, 0.1)  # %
+    press(accuracy.choose_button)
+    assert "chose" in accuracy.message.content, accuracy.message.content
+    settle(web_app)
+    simulation = web_app.runner.simulation
+    run = sim.Simulation(simulation.scene, integrator=simulation.integrator, dt=simulation.dt)
+    run.step(int(round(simulation.scene.duration / simulation.dt)))
+    assert abs(run.energy_balance_error()) <= 1e-3
+
+
+def test_linearised_springs_offer_the_exact_solver(web_app):
+    panel = web_app.panel
+    assert "exact" not in panel.integrator.options
+    send(panel.linear, True)
+    settle(web_app)
+    assert wait_for(lambda: "exact" in panel.integrator.options)
+    send(panel.integrator, "exact")
+    settle(web_app)
+    assert web_app.runner.simulation.integrator == "exact"
+    web_app.runner.play()
+    assert wait_for(lambda: web_app.runner.simulation.step_count > 20)
+    web_app.runner.pause()
+    settle(web_app)
+    assert abs(web_app.runner.simulation.energy_balance_error()) < 1e-12
+    assert wait_for(lambda: "no time-step error" in panel.accuracy.predicted.content)

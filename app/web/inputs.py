@@ -2,17 +2,22 @@
 
 A browser's min/max are hints, not limits: a page (or anything speaking viser's protocol) can send
 any number, NaN or infinity included, and any string for a dropdown.  The panel passes every value
-through these functions before it becomes a command; a bad one raises ``InputRefused`` with a
+through these functions before it becomes a command (and ``from_user`` keeps callbacks from
+acting on values the server assigned itself); a bad one raises ``InputRefused`` with a
 message for the page, and nothing changes.  Text shown in the page goes through ``as_html`` so a
 name or an error message is always shown as text, never as markup.
 """
 
 from __future__ import annotations
 
+import functools
 import html
+import inspect
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
+
+import viser
 
 
 class InputRefused(ValueError):
@@ -49,6 +54,29 @@ def choice(value: Any, name: str, options: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in options:
         raise InputRefused(f"{name} must be one of {', '.join(options)}; got {value!r}")
     return value
+
+
+def from_user(function: Callable[[viser.GuiEvent], Any]) -> Callable[[viser.GuiEvent], Any]:
+    """Run ``function`` only for events a browser sent (``event.client`` set); viser also calls
+    ``on_update`` when the server itself assigns a value, and those must not post commands.
+    Keeps ``function`` async (ordered on viser's event loop) or sync (its thread pool)."""
+    if inspect.iscoroutinefunction(function):
+
+        @functools.wraps(function)
+        async def wrapper_async(event: viser.GuiEvent) -> Any:
+            if event.client is None:
+                return None
+            return await function(event)
+
+        return wrapper_async
+
+    @functools.wraps(function)
+    def wrapper(event: viser.GuiEvent) -> Any:
+        if event.client is None:
+            return None
+        return function(event)
+
+    return wrapper
 
 
 def as_html(text: str, color: str | None = None, bold: bool = False) -> str:

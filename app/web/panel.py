@@ -17,8 +17,6 @@ The panel does not import the app; it talks to it through the ``PanelHost`` prot
 from __future__ import annotations
 
 import collections
-import functools
-import inspect
 import math
 import time
 from collections.abc import Callable
@@ -29,12 +27,14 @@ import numpy as np
 import viser
 
 import sim
+from app.web.accuracy import AccuracyFolder
 from app.web.control import MASS_PATTERNS, MAX_STEPS_PER_FRAME, LatticeRunner, SimulationControl
 from app.web.inputs import (
     InputRefused,
     amber_html,
     as_html,
     choice,
+    from_user,
     number,
     ok_html,
     warning_html,
@@ -86,29 +86,6 @@ class PanelHost(Protocol):
                       timeout: float = 120.0) -> sim.Simulation: ...
 
 
-def from_user(function: Callable[[viser.GuiEvent], Any]) -> Callable[[viser.GuiEvent], Any]:
-    """Run ``function`` only for events a browser sent (``event.client`` set); viser also calls
-    ``on_update`` when the server itself assigns a value, and those must not post commands.
-    Keeps ``function`` async (ordered on viser's event loop) or sync (its thread pool)."""
-    if inspect.iscoroutinefunction(function):
-
-        @functools.wraps(function)
-        async def wrapper_async(event: viser.GuiEvent) -> Any:
-            if event.client is None:
-                return None
-            return await function(event)
-
-        return wrapper_async
-
-    @functools.wraps(function)
-    def wrapper(event: viser.GuiEvent) -> Any:
-        if event.client is None:
-            return None
-        return function(event)
-
-    return wrapper
-
-
 def _file_name(name: str) -> str:
     """A harmless download name from a scene name."""
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)[:60] or "scene"
@@ -154,6 +131,7 @@ class ControlPanel:
         self._build_run_folder()
         self._build_scene_folder(simulation)
         self._build_integrator_folder(simulation)
+        self.accuracy = AccuracyFolder(app, self.gui)
         self._build_physics_folder(model)
         self._build_selection_folder()
         self._build_view_folder()
@@ -336,8 +314,10 @@ class ControlPanel:
         gui = self.gui
         with gui.add_folder("Integrator"):
             self.integrator = gui.add_dropdown(
-                "Method", list(sim.INTEGRATORS), initial_value=simulation.integrator,
-                hint="euler (1st order), heun (2nd), verlet (symplectic 2nd), rk4 (4th)",
+                "Method", sim.integrators.names(simulation.model),
+                initial_value=simulation.integrator,
+                hint="euler (1st order), heun (2nd), verlet (symplectic 2nd), rk4 (4th); "
+                "exact (the normal-mode solution, no time-step error) for linearised springs",
             )
             self.dt = gui.add_number("Time step dt (s)", simulation.dt, min=1e-6, max=MAX_DT,
                                      step=1e-4)
@@ -352,7 +332,8 @@ class ControlPanel:
         @from_user
         async def _(_: viser.GuiEvent) -> None:
             try:
-                name = choice(self.integrator.value, "integrator", list(sim.INTEGRATORS))
+                name = choice(self.integrator.value, "integrator",
+                              sim.integrators.names(self.app.runner.simulation.model))
             except InputRefused as error:
                 self._say(self.integrator_message, error)
                 self.integrator.value = self.app.runner.simulation.integrator
@@ -639,6 +620,37 @@ class ControlPanel:
             )
             self.study_text = gui.add_html("")
             self.study_image = gui.add_image(np.full((8, 8, 3), 255, np.uint8), visible=False)
+            self.study_full_size = gui.add_button(
+                "Open the picture full size", icon=viser.Icon.ARROWS_MAXIMIZE, visible=False)
+            self.study_apply = gui.add_button(
+                "Apply the recommendation", icon=viser.Icon.CHECK, visible=False,
+                hint="switch to the recommended integrator and dt")
+        self._study_picture: np.ndarray | None = None
+        self._recommendation: tuple[str, float] | None = None
+
+        @self.study_full_size.on_click
+        @from_user
+        def _(event: viser.GuiEvent) -> None:
+            picture = self._study_picture
+            if picture is None or event.client is None:
+                return
+            with event.client.gui.add_modal("Speed against accuracy on this scene") as modal:
+                event.client.gui.add_image(picture, label="error against wall time")
+                event.client.gui.add_button("Close").on_click(lambda _: modal.close())
+
+        @self.study_apply.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            if self._recommendation is None:
+                return
+            integrator, dt = self._recommendation
+            try:
+                self.control.set_integrator(integrator).result(timeout=30)
+                self.control.set_dt(dt).result(timeout=30)
+            except ERROR_TYPES as error:
+                self._say(self.study_text, error, "could not apply")
+                return
+            self.study_text.content = ok_html(f"now running {integrator} at dt = {dt:.4g} s")
 
         @self.study_button.on_click
         @from_user
@@ -684,10 +696,21 @@ class ControlPanel:
             picture = Path(folder) / "work_precision.png"
             plot_work_precision(study, str(picture))
             image = imageio.imread(picture)
-        self.study_image.image = np.ascontiguousarray(image[..., :3])
+        self._study_picture = np.ascontiguousarray(image[..., :3])
+        self.study_image.image = self._study_picture
         self.study_image.visible = True
-        self.study_text.content = as_html(f"Recommendation: {study.recommendation.reason}",
-                                          bold=True)
+        self.study_full_size.visible = True
+        recommendation = study.recommendation
+        if recommendation.integrator is not None and recommendation.dt is not None:
+            self._recommendation = (recommendation.integrator, float(recommendation.dt))
+            self.study_apply.visible = True
+        else:
+            self._recommendation = None
+            self.study_apply.visible = False
+        self.study_text.content = as_html(
+            f"Recommendation: {recommendation.reason}. Wall times are of one whole run of each "
+            f"configuration from the scene's state to T = {study.until:.4g} s of simulated time "
+            "(compilation excluded).", bold=True)
 
     def _build_energy_plot(self) -> None:
         gui = self.gui
@@ -735,7 +758,9 @@ class ControlPanel:
         model = simulation.model
         scene = simulation.scene
         self._clear_history()
+        self.accuracy.clear()
         self._stability_key = None
+        self.integrator.options = sim.integrators.names(model)
         if scene.name in sim.scenes.names():
             self.preset.value = scene.name
         self.nx.value, self.ny.value = model.nx, model.ny
@@ -797,6 +822,7 @@ class ControlPanel:
         self._update_stability(frame)
         self._update_error(frame)
         self._update_part_failures()
+        self.accuracy.update(frame, now)
         if now - self._last_status > 0.5:
             started, steps = self._status_steps
             taken = self.app.runner.steps_taken
@@ -836,6 +862,11 @@ class ControlPanel:
         key = (id(frame.model), frame.integrator)
         if key != self._stability_key:
             self._stability_key = key
+            applicable = sim.integrators.names(frame.model)
+            if tuple(self.integrator.options) != tuple(applicable):
+                self.integrator.options = applicable  # e.g. exact once springs are linearised
+            if self.integrator.value != frame.integrator:
+                self.integrator.value = frame.integrator  # shows what runs (posts nothing)
             future = self.app.runner.post(lambda simulation: simulation.stability())
 
             def done(result: Any) -> None:

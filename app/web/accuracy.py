@@ -1,0 +1,224 @@
+"""The page's "Accuracy" folder: what the current speed costs, live and before running.
+
+* **Live**: the relative energy-balance error of the running state (``Frame.energy_balance_error``,
+  0 for the exact dynamics) as a number and its own plot; amber above the tolerance, red above ten
+  times it, with a sentence saying why it happens for this integrator and what to do.
+* **Predicted**: the energy and phase error that the current integrator and dt will have after
+  the scene's duration, from the normal modes of the scene's initial state (``sim.prediction``),
+  computed in a background thread whenever the model, integrator or dt changes.
+* **Choose for me**: the cheapest integrator and dt (force evaluations per simulated second)
+  whose predicted error meets the tolerance; applied as ordinary commands.
+
+Like the rest of the panel, callbacks act only on events a browser sent (``from_user``) and
+check the values they get.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import threading
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import viser
+
+import sim
+from app.web.inputs import (
+    InputRefused,
+    amber_html,
+    as_html,
+    from_user,
+    number,
+    ok_html,
+    warning_html,
+)
+from sim.runner import Frame
+
+if TYPE_CHECKING:
+    from app.web.panel import PanelHost
+
+HISTORY = 600
+"""Points kept in the error plot."""
+DEFAULT_TOLERANCE = 0.01
+"""Relative energy-balance error (1 %) above which the page warns."""
+
+
+def explanation(integrator: str, error: float, exact_available: bool) -> str:
+    """Why the energy balance drifts for this integrator, and what to do, in plain words."""
+    remedies = ["a smaller dt"]
+    if integrator != "verlet":
+        remedies.append("velocity Verlet")
+    if exact_available and integrator != "exact":
+        remedies.append("the exact solver (this scene has linearised springs)")
+    remedy = "Try " + ", or ".join(remedies) + " (Choose for me picks the cheapest)."
+    if integrator == "euler":
+        why = ("Explicit Euler adds energy at every step (each mode by 1 + (ω·dt)² per step): "
+               "the motion grows without bound at any dt.")
+    elif integrator == "verlet":
+        why = ("Velocity Verlet keeps a nearby energy exactly, so its error stays bounded, but "
+               "short waves travel at the wrong speed (phase error); the error shown is that "
+               "wobble.")
+    elif integrator in ("rk4", "heun") and error < 0:
+        why = (f"{sim.integrators.LABELS.get(integrator, integrator)} damps the short waves "
+               "numerically: energy leaks away although nothing in the physics removes it.")
+    elif integrator == "heun":
+        why = "Heun's method slowly adds energy to every mode (by 1 + (ω·dt)⁴/4 per step)."
+    else:
+        why = "The integrator does not conserve the energy at this dt."
+    return f"{why} {remedy}"
+
+
+class AccuracyFolder:
+    """Builds the folder in ``host``'s GUI; ``update(frame)`` for every frame drawn."""
+
+    def __init__(self, host: PanelHost, gui: Any) -> None:
+        self.host = host
+        self.control = host.control
+        self._times: collections.deque[float] = collections.deque(maxlen=HISTORY)
+        self._errors: collections.deque[float] = collections.deque(maxlen=HISTORY)
+        self._prediction_key: tuple | None = None
+        self._prediction_text = ""
+        self._predictors: dict[int, Any] = {}
+        self._predicting = threading.Lock()
+        self._last_plot = 0.0
+        with gui.add_folder("Accuracy"):
+            self.live = gui.add_html("")
+            self.why = gui.add_html("", visible=False)
+            empty = np.zeros(1)
+            self.plot = gui.add_uplot(
+                data=(empty, empty),
+                series=({"label": "t (s)"},
+                        {"label": "energy-balance error (%)", "stroke": "#c0392b", "width": 1.5}),
+                scales={"x": {"time": False}}, aspect=2.2,
+            )
+            self.predicted = gui.add_html("")
+            self.tolerance = gui.add_number(
+                "Tolerance (%)", DEFAULT_TOLERANCE * 100, min=1e-6, max=100.0, step=0.1,
+                hint="energy-balance error allowed over the scene's duration",
+            )
+            self.choose_button = gui.add_button(
+                "Choose for me", icon=viser.Icon.WAND,
+                hint="set the cheapest integrator and dt whose predicted error meets the "
+                "tolerance (cost: force evaluations per simulated second)",
+            )
+            self.message = gui.add_html("")
+
+        @self.tolerance.on_update
+        @from_user
+        async def _(_: viser.GuiEvent) -> None:
+            try:
+                number(self.tolerance.value, "tolerance (%)", 0.0, 100.0, low_open=True)
+            except InputRefused as error:
+                self.message.content = warning_html(f"refused: {error}")
+                return
+            self.message.content = ""
+
+        @self.choose_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:  # thread pool: the prediction may take a moment
+            try:
+                tolerance = self.tolerance_value()
+                self.message.content = as_html("predicting…")
+                choice = self.choose(tolerance)
+            except (InputRefused, sim.ModelError, ValueError) as error:
+                self.message.content = warning_html(f"could not choose: {error}")
+                return
+            if choice is None:
+                self.message.content = warning_html(
+                    f"nothing meets {tolerance:.3g} at a stable dt; loosen the tolerance")
+                return
+            self.control.set_integrator(choice.integrator).result(timeout=30)
+            self.control.set_dt(choice.dt).result(timeout=30)
+            self.message.content = ok_html(f"chose {choice.describe()}")
+
+    # --- values -------------------------------------------------------------------------------
+
+    def tolerance_value(self) -> float:
+        return number(self.tolerance.value, "tolerance (%)", 0.0, 100.0, low_open=True) / 100
+
+    def _predictor(self, simulation: sim.Simulation) -> Any:
+        """The scene's initial state in the current model's modes (cached per model)."""
+        from sim.prediction import predictor_for_scene
+
+        key = id(simulation.model)
+        if key not in self._predictors:
+            self._predictors = {key: predictor_for_scene(
+                simulation.model, np.asarray(simulation.scene.initial_positions),
+                np.asarray(simulation.scene.initial_velocities))}
+        return self._predictors[key]
+
+    def choose(self, tolerance: float) -> Any:
+        """The cheapest (integrator, dt) predicted to meet ``tolerance`` over the duration."""
+        runner = self.host.runner
+
+        def limits(simulation: sim.Simulation) -> tuple[sim.Simulation, dict[str, float | None]]:
+            return simulation, {name: simulation.stable_dt(name) for name in sim.INTEGRATORS}
+
+        simulation, stable = runner.post(limits).result(timeout=60)
+        return self._predictor(simulation).choose(tolerance, simulation.scene.duration, stable)
+
+    # --- keeping in step ----------------------------------------------------------------------
+
+    def clear(self) -> None:
+        self._times.clear()
+        self._errors.clear()
+        self._prediction_key = None
+
+    def update(self, frame: Frame, now: float) -> None:
+        if self._times and frame.time < self._times[-1]:
+            self.clear()
+        error = frame.energy_balance_error
+        if not self._times or frame.time > self._times[-1]:
+            self._times.append(frame.time)
+            self._errors.append(100.0 * error)
+        try:
+            tolerance = self.tolerance_value()
+        except InputRefused:
+            tolerance = DEFAULT_TOLERANCE
+        text = f"energy-balance error {error:+.3%} (tolerance {tolerance:.3g})"
+        size = abs(error) if math.isfinite(error) else math.inf
+        if size > 10 * tolerance:
+            live = warning_html(text)
+        elif size > tolerance:
+            live = amber_html(text)
+        else:
+            live = ok_html(text)
+        if self.live.content != live:
+            self.live.content = live
+        if size > tolerance:
+            exact = self.host.runner.simulation.model.linear
+            why = as_html(explanation(frame.integrator, error, exact))
+            if self.why.content != why:
+                self.why.content = why
+            self.why.visible = True
+        elif self.why.visible:
+            self.why.visible = False
+        if now - self._last_plot > 0.25 and len(self._times) > 1:
+            self._last_plot = now
+            self.plot.data = (np.array(self._times), np.array(self._errors))
+        self._update_prediction(frame)
+
+    def _update_prediction(self, frame: Frame) -> None:
+        key = (id(frame.model), frame.integrator, frame.dt)
+        if key == self._prediction_key or self._predicting.locked():
+            return
+        self._prediction_key = key
+        simulation = self.host.runner.simulation
+        if frame.integrator == "exact":
+            self.predicted.content = ok_html("exact solver: no time-step error at any dt")
+            return
+
+        def work() -> None:
+            with self._predicting:
+                try:
+                    prediction = self._predictor(simulation).predict(
+                        frame.integrator, frame.dt, simulation.scene.duration)
+                    text = "predicted: " + prediction.describe()
+                    tolerance = self.tolerance_value()
+                    good = prediction.stable and abs(prediction.energy_error) <= tolerance
+                    self.predicted.content = ok_html(text) if good else amber_html(text)
+                except Exception as error:  # a prediction that cannot be made says why
+                    self.predicted.content = as_html(f"no prediction: {error}")
+
+        threading.Thread(target=work, name="web-prediction", daemon=True).start()
