@@ -245,14 +245,23 @@ def simulation_from_arguments(arguments: argparse.Namespace):
 
 
 def command_scenes(arguments: argparse.Namespace) -> int:
-    from sim import scenes
+    from sim import Simulation, scenes
+    from sim.prediction import predictor_for
 
     for name in scenes.names():
         scene = scenes.build(name)
+        simulation = Simulation(scene)
+        prediction = predictor_for(simulation).predict(scene.integrator, scene.dt, scene.duration)
+        accuracy = f"predicted energy-balance error {prediction.energy_error:+.2%}"
+        if arguments.measure:
+            simulation.step(prediction.steps)
+            accuracy += f", measured {simulation.energy_balance_error():+.2%}"
         print(f"{name:13s} {scene.description}")
         print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s, "
-              f"{scene.duration:g} s worth watching")
-    print("\noverride any parameter with --set key=value; see `oscillators run --help`.")
+              f"{scene.duration:g} s worth watching; {accuracy} over that time")
+    print("\nthe predicted error comes from the linearised lattice's normal modes (exact for "
+          "linear scenes); --measure runs each preset to check it.")
+    print("override any parameter with --set key=value; see `oscillators run --help`.")
     return 0
 
 
@@ -326,7 +335,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    scenes_parser = subparsers.add_parser("scenes", help="list the preset scenes")
+    scenes_parser = subparsers.add_parser(
+        "scenes", help="list the preset scenes",
+        description="The presets, their parameters, default integrator and dt, and the energy-"
+        "balance error those defaults give over the scene's duration.",
+    )
+    scenes_parser.add_argument("--measure", action="store_true",
+                               help="also run every preset for its duration and print the "
+                               "measured error (about 15 s, the 682x383 lattice included)")
     scenes_parser.set_defaults(handler=command_scenes)
 
     run_parser = subparsers.add_parser(

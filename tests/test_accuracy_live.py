@@ -219,3 +219,30 @@ def test_exact_interference_agrees_with_fine_rk4_to_its_error():
     difference = np.abs(fine.positions - exact.positions).max()
     rk4_error = np.abs(coarse.positions - fine.positions).max() / 15  # Richardson, order 4
     assert difference <= 2 * rk4_error + 1e-12
+
+
+def test_accuracy_command_writes_its_picture_by_default_and_says_where(tmp_path, monkeypatch,
+                                                                       capsys):
+    from app.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    status = main(["accuracy", "chain", "--set", "linear=true", "--integrators", "rk4",
+                   "--dts", "0.02", "--until", "1", "--quiet"])
+    assert status == 0
+    picture = tmp_path / "chain-work-precision.png"
+    assert picture.stat().st_size > 10_000
+    assert str(picture) in capsys.readouterr().out
+
+
+def test_run_reports_the_energy_balance_error(capsys):
+    import json
+
+    from app.cli import main
+
+    assert main(["run", "single", "--set", "linear=true", "--integrator", "euler", "--dt", "0.02",
+                 "--steps", "200", "--quiet", "--json"]) == 0
+    output = capsys.readouterr().out
+    summary = json.loads(output[output.index("{"):])
+    simulation, omega = single_particle("euler", 0.02)
+    assert summary["energy_balance_error"] == pytest.approx((1 + (omega * 0.02) ** 2) ** 200 - 1,
+                                                             rel=1e-9)

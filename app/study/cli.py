@@ -129,6 +129,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     accuracy.add_argument("--no-refine", action="store_true",
                           help="do not run the dt predicted to just meet the tolerance")
     _add_output_arguments(accuracy)
+    accuracy.add_argument("--no-plot", action="store_true",
+                          help="do not save the picture (by default it goes to "
+                          "SCENE-work-precision.png here, or to --plot)")
     accuracy.set_defaults(handler=command_accuracy)
 
     stability = subparsers.add_parser(
@@ -251,7 +254,7 @@ def _emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> Non
     else:
         print(text)
         if arguments.plot:
-            print(f"picture saved to {arguments.plot}")
+            print(f"picture saved to {Path(arguments.plot).resolve()}")
 
 
 def command_accuracy(arguments: argparse.Namespace) -> int:
@@ -264,8 +267,12 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
         plot_work_precision,
     )
 
-    _check_plot_path(arguments)
     scene = scene_from_arguments(arguments)
+    if arguments.no_plot:
+        arguments.plot = None
+    elif not arguments.plot:
+        arguments.plot = f"{Path(scene.name).stem or 'scene'}-work-precision.png"
+    _check_plot_path(arguments)
     if arguments.integrator and not arguments.integrators:
         arguments.integrators = [arguments.integrator]
     integrators = arguments.integrators or list(sim.INTEGRATORS)
@@ -284,9 +291,11 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
             progress=_advance(bar),
         )
         bar.total = bar.n
+    data = study.as_dict()
     if arguments.plot:
         plot_work_precision(study, arguments.plot)
-    _emit(arguments, study.as_dict(), format_report(study))
+        data["picture"] = str(Path(arguments.plot).resolve())
+    _emit(arguments, data, format_report(study))
     return 0
 
 
