@@ -152,6 +152,11 @@ def exact_modes(omega_squared: np.ndarray, damping_rate: np.ndarray, q0: np.ndar
     """(q, q') at ``time`` of independent oscillators q'' + beta q' + omega^2 q = 0 started at
     (q0, v0): under-, critically and over-damped cases, written so that none divides by zero."""
     beta = np.asarray(damping_rate, float)
+    omega_squared = np.asarray(omega_squared, float)
+    if not beta.any() and omega_squared.min(initial=1.0) > 0.0:  # undamped: the common case
+        omega = np.sqrt(omega_squared)
+        cosine, sine = np.cos(omega * time), np.sin(omega * time)
+        return q0 * cosine + v0 * (sine / omega), v0 * cosine - q0 * (omega * sine)
     half = 0.5 * beta
     discriminant = np.asarray(omega_squared, float) - half**2
     decay = np.exp(-half * time)
