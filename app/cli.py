@@ -252,10 +252,10 @@ def command_scenes(arguments: argparse.Namespace) -> int:
         scene = scenes.build(name)
         simulation = Simulation(scene)
         prediction = predictor_for(simulation).predict(scene.integrator, scene.dt, scene.duration)
-        accuracy = f"predicted energy-balance error {prediction.energy_error:+.2%}"
+        accuracy = f"predicted energy-balance error {100 * prediction.energy_error:+.2g} %"
         if arguments.measure:
             simulation.step(prediction.steps)
-            accuracy += f", measured {simulation.energy_balance_error():+.2%}"
+            accuracy += f", measured {100 * simulation.energy_balance_error():+.2g} %"
         print(f"{name:13s} {scene.description}")
         print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s, "
               f"{scene.duration:g} s worth watching; {accuracy} over that time")
