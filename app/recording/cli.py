@@ -20,17 +20,20 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from app.recording.explain import RunInfo, command_line
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.recorder import (
     DETAIL_LIMIT,
-    QUANTITIES,
     Recorder,
     RecordingError,
     RecordingOptions,
 )
+from app.recording.scales import QUANTITIES
 
 MAX_DEFAULT_FRAMES = 1000
 """Frames a recording gets by default (--every is chosen to stay within it)."""
+SIZE_BUDGET_BYTES = 8e6
+"""Default --every also keeps the estimated file size within this (all trees together)."""
 
 EPILOG = f"""examples:
   oscillators record grid                                  # -> recordings/grid.rrd, the scene's 20 s
@@ -40,12 +43,18 @@ EPILOG = f"""examples:
   oscillators record interference                          # 150 s: the fronts meet; H.264 field
   oscillators record interference --steps 200 --field raw  # lossless float32 field
   oscillators record interference --field jpeg --positions 50 --quantity speed
+  oscillators record membrane --exaggerate 20              # heights drawn 20x (default: ~8 % of the width)
   oscillators record grid --set nx=40 --set ny=30 --set damping=0.5
 
-what is logged: lattices of up to {DETAIL_LIMIT} particles get every particle and every spring
-(coloured by strain) each recorded frame; larger ones get the displacement (or speed) of every
-particle as one image per frame (--field), positions only with --positions, no springs.
-Energies, dt and the integrator are logged every frame in every mode.
+what is logged: planar lattices of up to {DETAIL_LIMIT} particles get every particle and every
+spring (coloured by strain) each recorded frame; 3-D ones a surface through the particles coloured
+by height; larger ones the signed displacement (or |u|, or speed) of every particle as one image
+per frame (--field), positions only with --positions, no springs. Energies, the energy-balance
+error, dt and the integrator are logged every frame in every mode. Colour scales are fixed from a
+short look-ahead run, so frames are comparable; the "read me" document in the file lists the
+scene's parameters with units, the initial displacement, the run and how to read each view.
+By default a frame is recorded every K steps so that there are at most {MAX_DEFAULT_FRAMES} frames
+and the file stays under about {SIZE_BUDGET_BYTES / 1e6:.0f} MB (sizes in MB = 10^6 bytes).
 
 open a recording with the viewer of the same version:
   pip install rerun-sdk==0.41.0 && rerun recordings/grid.rrd
@@ -84,7 +93,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--every", type=positive_int, metavar="K",
         help=f"record a frame every K steps (default: every step, or every K-th for at most "
-        f"{MAX_DEFAULT_FRAMES} frames)",
+        f"{MAX_DEFAULT_FRAMES} frames and about {SIZE_BUDGET_BYTES / 1e6:.0f} MB)",
     )
     parser.add_argument(
         "--field", choices=("auto", "none", *FIELD_MODES), default="auto",
@@ -94,11 +103,18 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--quantity", choices=QUANTITIES, default="displacement",
-        help="what the field image shows: displacement |x - x_rest| (m) or speed |v| (m/s)",
+        help="what the field image shows: displacement (the signed component the scene is "
+        "displaced along, m; blue negative, red positive), magnitude |x - x_rest| (m) or "
+        "speed |v| (m/s)",
     )
     parser.add_argument(
         "--field-scale", type=positive_float, metavar="VALUE",
-        help="field value at the top of the colour map (default: adapts to the run)",
+        help="field value at the end of the colour map (default: fixed from a look-ahead run)",
+    )
+    parser.add_argument(
+        "--exaggerate", type=positive_float, metavar="FACTOR",
+        help="3-D scenes: draw heights FACTOR times larger (default: the typical height shows "
+        "as about 8 %% of the lattice width)",
     )
     parser.add_argument(
         "--raw-dtype", choices=("float32", "float16"), default="float32",
@@ -209,6 +225,15 @@ def _integrators(text: str | None) -> list[str]:
     return names
 
 
+def default_every(steps: int, runs: int, options: RecordingOptions, model: Any) -> int:
+    """Steps between recorded frames: at most MAX_DEFAULT_FRAMES frames, and an estimated file
+    of at most SIZE_BUDGET_BYTES for ``runs`` trees together."""
+    per_frame = options.plan(model).estimated_bytes_per_frame(model, options.jpeg_quality)
+    by_count = math.ceil(steps / MAX_DEFAULT_FRAMES)
+    by_size = math.ceil(steps * runs * per_frame / SIZE_BUDGET_BYTES)
+    return max(1, by_count, by_size)
+
+
 def command_record(arguments: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -228,8 +253,6 @@ def command_record(arguments: argparse.Namespace) -> int:
     dt = first.dt
     steps = planned_steps(first, steps=arguments.steps, duration=arguments.duration,
                           runs=len(simulations))
-    if arguments.every is None:
-        arguments.every = max(1, math.ceil(steps / MAX_DEFAULT_FRAMES))
     output = arguments.output or Path("recordings") / (
         f"{scene.name}-compare.rrd" if compare else f"{scene.name}.rrd"
     )
@@ -237,8 +260,10 @@ def command_record(arguments: argparse.Namespace) -> int:
     options = RecordingOptions(
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
         positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,
-        raw_dtype=arguments.raw_dtype,
+        raw_dtype=arguments.raw_dtype, exaggeration=arguments.exaggerate, frame_interval=0.0,
     )
+    if arguments.every is None:
+        arguments.every = default_every(steps, len(simulations), options, scene.model)
     if arguments.field == "auto" and scene.model.n_particles > DETAIL_LIMIT:
         if not video_available():
             print("note: PyAV not installed, recording the field as JPEG (pip install av for "
@@ -249,6 +274,7 @@ def command_record(arguments: argparse.Namespace) -> int:
         recorder = Recorder(
             output, scene, options=options, trees=trees, expected_frames=frames,
             integrator=", ".join(names), dt=dt, overwrite=arguments.force,
+            run=RunInfo(steps=steps, every=arguments.every, command=command_line()),
         )
     except RecordingError as error:
         print(f"error: {error}", file=sys.stderr)
@@ -305,7 +331,7 @@ def command_record(arguments: argparse.Namespace) -> int:
                 return 2
     elapsed = time.perf_counter() - started
     size = path.stat().st_size
-    print(f"wrote {path} ({size / 2**20:.1f} MB, {recorder.frames_logged} frames, "
+    print(f"wrote {path} ({size / 1e6:.1f} MB, {recorder.frames_logged} frames, "
           f"{elapsed:.1f} s, {recorder.logging_seconds:.1f} s of it recording); "
           f"open it with: rerun {path}")
     return status

@@ -3,10 +3,12 @@
 A lattice of ``nx`` by ``ny`` particles becomes an image of ``ny`` rows by ``nx`` columns whose
 pixel (row r, column c) is particle ``(i=c, j=ny-1-r)``: the image is the lattice seen from the
 front, top row first (image rows run downwards, lattice rows upwards).  The quantity is the
-displacement magnitude ``|x - x_rest|`` (m) or the speed ``|v|`` (m/s) of every particle.
+signed displacement component ``u_axis`` (m, diverging colour map from -scale to +scale), the
+displacement magnitude ``|x - x_rest|`` (m) or the speed ``|v|`` (m/s) of every particle (0 to
+scale), see ``app.recording.scales``.
 
-Three encodings, one class each, all with ``log(stream, entity, field)`` for a ``(ny, nx)`` float
-array (the caller sets the time first) and ``finish(stream, entity)`` at the end:
+Three encodings, one class each, all with ``log(stream, entity, field, scale)`` for a
+``(ny, nx)`` float array (the caller sets the time first) and ``finish(stream, entity)`` at the end:
 
 * ``JpegField``: colour-mapped RGB, JPEG-compressed (``rr.EncodedImage``), ~30 kB a frame;
 * ``VideoField``: colour-mapped, H.264 through PyAV into ``rr.VideoStream``, a few kB a frame;
@@ -24,8 +26,9 @@ from typing import Protocol
 import numpy as np
 import rerun as rr
 
+from app.recording import style
+
 FIELD_MODES = ("jpeg", "video", "raw")
-COLORMAP = "inferno"
 
 
 def video_available() -> bool:
@@ -37,24 +40,17 @@ def video_available() -> bool:
     return "libx264" in av.codecs_available
 
 
-def colour_table(name: str = COLORMAP) -> np.ndarray:
-    """(256, 3) uint8 RGB lookup table of a matplotlib colour map."""
-    from matplotlib import colormaps
-
-    table = colormaps[name](np.linspace(0.0, 1.0, 256))[:, :3]
-    return np.round(table * 255).astype(np.uint8)
-
-
 def lattice_image(values: np.ndarray, nx: int, ny: int) -> np.ndarray:
     """(n_particles,) per-particle values -> (ny, nx) image, top lattice row first."""
     return np.flipud(values.reshape(ny, nx))
 
 
-def colour_map(field: np.ndarray, scale: float, table: np.ndarray) -> np.ndarray:
-    """(ny, nx) values in [0, scale] -> (ny, nx, 3) uint8 RGB (values above scale saturate)."""
-    indices = np.multiply(field, 255.0 / scale, dtype=np.float32)
-    np.clip(indices, 0.0, 255.0, out=indices)
-    return table[indices.astype(np.uint8)]
+def colour_map(field: np.ndarray, scale: float, signed: bool) -> np.ndarray:
+    """(ny, nx) values -> (ny, nx, 3) uint8 RGB: signed ones on ``style.SIGNED_FIELD`` from -scale
+    to +scale, magnitudes on ``style.MAGNITUDE`` from 0 to scale (saturating beyond)."""
+    if signed:
+        return style.map_values(field, -scale, scale, style.colour_table(style.SIGNED_FIELD))
+    return style.map_values(field, 0.0, scale, style.colour_table(style.MAGNITUDE))
 
 
 class FieldEncoder(Protocol):
@@ -68,15 +64,15 @@ class FieldEncoder(Protocol):
 class JpegField:
     """Colour-mapped JPEG frames (``rr.EncodedImage``)."""
 
-    def __init__(self, quality: int = 80) -> None:
+    def __init__(self, quality: int = 80, signed: bool = False) -> None:
         from PIL import Image
 
         self._image_module = Image
         self.quality = quality
-        self.table = colour_table()
+        self.signed = signed
 
     def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
-        rgb = colour_map(field, scale, self.table)
+        rgb = colour_map(field, scale, self.signed)
         buffer = io.BytesIO()
         self._image_module.fromarray(rgb).save(buffer, format="JPEG", quality=self.quality)
         stream.log(entity, rr.EncodedImage(contents=buffer.getvalue(), media_type="image/jpeg"))
@@ -93,14 +89,15 @@ class VideoField:
     every ``keyframe_interval`` frames keeps seeking in the viewer quick.
     """
 
-    def __init__(self, crf: int = 23, preset: str = "veryfast", keyframe_interval: int = 60):
+    def __init__(self, crf: int = 23, preset: str = "veryfast", keyframe_interval: int = 60,
+                 signed: bool = False):
         import av
 
         self._av = av
         self.crf = crf
         self.preset = preset
         self.keyframe_interval = keyframe_interval
-        self.table = colour_table()
+        self.signed = signed
         self._codec = None
         self._frame_index = 0
 
@@ -122,7 +119,7 @@ class VideoField:
         height, width = field.shape
         if self._codec is None:
             self._open(stream, entity, height, width)
-        rgb = colour_map(field, scale, self.table)
+        rgb = colour_map(field, scale, self.signed)
         if height % 2 or width % 2:
             rgb = np.pad(rgb, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
         frame = self._av.VideoFrame.from_ndarray(rgb, format="rgb24")
@@ -143,17 +140,19 @@ class VideoField:
 class RawField:
     """The field values themselves as a depth image (``rr.DepthImage``, meter = 1)."""
 
-    def __init__(self, dtype: str = "float32") -> None:
+    def __init__(self, dtype: str = "float32", signed: bool = False) -> None:
         if dtype not in ("float16", "float32"):
             raise ValueError(f"raw field dtype must be float16 or float32, got {dtype!r}")
         self.dtype = np.dtype(dtype)
+        self.signed = signed
 
     def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
         stream.log(
             entity,
             rr.DepthImage(
                 np.ascontiguousarray(field, dtype=self.dtype), meter=1.0,
-                colormap=rr.components.Colormap.Inferno, depth_range=(0.0, scale),
+                colormap=rr.components.Colormap.Inferno,
+                depth_range=(-scale if self.signed else 0.0, scale),
             ),
         )
 
@@ -161,16 +160,18 @@ class RawField:
         pass
 
 
-def make_field_encoder(mode: str, jpeg_quality: int = 80, raw_dtype: str = "float32"):
-    """The encoder for ``mode`` in FIELD_MODES."""
+def make_field_encoder(
+    mode: str, jpeg_quality: int = 80, raw_dtype: str = "float32", signed: bool = False
+):
+    """The encoder for ``mode`` in FIELD_MODES; ``signed``: values from -scale to +scale."""
     if mode == "jpeg":
-        return JpegField(jpeg_quality)
+        return JpegField(jpeg_quality, signed)
     if mode == "video":
         if not video_available():
             raise RuntimeError(
                 "--field video needs PyAV with libx264: pip install av (or use --field jpeg)"
             )
-        return VideoField()
+        return VideoField(signed=signed)
     if mode == "raw":
-        return RawField(raw_dtype)
+        return RawField(raw_dtype, signed)
     raise ValueError(f"field mode must be one of {FIELD_MODES}, got {mode!r}")

@@ -12,19 +12,11 @@ from collections.abc import Sequence
 import rerun.blueprint as rrb
 
 SCENE_ENTITY = "/scene"
+LEGEND_ENTITY = "/legend"
+"""Colour-bar images: ``/legend/strain``, ``/legend/field``, ``/legend/height``."""
+DEFAULT_TIMELINE = "sim_time"
+"""The timeline the viewer opens on: simulated time in seconds (``step`` is the other one)."""
 ENERGY_TERMS = ("kinetic", "potential", "total", "dissipated")
-TERM_COLOURS = {  # RGB of each energy term's line
-    "kinetic": (235, 100, 60),
-    "potential": (70, 140, 235),
-    "total": (235, 235, 235),
-    "dissipated": (170, 150, 70),
-}
-INTEGRATOR_COLOURS = {  # RGB of each integrator's total-energy line in a comparison
-    "euler": (230, 70, 70),
-    "heun": (240, 170, 50),
-    "verlet": (90, 200, 110),
-    "rk4": (80, 150, 240),
-}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,8 +49,20 @@ class TreePaths:
         return self._path("lattice/springs")
 
     @property
+    def surface(self) -> str:
+        return self._path("lattice/surface")
+
+    @property
     def field(self) -> str:
         return self._path("field")
+
+    @property
+    def drift(self) -> str:
+        return self._path("drift")
+
+    @property
+    def balance_error(self) -> str:
+        return self._path("drift/energy_balance_error")
 
     @property
     def energy(self) -> str:
@@ -97,9 +101,11 @@ def tree_paths(name: str | None) -> TreePaths:
 
 
 def blueprint(
-    trees: Sequence[str | None], *, dim: int, show_lattice: bool, show_field: bool
+    trees: Sequence[str | None], *, dim: int, show_lattice: bool, show_field: bool,
+    legends: int = 1,
 ) -> rrb.Blueprint:
-    """Lattice (or field image) views beside the energy plot, scene text and event log."""
+    """Lattice (or field image) views beside the energy and energy-balance-error plots, the scene
+    document, colour legend and event log; the time panel on ``DEFAULT_TIMELINE`` (seconds)."""
     spatial = rrb.Spatial3DView if dim == 3 else rrb.Spatial2DView
     pictures: list[rrb.View] = []
     for name in trees:
@@ -108,10 +114,10 @@ def blueprint(
         if show_field:
             pictures.append(rrb.Spatial2DView(origin=paths.field, name=f"{label}field"))
         if show_lattice:
-            # Origin at the tree's root so the y flip logged on `lattice` (2-D) applies.
+            # Origin at the tree's root so the transform logged on `lattice` applies.
             pictures.append(
                 spatial(origin=paths.root or "/", contents=[f"+ {paths.lattice}/**"],
-                        name=f"{label}lattice")
+                        name=f"{label}{'membrane' if dim == 3 else 'lattice'}")
             )
     if len(pictures) == 1:
         main: rrb.Container | rrb.View = pictures[0]
@@ -123,18 +129,19 @@ def blueprint(
         energy: rrb.View | rrb.Container = rrb.TimeSeriesView(
             origin=paths.energy, name="energy (J)"
         )
-        settings_plot = rrb.TimeSeriesView(origin=paths.settings, name="dt, field scale")
+        drift: rrb.View = rrb.TimeSeriesView(origin=paths.drift, name="energy-balance error (%)")
+        settings_plot = rrb.TimeSeriesView(origin=paths.settings, name="dt (s)")
         logs = rrb.TextLogView(origin=paths.log, name="events")
     else:
         energy = rrb.Tabs(
-            rrb.TimeSeriesView(
-                origin="/", name="total energy (J)",
-                contents=[f"+ {tree_paths(name).energy_term('total')}" for name in trees],
-            ),
             *[
                 rrb.TimeSeriesView(origin=tree_paths(name).energy, name=f"{name} energy (J)")
                 for name in trees
             ],
+        )
+        drift = rrb.TimeSeriesView(
+            origin="/", name="energy-balance error (%)",
+            contents=[f"+ {tree_paths(name).balance_error}" for name in trees],
         )
         settings_plot = rrb.TimeSeriesView(
             origin="/", name="dt (s)", contents=[f"+ {tree_paths(name).dt}" for name in trees]
@@ -142,12 +149,12 @@ def blueprint(
         logs = rrb.TextLogView(
             origin="/", name="events", contents=[f"+ {tree_paths(name).log}" for name in trees]
         )
-    side = rrb.Vertical(
-        energy,
-        rrb.Tabs(rrb.TextDocumentView(origin=SCENE_ENTITY, name="scene"), logs, settings_plot),
-        row_shares=[3, 2],
-    )
+    tabs: list[rrb.View] = [rrb.TextDocumentView(origin=SCENE_ENTITY, name="read me")]
+    if legends:
+        tabs.append(rrb.Spatial2DView(origin=LEGEND_ENTITY, name="colour legend"))
+    side = rrb.Vertical(energy, drift, rrb.Tabs(*tabs, logs, settings_plot), row_shares=[3, 2, 3])
     return rrb.Blueprint(
         rrb.Horizontal(main, side, column_shares=[3, 2]),
+        rrb.TimePanel(timeline=DEFAULT_TIMELINE, expanded=True),
         collapse_panels=False,
     )

@@ -27,8 +27,11 @@ How it stays fast and safe:
   (``failure`` holds the error; ``close()`` raises ``RecordingError`` saying so).
 
 What is logged depends on the lattice (see ``LoggingPlan`` and ``docs/recording.md``): small
-lattices (at most ``DETAIL_LIMIT`` particles) get every particle and spring each frame; large
-ones get a colour-mapped field image, positions only on request, no springs.
+planar lattices (at most ``DETAIL_LIMIT`` particles) get every particle and spring each frame;
+small 3-D ones a surface mesh through the particles coloured by height (no springs); large ones a
+colour-mapped field image, positions only on request, no springs.  Colour scales are fixed before
+the first frame from a look-ahead run (``app.recording.scales``); the document at ``/scene``
+(``app.recording.explain``) says what every view shows.
 """
 
 from __future__ import annotations
@@ -49,14 +52,10 @@ import numpy as np
 import rerun as rr
 
 from app.recording import field as fields
-from app.recording import layout
-from app.recording.layout import (
-    ENERGY_TERMS,
-    INTEGRATOR_COLOURS,
-    SCENE_ENTITY,
-    TERM_COLOURS,
-    TreePaths,
-)
+from app.recording import layout, style
+from app.recording.explain import RunInfo, scene_document
+from app.recording.layout import ENERGY_TERMS, LEGEND_ENTITY, SCENE_ENTITY, TreePaths
+from app.recording.scales import AXIS_NAMES, QUANTITIES, UNITS, ColourScales, look_ahead
 from sim.model import Model
 from sim.runner import Frame, Runner
 
@@ -64,9 +63,7 @@ APPLICATION_ID = "coupled_oscillators"
 DETAIL_LIMIT = 2500
 """Lattices with at most this many particles (50x50) are logged particle by particle."""
 
-QUANTITIES = ("displacement", "speed")
 MIN_FREE_BYTES = 16 * 2**20
-STRAIN_COLORMAP = "coolwarm"
 
 
 class RecordingError(RuntimeError):
@@ -79,9 +76,15 @@ class RecordingOptions:
 
     field: "auto" (none for small lattices; video if PyAV is installed, else jpeg, for large
         ones), "jpeg", "video", "raw" (float image, lossless) or "none".
-    quantity: the field's quantity, "displacement" (|x - x_rest|, m) or "speed" (|v|, m/s).
-    field_scale: value shown at the top of the colour map (m or m/s); None adapts it: the
-        largest 99.9th percentile of the field seen so far (logged as ``settings/field_scale``).
+    quantity: the field's quantity, "displacement" (the signed component u_axis, m; diverging
+        colours), "magnitude" (|x - x_rest|, m) or "speed" (|v|, m/s).
+    field_scale: value at the end of the field's colour map (m or m/s); None: fixed from the
+        look-ahead run (``app.recording.scales``).
+    exaggeration: 3-D lattices: display scale of heights (z); None picks one so the typical
+        height shows as 8 % of the lattice width.
+    frame_interval: simulated seconds between recorded frames at least (frames published sooner
+        are skipped; a blow-up frame never is); None: the scene's duration / 1000 (the web app
+        publishes a frame every step); 0: every published frame.
     positions: "auto" (every frame for small lattices, never for large ones), "all", "none",
         or an integer N: every N-th recorded frame.
     detail_limit: the particle count up to which a lattice counts as small.
@@ -95,6 +98,8 @@ class RecordingOptions:
     field: str = "auto"
     quantity: str = "displacement"
     field_scale: float | None = None
+    exaggeration: float | None = None
+    frame_interval: float | None = None
     positions: str | int = "auto"
     detail_limit: int = DETAIL_LIMIT
     jpeg_quality: int = 80
@@ -108,7 +113,8 @@ class RecordingOptions:
         if self.field not in ("auto", "none", *fields.FIELD_MODES):
             raise ValueError(f"field must be auto, none, jpeg, video or raw, got {self.field!r}")
         if self.quantity not in QUANTITIES:
-            raise ValueError(f"quantity must be displacement or speed, got {self.quantity!r}")
+            raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got "
+                             f"{self.quantity!r}")
         if self.field_scale is not None and not self.field_scale > 0:
             raise ValueError(f"field scale must be positive, got {self.field_scale!r}")
         detailed = model.n_particles <= self.detail_limit
@@ -119,12 +125,14 @@ class RecordingOptions:
         else:
             field_mode = self.field
         positions_every = _positions_every(self.positions, detailed)
+        surface = detailed and model.dim == 3 and positions_every > 0
         return LoggingPlan(
             detailed=detailed,
             field=field_mode,
             quantity=self.quantity,
             positions_every=positions_every,
-            springs=detailed and positions_every == 1,
+            springs=detailed and positions_every == 1 and not surface,
+            surface=surface,
         )
 
 
@@ -145,17 +153,24 @@ def _positions_every(positions: str | int, detailed: bool) -> int:
 @dataclasses.dataclass(frozen=True)
 class LoggingPlan:
     """What one tree logs: detailed (per particle) or not, field mode or None, positions every
-    N-th recorded frame (0: never), spring strips or not."""
+    N-th recorded frame (0: never), spring strips or not (planar lattices), a surface mesh through
+    the particles coloured by height instead of points and springs (3-D lattices)."""
 
     detailed: bool
     field: str | None
     quantity: str
     positions_every: int
     springs: bool
+    surface: bool = False
 
     def describe(self) -> str:
         parts = []
-        if self.positions_every == 1:
+        if self.surface:
+            parts.append("a surface through the particles coloured by height (the positions "
+                         "are its vertices)"
+                         + ("" if self.positions_every == 1 else f", every {self.positions_every} "
+                            "frames"))
+        elif self.positions_every == 1:
             parts.append("positions every frame")
         elif self.positions_every:
             parts.append(f"positions every {self.positions_every} frames")
@@ -166,12 +181,14 @@ class LoggingPlan:
         return ", ".join(parts) or "energies only"
 
     def estimated_bytes_per_frame(self, model: Model, jpeg_quality: int = 80) -> float:
-        """A generous size estimate, for the disk-space check (measured values in the docs)."""
-        total = 400.0  # energies, dt, timestamps
+        """A size estimate a frame on disk (the measured sizes are in docs/recording.md); used for
+        the disk-space check and to choose the default frame interval of ``record``."""
+        total = 400.0  # energies, drift, dt, timestamps
         if self.positions_every:
-            total += model.n_particles * model.dim * 4 / self.positions_every
+            per_vertex = model.dim * 4 + (4 if self.surface else 0)
+            total += model.n_particles * per_vertex / self.positions_every
         if self.springs:
-            total += model.n_springs * (2 * model.dim * 4 + 4 + 8 + 8)
+            total += model.n_springs * (2 * model.dim * 4 + 4 + 4 + 4)
         if self.field == "jpeg":
             total += model.n_particles * 0.2 * (1 + jpeg_quality / 50)
         elif self.field == "video":
@@ -179,31 +196,6 @@ class LoggingPlan:
         elif self.field == "raw":
             total += model.n_particles * 4
         return total
-
-
-def scene_document(scene: Any, model: Model, integrator: str, dt: float, plans: str) -> str:
-    """The scene parameters as a markdown document (logged once, statically)."""
-    lines = [f"# {scene.name}", "", scene.description, "", f"**{model.describe()}**", ""]
-    lines += ["| parameter | value |", "| --- | --- |"]
-    for key, value in model.parameters().items():
-        lines.append(f"| {key} | {value} |")
-    masses = model.masses
-    mass_text = f"{masses.flat[0]:g}" if model.uniform_mass else (
-        f"{masses.min():g} to {masses.max():g} (per particle: `lattice/particles:mass`)"
-    )
-    lines += [
-        f"| mass (kg) | {mass_text} |",
-        f"| particles | {model.n_particles} |",
-        f"| springs | {model.n_springs} |",
-        f"| integrator{'s' if ',' in integrator else ''} at start | {integrator} |",
-        f"| dt at start (s) | {dt:g} |",
-        "",
-        f"Logged: {plans}.",
-        "",
-        "Particle p = j * nx + i (column i, row j, row 0 at the bottom); springs in "
-        "`sim.Model.springs` order (horizontal row by row, then vertical column by column).",
-    ]
-    return "\n".join(lines)
 
 
 class _Track:
@@ -217,21 +209,20 @@ class _Track:
         self.paths: TreePaths = layout.tree_paths(name)
         self.model = model
         self.plan = plan
+        self.scales: ColourScales = recorder.scales
         self.frames_logged = 0
         self.last_step: int | None = None
         self.last_time = 0.0
         self._integrator: str | None = None
         self._dt: float | None = None
-        self._scale = recorder.options.field_scale
         self._encoder: fields.FieldEncoder | None = (
             fields.make_field_encoder(
-                plan.field, recorder.options.jpeg_quality, recorder.options.raw_dtype
+                plan.field, recorder.options.jpeg_quality, recorder.options.raw_dtype,
+                signed=plan.quantity == "displacement",
             )
             if plan.field
             else None
         )
-        self._strain_table: np.ndarray | None = None
-        self._strain_scale = 0.0
         self.finished = False
 
     # --- static ---------------------------------------------------------------------------------
@@ -245,13 +236,21 @@ class _Track:
             # Rerun's 2-D views draw y downwards; flip the lattice so row 0 is at the bottom.
             stream.log(paths.lattice, rr.Transform3D(mat3x3=np.diag([1.0, -1.0, 1.0])), static=True)
         else:
-            stream.log(paths.root or "/", rr.ViewCoordinates.RIGHT_HAND_Y_UP, static=True)
+            # The sheet lies flat, z up; heights exaggerated for display only.
+            stream.log(paths.root or "/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+            stream.log(
+                paths.lattice,
+                rr.Transform3D(scale=[1.0, 1.0, self.recorder.exaggeration]),
+                rr.AnyValues(height_exaggeration=self.recorder.exaggeration),
+                static=True,
+            )
         rest = np.asarray(model.rest_positions, dtype=np.float32)
-        stream.log(paths.rest, points(rest, radii=0.04 * a, colors=(90, 90, 90)), static=True)
+        stream.log(paths.rest, points(rest, radii=0.04 * a, colors=style.NEUTRAL_COLOUR),
+                   static=True)
         stream.log(
             paths.anchors,
             points(np.asarray(model.anchor_positions, np.float32), radii=0.12 * a,
-                   colors=(200, 200, 200)),
+                   colors=style.ANCHOR_COLOUR),
             static=True,
         )
         self._log_masses()
@@ -261,18 +260,34 @@ class _Track:
                 rr.AnyValues(
                     first=model.springs[:, 0].astype(np.int32),
                     second=model.springs[:, 1].astype(np.int32),
+                    strain_colour_scale=self.scales.strain,
+                    rest_strain=self.scales.rest_strain,
                 ),
+                static=True,
+            )
+        if self.plan.surface:
+            stream.log(
+                paths.surface,
+                rr.Mesh3D.from_fields(triangle_indices=_grid_triangles(model.nx, model.ny)),
+                rr.AnyValues(height_colour_scale=self.scales.height),
                 static=True,
             )
         for term in ENERGY_TERMS:
             label = f"{self.name} {term}" if self.name else term
-            colour = TERM_COLOURS[term]
-            if self.name and term == "total":
-                colour = INTEGRATOR_COLOURS.get(self.name, colour)
             stream.log(
-                paths.energy_term(term), rr.SeriesLines(names=label, colors=colour), static=True
+                paths.energy_term(term),
+                rr.SeriesLines(names=label, colors=style.TERM_COLOURS[term]), static=True,
             )
-        stream.log(paths.dt, rr.SeriesLines(names=f"{self.name} dt" if self.name else "dt"),
+        drift_colour = (style.INTEGRATOR_COLOURS.get(self.name, style.DRIFT_COLOUR)
+                        if self.name else style.DRIFT_COLOUR)
+        stream.log(
+            paths.balance_error,
+            rr.SeriesLines(names=f"{self.name or 'energy-balance'} error (%)", colors=drift_colour),
+            static=True,
+        )
+        stream.log(paths.dt, rr.SeriesLines(names=f"{self.name} dt" if self.name else "dt",
+                                            colors=drift_colour if self.name
+                                            else style.NEUTRAL_COLOUR),
                    static=True)
 
     def _log_masses(self) -> None:
@@ -283,11 +298,11 @@ class _Track:
             relative = (masses / masses.mean()) ** (1.0 / 3.0)
             radii = (0.18 * model.spacing * relative).astype(np.float32)
             if model.uniform_mass:
-                colours = np.array([[70, 140, 230]], dtype=np.uint8)
+                colours = np.array([style.PARTICLE_COLOUR], dtype=np.uint8)
             else:
                 weight = (masses - masses.min()) / max(masses.max() - masses.min(), 1e-300)
                 colours = np.stack(
-                    [70 + 160 * weight, 140 - 40 * weight, 230 - 180 * weight], axis=1
+                    [40 + 160 * weight, 110 - 40 * weight, 235 - 185 * weight], axis=1
                 ).astype(np.uint8)
             stream.log(
                 self.paths.particles,
@@ -301,7 +316,7 @@ class _Track:
             archetype = rr.Points2D if model.dim == 2 else rr.Points3D
             stream.log(
                 self.paths.particles,
-                archetype.from_fields(radii=0.3 * model.spacing, colors=(70, 140, 230)),
+                archetype.from_fields(radii=0.3 * model.spacing, colors=style.PARTICLE_COLOUR),
                 static=True,
             )
             if not model.uniform_mass:
@@ -326,12 +341,16 @@ class _Track:
         energy = frame.energy
         for term in ENERGY_TERMS:
             stream.log(paths.energy_term(term), rr.Scalars(float(getattr(energy, term))))
+        stream.log(paths.balance_error, rr.Scalars(100.0 * float(frame.energy_balance_error)))
         if plan.positions_every and self.frames_logged % plan.positions_every == 0:
             positions = np.asarray(frame.positions, dtype=np.float32)
-            archetype = rr.Points3D if self.model.dim == 3 else rr.Points2D
-            stream.log(paths.particles, archetype(positions))
+            if plan.surface:
+                self._log_surface(positions)
+            else:
+                archetype = rr.Points3D if self.model.dim == 3 else rr.Points2D
+                stream.log(paths.particles, archetype(positions))
             if plan.springs and frame.strains is not None:
-                self._log_springs(frame.positions, frame.strains)
+                self._log_springs(positions, frame.strains)
         if self._encoder is not None:
             self._log_field(frame)
         if frame.error:
@@ -344,48 +363,43 @@ class _Track:
             self.recorder.stream.set_time("step", sequence=self.last_step)
             self.recorder.stream.set_time("sim_time", duration=self.last_time)
 
+    def _log_surface(self, positions: np.ndarray) -> None:
+        """(n_particles, 3) float32 positions (m) as the mesh's vertices, coloured by height."""
+        height = positions[:, 2] - self.model.rest_positions[:, 2]
+        colours = style.map_values(height, -self.scales.height, self.scales.height,
+                                   style.colour_table(style.SIGNED_LINES))
+        self.recorder.stream.log(
+            self.paths.surface,
+            rr.Mesh3D.from_fields(vertex_positions=positions, vertex_colors=colours),
+        )
+
     def _log_springs(self, positions: np.ndarray, strains: np.ndarray) -> None:
+        """Springs as segments between (n_particles, dim) float32 positions (m) and the anchors,
+        coloured by strain - rest strain on the fixed symmetric scale."""
         model = self.model
-        ends = np.concatenate([positions, model.anchor_positions]).astype(np.float32)
+        ends = np.concatenate([positions, model.anchor_positions.astype(np.float32)])
         strips = ends[model.springs]  # (n_springs, 2, dim)
-        rest_strain = (model.spacing - model.rest_length) / model.rest_length
-        deviation = strains - rest_strain
-        if self._strain_table is None:
-            self._strain_table = fields.colour_table(STRAIN_COLORMAP)
-            # Fixed for the whole recording: the first frame's largest strain change.
-            self._strain_scale = max(float(np.abs(deviation).max()), 1e-6)
-            self.recorder.stream.log(
-                self.paths.springs,
-                rr.AnyValues(strain_colour_scale=self._strain_scale, rest_strain=rest_strain),
-                static=True,
-            )
-        unit = np.clip(0.5 + 0.5 * deviation / self._strain_scale, 0.0, 1.0)
-        colours = self._strain_table[(unit * 255).astype(np.uint8)]
+        scale = self.scales.strain
+        colours = style.map_values(strains - self.scales.rest_strain, -scale, scale,
+                                   style.colour_table(style.SIGNED_LINES))
         archetype = rr.LineStrips3D if model.dim == 3 else rr.LineStrips2D
         self.recorder.stream.log(
             self.paths.springs,
             archetype(strips, colors=colours, radii=0.04 * model.spacing),
-            rr.AnyValues(strain=np.asarray(strains, dtype=np.float64)),
+            rr.AnyValues(strain=np.asarray(strains, dtype=np.float32)),
         )
 
     def _log_field(self, frame: Frame) -> None:
         model = self.model
-        if self.plan.quantity == "speed":
-            if frame.velocities is None:
-                return
-            vectors = frame.velocities
-        else:
-            vectors = frame.positions - model.rest_positions
-        values = np.sqrt(np.einsum("ij,ij->i", vectors, vectors))
+        if self.plan.quantity == "speed" and frame.velocities is None:
+            return
+        from app.recording.scales import field_values
+
+        values = field_values(self.plan.quantity, frame.positions, model.rest_positions,
+                              frame.velocities, self.scales.axis)
         image = fields.lattice_image(values, model.nx, model.ny)
-        if self.recorder.options.field_scale is None:
-            sample = values[:: max(1, values.size // 20000)]  # ~20k values suffice for a scale
-            top = max(int(sample.size * 0.999) - 1, 0)
-            percentile = float(np.partition(sample, top)[top]) if sample.size else 0.0
-            self._scale = max(self._scale or 0.0, percentile, 1e-6 * model.spacing)
-        assert self._scale is not None and self._encoder is not None
-        self.recorder.stream.log(self.paths.field_scale, rr.Scalars(self._scale))
-        self._encoder.log(self.recorder.stream, self.paths.field, image, self._scale)
+        assert self._encoder is not None
+        self._encoder.log(self.recorder.stream, self.paths.field, image, self.recorder.field_scale)
 
     def _model_changed(self, model: Model) -> None:
         self.event(f"parameters changed: {model.describe()}", "INFO")
@@ -406,6 +420,17 @@ class _Track:
         self.finished = True
 
 
+def _grid_triangles(nx: int, ny: int) -> np.ndarray:
+    """(2 (nx-1) (ny-1), 3) uint32 vertex indices: two triangles per lattice cell."""
+    if nx < 2 or ny < 2:
+        return np.zeros((0, 3), dtype=np.uint32)
+    j, i = np.mgrid[0 : ny - 1, 0 : nx - 1]
+    p = (j * nx + i).ravel()
+    first = np.stack([p, p + 1, p + nx + 1], axis=1)
+    second = np.stack([p, p + nx + 1, p + nx], axis=1)
+    return np.concatenate([first, second]).astype(np.uint32)
+
+
 _STOP = object()
 
 
@@ -417,6 +442,10 @@ class Recorder:
     trees: entity trees to lay out in the blueprint: ``(None,)`` for a single run at the root, or
         names such as ``("euler", "verlet", "rk4")`` for a comparison.
     expected_frames: if given, the free disk space is checked against an estimate.
+    integrator, dt: what the run uses at the start (default: the scene's), for the document and
+        the look-ahead run that fixes the colour scales.
+    run: ``RunInfo`` (planned steps, frame interval in steps, command line) for the document.
+    scales: colour scales to use instead of a look-ahead run (``app.recording.scales``).
     overwrite: replace ``path`` if it exists (otherwise ``RecordingError``).
     Usable as a context manager; ``close()`` is idempotent and safe from any thread.
     """
@@ -431,6 +460,8 @@ class Recorder:
         expected_frames: int | None = None,
         integrator: str | None = None,
         dt: float | None = None,
+        run: RunInfo | None = None,
+        scales: ColourScales | None = None,
         overwrite: bool = False,
     ) -> None:
         self.options = options or RecordingOptions()
@@ -443,26 +474,57 @@ class Recorder:
         self.path = Path(path)
         self.partial_path = self.path.with_name(self.path.name + ".partial")
         self._check_destination(expected_frames, overwrite)
+        integrator = integrator or scene.integrator
+        dt = dt or scene.dt
+        self.run = run or RunInfo()
+        try:
+            self.scales = scales or look_ahead(
+                scene, integrator=integrator, dt=dt, quantity=self.plan.quantity,
+                strains=self.plan.springs,
+            )
+        except BaseException:
+            self.partial_path.unlink(missing_ok=True)
+            raise
+        self.field_scale = self.options.field_scale or self.scales.field
+        exaggeration = self.options.exaggeration
+        if exaggeration is None:
+            width = (max(self.model.nx, self.model.ny) + 1) * self.model.spacing
+            exaggeration = style.nice_number(0.08 * width / self.scales.height) if (
+                self.model.dim == 3 and self.scales.height > 0) else 1.0
+        self.exaggeration = max(1.0, float(exaggeration))
+        interval = self.options.frame_interval
+        self.frame_interval = scene.duration / 1000 if interval is None else float(interval)
 
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
+        legends = self._legends()
         bp = layout.blueprint(
             self.trees, dim=self.model.dim,
             show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
+            legends=len(legends),
         )
         self.stream.save(self.partial_path, default_blueprint=bp)
         self.stream.send_blueprint(bp, make_active=True, make_default=True)
         self.stream.send_recording_name(f"{scene.name}")
-        integrator = integrator or scene.integrator
-        dt = dt or scene.dt
         self.stream.log(
             SCENE_ENTITY,
             rr.TextDocument(
-                scene_document(scene, self.model, integrator, dt, self.plan.describe()),
+                scene_document(
+                    scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
+                    scales=self.scales, run=self.run, trees=self.trees,
+                    exaggeration=self.exaggeration,
+                ) + f"\n\nLogged: {self.plan.describe()}.",
                 media_type=rr.MediaType.MARKDOWN,
             ),
             static=True,
         )
+        offset = 0.0
+        for name, (png, height) in legends.items():
+            self.stream.log(f"{LEGEND_ENTITY}/{name}", rr.EncodedImage(contents=png,
+                            media_type="image/png"),
+                            rr.Transform3D(translation=[0.0, offset, 0.0]), static=True)
+            offset += height + 8
         self.tracks: dict[str | None, _Track] = {}
+        self._last_enqueued: dict[str | None, float] = {}
         self._unsubscribers: list[Callable[[], None]] = []
         self._queue: queue.Queue = queue.Queue(maxsize=max(1, self.options.queue_frames))
         self._lock = threading.Lock()
@@ -476,6 +538,29 @@ class Recorder:
         if self.options.background:
             self._worker = threading.Thread(target=self._work, name="rrd-recorder", daemon=True)
             self._worker.start()
+
+    def _legends(self) -> dict[str, tuple[bytes, int]]:
+        """Colour-bar PNGs (and their heights in pixels) for what this recording colours."""
+        legends: dict[str, tuple[bytes, int]] = {}
+        scales, plan = self.scales, self.plan
+        if plan.springs:
+            legends["strain"] = (style.legend_png(
+                style.SIGNED_LINES, -scales.strain, scales.strain,
+                "springs: strain - rest strain (dimensionless)",
+                note="blue compressed, grey as at rest, red stretched"), 96)
+        if plan.surface:
+            legends["height"] = (style.legend_png(
+                style.SIGNED_LINES, -scales.height, scales.height,
+                f"surface: height z (m), drawn ×{self.exaggeration:g}",
+                note="blue below the plane, red above"), 96)
+        if plan.field:
+            signed = plan.quantity == "displacement"
+            label = (f"field: displacement u_{AXIS_NAMES[scales.axis]} (m)" if signed
+                     else f"field: {plan.quantity} ({UNITS[plan.quantity]})")
+            legends["field"] = (style.legend_png(
+                style.SIGNED_FIELD if signed else style.MAGNITUDE,
+                -self.field_scale if signed else 0.0, self.field_scale, label), 96)
+        return legends
 
     # --- checks -----------------------------------------------------------------------------------
 
@@ -502,7 +587,7 @@ class Recorder:
             self.partial_path.unlink(missing_ok=True)
             raise RecordingError(
                 f"not enough disk space in {directory}: the recording needs about "
-                f"{needed / 2**20:.0f} MB, {free / 2**20:.0f} MB free "
+                f"{needed / 1e6:.0f} MB, {free / 1e6:.0f} MB free "
                 "(record fewer frames, use --every, or --field video)"
             )
 
@@ -561,6 +646,11 @@ class Recorder:
         with self._lock:
             if self._closed:
                 return
+            last = self._last_enqueued.get(track.name)
+            if (last is not None and frame.error is None and frame.time >= last
+                    and frame.time - last < self.frame_interval * (1 - 1e-9)):
+                return  # sooner than the frame interval: skipped
+            self._last_enqueued[track.name] = frame.time
             self._submit((track, frame))
 
     # --- worker -----------------------------------------------------------------------------------
@@ -604,7 +694,7 @@ class Recorder:
         free = shutil.disk_usage(self.path.parent).free
         if free < MIN_FREE_BYTES // 4:
             raise RecordingError(
-                f"disk nearly full in {self.path.parent} ({free / 2**20:.1f} MB free)"
+                f"disk nearly full in {self.path.parent} ({free / 1e6:.1f} MB free)"
             )
 
     # --- closing ----------------------------------------------------------------------------------

@@ -1,0 +1,165 @@
+"""Colour scales from the scene's physics, fixed for a whole recording or movie.
+
+A colour that means the same at every frame needs a scale chosen before the first frame.  The
+scale comes from a *look-ahead run*: a private copy of the scene is run with the same integrator
+and time step over the scene's duration (or as much of it as ``budget_seconds`` of computing
+allows: all of it for the small presets, about the first 25 s of the 150 s ``interference``),
+sampled at ``samples`` evenly spaced states, and each scale is the 99.9th percentile of the
+quantity's absolute value pooled over all sampled states:
+
+* ``strain``: |strain - rest strain| of the springs (dimensionless; rest strain (a - L)/L), the
+  half-width of the diverging spring colour map centred on the rest lattice;
+* ``field``: |u_axis| (m) for the signed displacement, |u| (m) or |v| (m/s) for magnitudes;
+* ``height``: |z| (m) of 3-D lattices (out-of-plane displacement).
+
+The signed displacement shows one component, ``axis``: the direction the scene's initial
+displacement (or velocity) is largest in (y for ``interference``, whose two sources are pushed
+in opposite y directions; z for the membrane), else the direction of gravity.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+QUANTITIES = ("displacement", "magnitude", "speed")
+"""Field quantities: signed displacement component (m), |u| (m), |v| (m/s)."""
+UNITS = {"displacement": "m", "magnitude": "m", "speed": "m/s"}
+LOOK_AHEAD_BUDGET_SECONDS = 1.5
+PERCENTILE = 99.9
+AXIS_NAMES = "xyz"
+
+
+@dataclasses.dataclass(frozen=True)
+class ColourScales:
+    """Fixed colour scales of one recording (see the module docstring).
+
+    strain: |strain - rest strain| at the ends of the spring colour map (dimensionless).
+    field: value at the end(s) of the field colour map (m or m/s).
+    height: |z| (m) at the ends of the height colour map (3-D; 0 for 2-D lattices).
+    axis: displacement component of the signed field (0 x, 1 y, 2 z).
+    rest_strain: (a - L)/L, the strain of every spring in the rest lattice.
+    seconds: simulated seconds the look-ahead covered (0 if it was not run).
+    """
+
+    strain: float
+    field: float
+    height: float
+    axis: int
+    rest_strain: float
+    seconds: float
+
+    def describe(self, quantity: str) -> str:
+        text = (f"colour scales fixed from a {self.seconds:g} s look-ahead run (99.9th percentile "
+                f"of each quantity over {PERCENTILE_SAMPLES} sampled states): strain "
+                f"±{self.strain:.3g}")
+        text += f", field ±{self.field:.3g} {UNITS[quantity]}"
+        if self.height:
+            text += f", height ±{self.height:.3g} m"
+        return text
+
+
+PERCENTILE_SAMPLES = 60
+
+
+def displacement_axis(scene: Any) -> int:
+    """The component (0 x, 1 y, 2 z) the scene's initial displacement or velocity is largest in;
+    else gravity's; else y (2-D) or z (3-D)."""
+    model = scene.model
+    displacement = np.asarray(scene.initial_positions) - model.rest_positions
+    weight = (displacement**2).sum(axis=0) + (np.asarray(scene.initial_velocities) ** 2).sum(axis=0)
+    if weight.max() > 0:
+        return int(np.argmax(weight))
+    gravity = np.abs(np.asarray(model.gravity[: model.dim]))
+    if gravity.max() > 0:
+        return int(np.argmax(gravity))
+    return model.dim - 1
+
+
+def field_values(
+    quantity: str, positions: np.ndarray, rest: np.ndarray, velocities: np.ndarray | None,
+    axis: int,
+) -> np.ndarray:
+    """(n_particles,) field values from (n_particles, dim) positions (m) / velocities (m/s)."""
+    if quantity == "displacement":
+        return positions[:, axis] - rest[:, axis]
+    if quantity == "magnitude":
+        u = positions - rest
+        return np.sqrt(np.einsum("ij,ij->i", u, u))
+    if quantity == "speed":
+        if velocities is None:
+            raise ValueError("the speed field needs velocities")
+        return np.sqrt(np.einsum("ij,ij->i", velocities, velocities))
+    raise ValueError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
+
+
+def _look_ahead_integrator(integrator: str | None, scene: Any) -> str:
+    names = [n.strip() for n in (integrator or "").split(",") if n.strip()]
+    for preferred in ("rk4", "verlet"):
+        if preferred in names:
+            return preferred
+    return names[0] if len(names) == 1 else scene.integrator
+
+
+def _step_cost(integrator: str, n_particles: int) -> float:
+    from app.cli import SECONDS_PER_STEP
+
+    fixed, per_particle = SECONDS_PER_STEP.get(integrator, SECONDS_PER_STEP["rk4"])
+    return fixed + per_particle * n_particles
+
+
+def look_ahead(
+    scene: Any, *, integrator: str | None = None, dt: float | None = None,
+    quantity: str = "displacement", strains: bool = True,
+    budget_seconds: float = LOOK_AHEAD_BUDGET_SECONDS, samples: int = PERCENTILE_SAMPLES,
+) -> ColourScales:
+    """Run a copy of ``scene`` and return fixed colour scales (see the module docstring).
+
+    integrator: one name, or a comma-separated comparison (RK4 or Verlet is then used, as the
+    accurate ones); dt: the step (s), default the scene's.  A blow-up ends the look-ahead early
+    (the scales use what was sampled)."""
+    from sim import BlowUpError, Simulation
+
+    model = scene.model
+    name = _look_ahead_integrator(integrator, scene)
+    simulation = Simulation(scene, integrator=name, dt=dt or scene.dt)
+    dt = simulation.dt
+    wanted = max(1, math.ceil(scene.duration / dt - 1e-9))
+    affordable = max(samples, int(budget_seconds / _step_cost(name, model.n_particles)))
+    steps = min(wanted, affordable)
+    axis = displacement_axis(scene)
+    rest = model.rest_positions
+    rest_strain = (model.spacing - model.rest_length) / model.rest_length
+    stride = max(1, model.n_particles // 20000)  # ~20k values a state suffice for a percentile
+    strain_pool: list[np.ndarray] = []
+    field_pool: list[np.ndarray] = []
+    height_pool: list[np.ndarray] = []
+    marks = np.unique(np.linspace(0, steps, samples).round().astype(int))
+    for mark in marks:
+        try:
+            simulation.step(int(mark) - simulation.step_count)
+        except BlowUpError:
+            break
+        positions = simulation.peek_positions()
+        velocities = simulation.velocities if quantity == "speed" else None
+        field_pool.append(np.abs(field_values(quantity, positions, rest, velocities, axis))[::stride])
+        if model.dim == 3:
+            height_pool.append(np.abs(positions[::stride, 2] - rest[::stride, 2]))
+        if strains:
+            strain_pool.append(np.abs(simulation.strains() - rest_strain))
+    floor = 1e-6 * model.spacing
+
+    def scale(pool: list[np.ndarray], smallest: float) -> float:
+        if not pool:
+            return smallest
+        return max(float(np.percentile(np.concatenate(pool), PERCENTILE)), smallest)
+
+    return ColourScales(
+        strain=scale(strain_pool, 1e-6) if strains else 0.0,
+        field=scale(field_pool, floor),
+        height=scale(height_pool, floor) if model.dim == 3 else 0.0,
+        axis=axis, rest_strain=rest_strain, seconds=simulation.time,
+    )

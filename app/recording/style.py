@@ -1,0 +1,129 @@
+"""Colours of recordings and movies: series lines readable on light and dark backgrounds, colour
+maps, and colour-bar legends drawn as small images.
+
+Line colours are chosen so that their WCAG contrast ratio is at least 3 against white (rerun's
+light theme) and against rerun's dark panel background (``DARK_BACKGROUND``); the tests check it.
+
+Colour maps (each a (256, 3) uint8 lookup table, see ``colour_table``):
+
+* ``SIGNED_LINES``: blue (negative) - mid grey (zero) - red (positive), for springs and meshes
+  drawn over either theme's background (a white middle would vanish on the light theme);
+* ``SIGNED_FIELD``: matplotlib's ``RdBu_r`` (white at zero), for field images (they fill their
+  own pixels, so the background does not matter), like the paper's pictures;
+* ``MAGNITUDE``: ``inferno`` (black at zero), for magnitudes |u| and speeds |v|.
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+import math
+
+import numpy as np
+
+Colour = tuple[int, int, int]
+
+WHITE: Colour = (255, 255, 255)
+DARK_BACKGROUND: Colour = (13, 16, 17)
+"""Rerun's dark-theme panel background (approximately)."""
+
+TERM_COLOURS: dict[str, Colour] = {  # RGB of each energy term's line
+    "kinetic": (220, 90, 30),
+    "potential": (40, 110, 235),
+    "total": (150, 70, 200),
+    "dissipated": (150, 120, 30),
+}
+INTEGRATOR_COLOURS: dict[str, Colour] = {  # RGB of each integrator's lines in a comparison
+    "euler": (220, 50, 50),
+    "heun": (205, 120, 0),
+    "verlet": (30, 150, 60),
+    "rk4": (40, 110, 235),
+}
+DRIFT_COLOUR: Colour = (200, 40, 140)
+"""The energy-balance error line of a single run."""
+NEUTRAL_COLOUR: Colour = (128, 128, 128)
+"""dt, field scale and other secondary lines; the rest positions."""
+PARTICLE_COLOUR: Colour = (40, 110, 235)
+ANCHOR_COLOUR: Colour = (128, 128, 128)
+
+SIGNED_LINES = "signed_lines"
+SIGNED_FIELD = "RdBu_r"
+MAGNITUDE = "inferno"
+
+
+def relative_luminance(colour: Colour) -> float:
+    """WCAG relative luminance of an sRGB colour (0 black, 1 white)."""
+
+    def channel(value: int) -> float:
+        v = value / 255.0
+        return v / 12.92 if v <= 0.03928 else ((v + 0.055) / 1.055) ** 2.4
+
+    r, g, b = (channel(v) for v in colour)
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b
+
+
+def contrast_ratio(first: Colour, second: Colour) -> float:
+    """WCAG contrast ratio (1 to 21) of two colours."""
+    high, low = sorted((relative_luminance(first), relative_luminance(second)), reverse=True)
+    return (high + 0.05) / (low + 0.05)
+
+
+@functools.lru_cache(maxsize=8)
+def colour_table(name: str) -> np.ndarray:
+    """(256, 3) uint8 RGB lookup table of ``name`` (a matplotlib map or ``SIGNED_LINES``)."""
+    x = np.linspace(0.0, 1.0, 256)
+    if name == SIGNED_LINES:
+        blue, grey, red = (np.array(c, float) for c in ((30, 80, 230), (128, 128, 128), (225, 40, 30)))
+        low = (x < 0.5)[:, None]
+        t = np.where(x < 0.5, x * 2.0, (x - 0.5) * 2.0)[:, None]
+        table = np.where(low, blue + (grey - blue) * t, grey + (red - grey) * t)
+        table = np.round(table).astype(np.uint8)
+    else:
+        from matplotlib import colormaps
+
+        table = np.round(colormaps[name](x)[:, :3] * 255).astype(np.uint8)
+    table.setflags(write=False)
+    return table
+
+
+def map_values(values: np.ndarray, low: float, high: float, table: np.ndarray) -> np.ndarray:
+    """Values mapped linearly from [low, high] onto ``table`` (saturating outside): uint8 RGB with
+    the shape of ``values`` plus (3,)."""
+    indices = np.subtract(values, low, dtype=np.float32)
+    indices *= np.float32(255.0 / (high - low))
+    np.clip(indices, 0.0, 255.0, out=indices)
+    indices += np.float32(0.5)
+    return table[indices.astype(np.uint8)]
+
+
+def nice_number(value: float) -> float:
+    """``value`` rounded to 1, 2 or 5 times a power of ten (for exaggeration factors)."""
+    if not (value > 0 and math.isfinite(value)):
+        return 1.0
+    exponent = math.floor(math.log10(value))
+    for mantissa in (1.0, 2.0, 5.0, 10.0):
+        if value <= mantissa * 10**exponent * 1.5:
+            return mantissa * 10**exponent
+    return 10.0 ** (exponent + 1)
+
+
+def legend_png(
+    colour_map: str, low: float, high: float, label: str, *, width: int = 520, height: int = 96,
+    note: str | None = None,
+) -> bytes:
+    """A colour bar from ``low`` to ``high`` with ticks and ``label`` (its unit in it), as PNG
+    bytes of ``width`` x ``height`` pixels (matplotlib Agg, no screen)."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(width / 100, height / 100), dpi=100, facecolor="white")
+    axes = figure.add_axes((0.04, 0.52, 0.92, 0.22))
+    table = colour_table(colour_map).astype(float) / 255.0
+    axes.imshow(table[None, :, :], aspect="auto", extent=(low, high, 0, 1))
+    axes.set_yticks([])
+    axes.tick_params(labelsize=8)
+    axes.set_title(label, fontsize=9, loc="left")
+    if note:
+        figure.text(0.04, 0.04, note, fontsize=7.5, color="#333333")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    return buffer.getvalue()
