@@ -176,7 +176,7 @@ class AccuracyFolder:
             tolerance = self.tolerance_value()
         except InputRefused:
             tolerance = DEFAULT_TOLERANCE
-        text = f"energy-balance error {error:+.3%} (tolerance {tolerance:.3g})"
+        text = f"energy-balance error {error:+.3%} (tolerance {100 * tolerance:.3g} %)"
         size = abs(error) if math.isfinite(error) else math.inf
         if size > 10 * tolerance:
             live = warning_html(text)
