@@ -53,39 +53,46 @@ class SpringParameters(NamedTuple):
     spacing: float
     origin_x: float
     origin_y: float
+    smallest_squared_length: float = 1e-24
+    """Below this squared length (m^2) a spring has no direction; its force is taken as zero."""
+    inverse_sqrt_estimate: object = None
+    """None: 1/sqrt computed as 1 / sqrt(x); True: from the CPU's single-precision estimate and
+    two Newton steps (float64 only; which is faster depends on the host, ``sim.host_tuning``)."""
 
-    def as_type(self, dtype) -> SpringParameters:
+    def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
         """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
         scalar = np.dtype(dtype).type
-        return SpringParameters(*(scalar(value) for value in self))
-
-
-# Below this length a spring has no defined direction; its force is taken as zero instead of NaN.
-_SMALLEST_LENGTH = 1e-12
+        numbers = (scalar(value) for value in self[:7])
+        return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate)
 
 
 @njit(**_JIT)
-def _inverse_square_root(value):
-    """1 / sqrt(value) to full double precision without a square root or a division.
+def _inverse_square_root(value, estimate_first):
+    """1 / sqrt(value) in the precision of ``value``.
 
-    A single-precision estimate (the CPU's fast reciprocal-square-root instruction) refined by two
-    Newton steps, each of which doubles the correct bits (about 12 -> 24 -> 48+; measured relative
-    error below 1e-15).  About 1.5x faster than 1.0 / np.sqrt(value) on the spring loop.
+    ``estimate_first`` None: computed as 1 / sqrt(value) (with fastmath, float32 becomes the CPU's
+    estimate and one Newton step).  True (float64 only): the CPU's single-precision estimate
+    refined by two Newton steps, each of which doubles the correct bits (about 12 -> 24 -> 48+;
+    relative error below 1e-15) -- faster on CPUs with 512-bit vectors and slow double square
+    roots, slower on others; ``sim.host_tuning`` measures which at first use.
     """
+    if estimate_first is None:
+        return type(value)(1.0) / np.sqrt(value)
     estimate = np.float64(np.float32(1.0) / np.sqrt(np.float32(value)))
     estimate = estimate * (1.5 - 0.5 * value * estimate * estimate)
     return estimate * (1.5 - 0.5 * value * estimate * estimate)
 
 
 @njit(**_JIT)
-def _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot):
+def _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny, estimate_first):
     """Force factor of one spring (and its dashpot) and the power the dashpot dissipates.
 
     (dx, dy, dz) = r_second - r_first and (dvx, dvy, dvz) the same for velocities; the force on
-    the first end is factor * (dx, dy, dz).  ``dashpot`` is None for an undamped scene.
+    the first end is factor * (dx, dy, dz).  ``dashpot`` is None for an undamped scene;
+    ``tiny`` the smallest squared length (m^2).
     """
-    squared = max(dx * dx + dy * dy + dz * dz, _SMALLEST_LENGTH * _SMALLEST_LENGTH)
-    inverse_length = _inverse_square_root(squared)
+    squared = max(dx * dx + dy * dy + dz * dz, tiny)
+    inverse_length = _inverse_square_root(squared, estimate_first)
     factor = stiffness - stiffness * rest_length * inverse_length
     power = 0.0
     if dashpot is not None:
@@ -97,19 +104,22 @@ def _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot):
 
 
 @njit(**_JIT)
-def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spacing, origin_x,
-                        origin_y, dashpot, out):
+def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
+    T = type(parameters.spacing)
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    spacing, origin_x, origin_y = parameters.spacing, parameters.origin_x, parameters.origin_y
+    tiny, estimate_first = parameters.smallest_squared_length, parameters.inverse_sqrt_estimate
     rows, nx = x.shape
     upper = j % rows
     lower = (j - 1) % rows
     power = 0.0
-    dz = 0.0
-    dvx = 0.0
-    dvy = 0.0
-    dvz = 0.0
+    dz = T(0.0)
+    dvx = T(0.0)
+    dvy = T(0.0)
+    dvz = T(0.0)
     if j == 0:
         for i in range(nx):
-            dx = x[upper, i] - (origin_x + i * spacing)
+            dx = x[upper, i] - (origin_x + T(i) * spacing)
             dy = y[upper, i] - (origin_y - spacing)
             if z is not None:
                 dz = z[upper, i]
@@ -118,16 +128,17 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
                 dvy = vy[upper, i]
                 if vz is not None:
                     dvz = vz[upper, i]
-            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot)
+            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
+                              estimate_first)
             power += p
             out[0, i] = f * dx
             out[1, i] = f * dy
             if z is not None:
                 out[2, i] = f * dz
     elif j == ny:
-        top = origin_y + ny * spacing
+        top = origin_y + T(ny) * spacing
         for i in range(nx):
-            dx = (origin_x + i * spacing) - x[lower, i]
+            dx = (origin_x + T(i) * spacing) - x[lower, i]
             dy = top - y[lower, i]
             if z is not None:
                 dz = -z[lower, i]
@@ -136,7 +147,8 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
                 dvy = -vy[lower, i]
                 if vz is not None:
                     dvz = -vz[lower, i]
-            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot)
+            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
+                              estimate_first)
             power += p
             out[0, i] = f * dx
             out[1, i] = f * dy
@@ -153,7 +165,8 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
                 dvy = vy[upper, i] - vy[lower, i]
                 if vz is not None:
                     dvz = vz[upper, i] - vz[lower, i]
-            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot)
+            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
+                              estimate_first)
             power += p
             out[0, i] = f * dx
             out[1, i] = f * dy
@@ -163,16 +176,19 @@ def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spac
 
 
 @njit(**_JIT)
-def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spacing, origin_x,
-                          origin_y, dashpot, out):
+def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
+    T = type(parameters.spacing)
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    spacing, origin_x, origin_y = parameters.spacing, parameters.origin_x, parameters.origin_y
+    tiny, estimate_first = parameters.smallest_squared_length, parameters.inverse_sqrt_estimate
     r = j % x.shape[0]
     nx = x.shape[1]
     power = 0.0
-    dz = 0.0
-    dvx = 0.0
-    dvy = 0.0
-    dvz = 0.0
-    row_y_rest = origin_y + j * spacing
+    dz = T(0.0)
+    dvx = T(0.0)
+    dvy = T(0.0)
+    dvz = T(0.0)
+    row_y_rest = origin_y + T(j) * spacing
     # left wall anchor to particle 0
     dx = x[r, 0] - (origin_x - spacing)
     dy = y[r, 0] - row_y_rest
@@ -183,7 +199,8 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
         dvy = vy[r, 0]
         if vz is not None:
             dvz = vz[r, 0]
-    f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot)
+    f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
+                              estimate_first)
     power += p
     out[0, 0] = f * dx
     out[1, 0] = f * dy
@@ -199,14 +216,15 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
             dvy = vy[r, i] - vy[r, i - 1]
             if vz is not None:
                 dvz = vz[r, i] - vz[r, i - 1]
-        f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot)
+        f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
+                              estimate_first)
         power += p
         out[0, i] = f * dx
         out[1, i] = f * dy
         if z is not None:
             out[2, i] = f * dz
     # particle nx - 1 to the right wall anchor
-    dx = (origin_x + nx * spacing) - x[r, nx - 1]
+    dx = (origin_x + T(nx) * spacing) - x[r, nx - 1]
     dy = row_y_rest - y[r, nx - 1]
     if z is not None:
         dz = -z[r, nx - 1]
@@ -215,7 +233,8 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
         dvy = -vy[r, nx - 1]
         if vz is not None:
             dvz = -vz[r, nx - 1]
-    f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot)
+    f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
+                              estimate_first)
     power += p
     out[0, nx] = f * dx
     out[1, nx] = f * dy
@@ -227,13 +246,14 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, sp
 @njit(**_JIT)
 def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing, origin_x,
                      origin_y, dashpot, out):
+    T = type(spacing)
     rows, nx = x.shape
     upper = j % rows
     lower = (j - 1) % rows
     power = 0.0
     if j == 0:
         for i in range(nx):
-            out[0, i] = tension_stiffness * (x[upper, i] - (origin_x + i * spacing))
+            out[0, i] = tension_stiffness * (x[upper, i] - (origin_x + T(i) * spacing))
             out[1, i] = stiffness * (y[upper, i] - origin_y)
             if z is not None:
                 out[2, i] = tension_stiffness * z[upper, i]
@@ -241,9 +261,9 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
                 out[1, i] += dashpot * vy[upper, i]
                 power += dashpot * vy[upper, i] * vy[upper, i]
     elif j == ny:
-        top_stretch_base = origin_y + ny * spacing - spacing
+        top_stretch_base = origin_y + T(ny) * spacing - spacing
         for i in range(nx):
-            out[0, i] = tension_stiffness * ((origin_x + i * spacing) - x[lower, i])
+            out[0, i] = tension_stiffness * ((origin_x + T(i) * spacing) - x[lower, i])
             out[1, i] = stiffness * (top_stretch_base - y[lower, i])
             if z is not None:
                 out[2, i] = -tension_stiffness * z[lower, i]
@@ -266,10 +286,11 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
 @njit(**_JIT)
 def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing, origin_x,
                        origin_y, dashpot, out):
+    T = type(spacing)
     r = j % x.shape[0]
     nx = x.shape[1]
     power = 0.0
-    row_y_rest = origin_y + j * spacing
+    row_y_rest = origin_y + T(j) * spacing
     out[0, 0] = stiffness * (x[r, 0] - origin_x)
     out[1, 0] = tension_stiffness * (y[r, 0] - row_y_rest)
     if z is not None:
@@ -286,7 +307,7 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
             relative = vx[r, i] - vx[r, i - 1]
             out[0, i] += dashpot * relative
             power += dashpot * relative * relative
-    out[0, nx] = stiffness * ((origin_x + (nx - 1) * spacing) - x[r, nx - 1])
+    out[0, nx] = stiffness * ((origin_x + T(nx - 1) * spacing) - x[r, nx - 1])
     out[1, nx] = tension_stiffness * (row_y_rest - y[r, nx - 1])
     if z is not None:
         out[2, nx] = -tension_stiffness * z[r, nx - 1]
@@ -301,17 +322,16 @@ def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, ou
     """Forces (3, nx) on the lower ends of the springs between row j-1 and row j (j = 0: from
     the bottom wall anchors; j = ny: from row ny-1 to the top anchors), written into ``out``.
 
-    ``parameters`` = (stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y).
+    ``parameters`` is a ``SpringParameters`` record in the precision of the arrays.
     ``ny`` is the number of rows of the lattice; the arrays may hold fewer rows, as a ring buffer
     in which row j is stored at index j % rows (a full array is the case rows == ny).
     Returns the power dissipated by the dashpots of those springs (W).
     """
-    stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y = parameters
     if linear:
-        return _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing,
-                                origin_x, origin_y, dashpot, out)
-    return _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spacing,
-                               origin_x, origin_y, dashpot, out)
+        return _linear_vertical(j, ny, x, y, z, vx, vy, parameters.stiffness,
+                                parameters.tension_stiffness, parameters.spacing,
+                                parameters.origin_x, parameters.origin_y, dashpot, out)
+    return _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out)
 
 
 @njit(**_JIT)
@@ -326,14 +346,13 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, paramete
     Returns the power dissipated in row j by the
     horizontal springs, the springs above it and drag (W).
     """
-    stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y = parameters
     power = vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, above)
     if linear:
-        power += _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing,
-                                    origin_x, origin_y, dashpot, horizontal)
+        power += _linear_horizontal(j, ny, x, y, z, vx, vy, parameters.stiffness,
+                                    parameters.tension_stiffness, parameters.spacing,
+                                    parameters.origin_x, parameters.origin_y, dashpot, horizontal)
     else:
-        power += _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, stiffness, rest_length, spacing,
-                                       origin_x, origin_y, dashpot, horizontal)
+        power += _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, horizontal)
     r = j % x.shape[0]
     nx = x.shape[1]
     for i in range(nx):
@@ -391,7 +410,9 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
     The spring energy is measured from the rest lattice.  A NaN or infinity anywhere in the
     state makes the result non-finite, so this doubles as the blow-up check.
     """
-    stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y = parameters
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    tension_stiffness, spacing = parameters.tension_stiffness, parameters.spacing
+    origin_x, origin_y = parameters.origin_x, parameters.origin_y
     ny, nx = x.shape
     kinetic = 0.0
     spring = 0.0
@@ -444,3 +465,70 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
         spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
                                  tension_stiffness, spacing)
     return kinetic, spring
+
+
+@njit(**_JIT)
+def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                  parameters, gravity, below, above_last, horizontal):
+    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
+    nonlinear springs, with each row's forces and update fused into one pass over it.
+
+    ``below`` (3, nx) holds the forces of the springs below row j0 on entry (it is reused as the
+    running buffer); ``above_last`` (3, nx) those of the springs above row j1 - 1, computed before
+    the sweep moved anything (the top wall springs, or a block boundary when the lattice is swept
+    as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
+    spring is computed here from positions that have not moved yet, so the result does not
+    depend on how the rows are split into blocks.
+    """
+    T = type(dt)
+    zero = T(0.0)
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    tiny, estimate_first = parameters.smallest_squared_length, parameters.inverse_sqrt_estimate
+    nx = x.shape[1]
+    dz = zero
+    tz = zero
+    for j in range(j0, j1):
+        _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, None, horizontal)
+        given = j + 1 == j1
+        for i in range(nx):
+            if given:
+                tx = above_last[0, i]
+                ty = above_last[1, i]
+                if z is not None:
+                    tz = above_last[2, i]
+            else:
+                dx = x[j + 1, i] - x[j, i]
+                dy = y[j + 1, i] - y[j, i]
+                if z is not None:
+                    dz = z[j + 1, i] - z[j, i]
+                f, _ = _spring_factor(dx, dy, dz, zero, zero, zero, stiffness, rest_length, None,
+                                      tiny, estimate_first)
+                tx = f * dx
+                ty = f * dy
+                if z is not None:
+                    tz = f * dz
+            if uniform_inverse_mass is not None:
+                w = uniform_inverse_mass
+            else:
+                w = inverse_mass[j, i]
+            ax = (horizontal[0, i + 1] - horizontal[0, i] + tx - below[0, i]) * w
+            ay = (horizontal[1, i + 1] - horizontal[1, i] + ty - below[1, i]) * w
+            if gravity is not None:
+                ax += gravity[0]
+                ay += gravity[1]
+            u = vx[j, i] + dt * ax
+            v = vy[j, i] + dt * ay
+            vx[j, i] = u
+            vy[j, i] = v
+            x[j, i] += dt * u
+            y[j, i] += dt * v
+            below[0, i] = tx
+            below[1, i] = ty
+            if z is not None:
+                az = (horizontal[2, i + 1] - horizontal[2, i] + tz - below[2, i]) * w
+                if gravity is not None:
+                    az += gravity[2]
+                s = vz[j, i] + dt * az
+                vz[j, i] = s
+                z[j, i] += dt * s
+                below[2, i] = tz

@@ -14,16 +14,17 @@ once, which is what makes the step fast on large lattices.
 Arrays: ``position``, ``velocity`` and the work arrays are C-contiguous ``(dim, ny, nx)`` float
 arrays (m, m/s, m/s^2).  ``out_of_plane`` is None for planar scenes (dim == 2) and True for
 dim == 3; ``dashpot``, ``drag``, ``gravity`` are None when the scene has none of them, which
-selects compiled code without those terms (see ``sim.kernels``).  ``parameters`` is the tuple
-``(stiffness, rest_length, tension_stiffness, spacing, origin_x, origin_y)``.
+selects compiled code without those terms (see ``sim.kernels``).  ``parameters`` is a
+``sim.kernels.SpringParameters`` record.  Precision: the arrays, ``dt`` and every parameter are
+all float64 or all float32, and so is the arithmetic; dissipated energy sums in float64.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from sim.kernels import row_accelerations, vertical_springs
+from sim.kernels import leapfrog_rows, row_accelerations, vertical_springs
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -45,10 +46,10 @@ def accelerations(
     x, y, z = _components(out_of_plane, position)
     vx, vy, vz = _components(out_of_plane, velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx))
-    above = np.empty((3, nx))
-    horizontal = np.empty((3, nx + 1))
-    row = np.empty((3, nx))
+    below = np.empty((3, nx), position.dtype)
+    above = np.empty((3, nx), position.dtype)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
     power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
     for j in range(ny):
         power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
@@ -70,10 +71,10 @@ def euler_steps(
     x, y, z = _components(out_of_plane, position)
     vx, vy, vz = _components(out_of_plane, velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx))
-    above = np.empty((3, nx))
-    horizontal = np.empty((3, nx + 1))
-    row = np.empty((3, nx))
+    below = np.empty((3, nx), position.dtype)
+    above = np.empty((3, nx), position.dtype)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
     dissipated = 0.0
     for _ in range(n):
         power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
@@ -107,10 +108,10 @@ def heun_steps(
     vxs, vys, vzs = _components(out_of_plane, stage_velocity)
     dim, ny, nx = position.shape
     ring = stage_position.shape[1]  # rows kept of the stage arrays (a ring buffer, >= 2)
-    vertical = np.empty((2, 2, 3, nx))  # (sweep, below/above, component, column)
-    horizontal = np.empty((3, nx + 1))
-    row = np.empty((3, nx))
-    half = 0.5 * dt
+    vertical = np.empty((2, 2, 3, nx), position.dtype)  # (sweep, below/above, component, column)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
+    half = type(dt)(0.5) * dt
     dissipated = 0.0
     for _ in range(n):
         power = 0.0
@@ -155,7 +156,7 @@ def heun_steps(
 def _verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, damped):
     """Half kick and drift of row j (and the predicted velocity v + dt a when damped)."""
     dim, ny, nx = position.shape
-    half = 0.5 * dt
+    half = type(dt)(0.5) * dt
     for c in range(dim):
         for i in range(nx):
             if damped:
@@ -191,11 +192,11 @@ def verlet_steps(
     else:
         vx, vy, vz = _components(out_of_plane, velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx))
-    above = np.empty((3, nx))
-    horizontal = np.empty((3, nx + 1))
-    row = np.empty((3, nx))
-    half = 0.5 * dt
+    below = np.empty((3, nx), position.dtype)
+    above = np.empty((3, nx), position.dtype)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
+    half = type(dt)(0.5) * dt
     dissipated = 0.0
     power = previous_power
     for step in range(n):
@@ -249,13 +250,13 @@ def rk4_steps(
     vxs, vys, vzs = _components(out_of_plane, stage_velocity)
     dim, ny, nx = position.shape
     ring = stage_position.shape[1]  # rows kept of the stage arrays (a ring buffer, >= 4)
-    vertical = np.empty((4, 2, 3, nx))  # (stage, below/above, component, column)
-    horizontal = np.empty((3, nx + 1))
-    row = np.empty((3, nx))
+    vertical = np.empty((4, 2, 3, nx), position.dtype)  # (stage, below/above, component, column)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
     powers = np.zeros(4)
-    sixth = dt / 6.0
-    third = dt / 3.0
-    half = 0.5 * dt
+    sixth = dt / type(dt)(6.0)
+    third = dt / type(dt)(3.0)
+    half = type(dt)(0.5) * dt
     dissipated = 0.0
     for _ in range(n):
         powers[:] = 0.0
@@ -307,3 +308,74 @@ def rk4_steps(
                             velocity[c, j, i] = sum_velocity[c, slot, i] + sixth * row[c, i]
         dissipated += sixth * (powers[0] + 2.0 * powers[1] + 2.0 * powers[2] + powers[3])
     return dissipated
+
+
+@njit(**_JIT)
+def verlet_open(dt, position, velocity, acceleration):
+    """Velocity Verlet state (x, v, a) -> leapfrog state: v += dt/2 a; x += dt v (in place)."""
+    half = type(dt)(0.5) * dt
+    flat_position = position.reshape(-1)
+    flat_velocity = velocity.reshape(-1)
+    flat_acceleration = acceleration.reshape(-1)
+    for k in range(flat_position.size):
+        v = flat_velocity[k] + half * flat_acceleration[k]
+        flat_velocity[k] = v
+        flat_position[k] += dt * v
+
+
+@njit(**_JIT)
+def verlet_close(dt, velocity, acceleration):
+    """Leapfrog half-step velocity -> whole step: v += dt/2 a, with a = a(x) just computed."""
+    half = type(dt)(0.5) * dt
+    flat_velocity = velocity.reshape(-1)
+    flat_acceleration = acceleration.reshape(-1)
+    for k in range(flat_velocity.size):
+        flat_velocity[k] += half * flat_acceleration[k]
+
+
+@njit(**_JIT)
+def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                   parameters, gravity, block_starts, boundary, below, horizontal):
+    """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
+
+    Rows ``block_starts[b] .. block_starts[b + 1] - 1`` form block b.  Each step first computes
+    the springs across every block boundary (and the wall springs at the bottom and top) from the
+    unmoved positions into ``boundary`` (blocks + 1, 3, nx), then sweeps the blocks independently
+    (``leapfrog_rows``); ``below`` (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are
+    per-block scratch.  This one runs the blocks one after the other on the calling thread;
+    ``leapfrog_steps_parallel`` runs them on numba's threads and computes the same numbers.
+    """
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    for _ in range(n):
+        for b in range(blocks + 1):
+            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
+                             boundary[b])
+        for b in range(blocks):
+            below[b, :, :] = boundary[b]
+            leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
+                          inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                          boundary[b + 1], horizontal[b])
+
+
+@njit(parallel=True, **_JIT)
+def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mass,
+                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
+                            below, horizontal):
+    """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
+    threads (``prange``; ``numba.set_num_threads`` sets how many)."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    for _ in range(n):
+        for b in prange(blocks + 1):
+            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
+                             boundary[b])
+        for b in prange(blocks):
+            below[b, :, :] = boundary[b]
+            leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
+                          inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                          boundary[b + 1], horizontal[b])
