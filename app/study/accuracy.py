@@ -116,6 +116,9 @@ class AccuracyStudy:
     runs: list[Run]
     orders: dict[str, float | None]
     recommendation: Recommendation
+    exact: Run | None = None
+    """The exact normal-mode integrator on the same scene (linear scenes only): no time-step
+    error, so it is the reference line of the picture, with its own cost."""
 
     def runs_of(self, integrator: str, refined: bool | None = False) -> list[Run]:
         """Runs of one integrator sorted by dt (only the planned ones unless refined is None)."""
@@ -377,10 +380,15 @@ def accuracy_study(
             if extra is not None:
                 runs.append(extra)
     recommendation = recommend(runs, tolerance, reference.error)
+    exact = None
+    if "exact" in sim.integrators.names(scene.model):
+        if progress:
+            progress("exact solver")
+        exact = measure("exact", until, note="exact normal-mode solver (any dt)")
     return AccuracyStudy(
         scene=scene.name, description=scene.model.describe(), until=until, omega_max=omega_max,
         limits=limits, reference=reference, runs=runs, orders=orders,
-        recommendation=recommendation,
+        recommendation=recommendation, exact=exact,
     )
 
 
@@ -497,7 +505,8 @@ def recommend(
     return Recommendation(
         tolerance, fastest.integrator, fastest.dt, fastest.wall_seconds, fastest.error,
         f"{label} at dt = {fastest.dt:.4g} s reaches {fastest.error:.3g} <= {tolerance:g} "
-        f"in {fastest.wall_seconds * 1e3:.3g} ms ({FORCE_EVALUATIONS[fastest.integrator]} force "
+        f"in {fastest.wall_seconds * 1e3:.3g} ms of wall time for the whole run to "
+        f"T = {fastest.steps * fastest.dt:.3g} s ({FORCE_EVALUATIONS[fastest.integrator]} force "
         f"evaluation(s) per step, order {ORDERS[fastest.integrator]})",
     )
 
@@ -595,6 +604,10 @@ def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
     if study.recommendation.integrator:
         left.plot([study.recommendation.wall_seconds], [study.recommendation.error], "k*",
                   markersize=14, label="recommended")
+    if study.exact is not None and not study.exact.blew_up:
+        left.axvline(study.exact.wall_seconds, color="black", linestyle="-.",
+                     label=f"exact solver: {study.exact.wall_seconds * 1e3:.2g} ms, "
+                     f"error {study.exact.error:.0e} (any dt)")
     left.set_xlabel("wall time (s)")
     left.set_title("work-precision")
     right.set_xlabel("dt (s)")
