@@ -1,0 +1,209 @@
+"""float32 and multi-threaded runs against the physics, and the integrators as one description.
+
+float32 tolerance: every step rounds each coordinate to float32, a relative error of at most
+eps32 = 2**-24 (about 6e-8) of the position's magnitude (the lattice's extent, not the
+displacement).  These errors are uncorrelated from step to step, so after N steps they add up
+like a random walk to about eps32 * extent * sqrt(N); the tests allow 20 times that on top of
+the float64 tolerance.  Energies are summed in float64, so the energy error follows the same
+estimate relative to the energy scale.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import sim
+from app.cli import IntegratorChoices
+from sim import integrators, stepping
+from sim.integrators import IntegratorDescription
+
+K = 35.0
+EPS32 = float(np.finfo(np.float32).eps) / 2
+
+
+def float32_tolerance(extent: float, steps: int) -> float:
+    """Absolute position tolerance (m) from float32 round-off after ``steps`` steps."""
+    return 20 * EPS32 * extent * math.sqrt(steps)
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "rk4"])
+@pytest.mark.parametrize("mode", [1, 3, 5])
+def test_float32_chain_normal_modes(integrator, mode):
+    count, mass, amplitude, dt = 5, 1.0, 0.1, 0.001
+    simulation = sim.Simulation(
+        sim.scenes.build("chain", linear=True), integrator=integrator, dt=dt, precision="float32"
+    )
+    assert simulation.state.positions.dtype == np.float32
+    j = np.arange(1, count + 1)
+    shape = np.sin(mode * math.pi * j / (count + 1))
+    rest = simulation.rest_positions.copy()
+    simulation.positions[:, 0] = rest[:, 0] + amplitude * shape
+    simulation.velocities[...] = 0.0
+    omega = 2 * math.sqrt(K / mass) * math.sin(mode * math.pi / (2 * (count + 1)))
+    extent = float(np.abs(rest).max())
+    simulation.step(2500)
+    displacement = simulation.state.particle_positions()[:, 0].astype(float) - rest[:, 0]
+    expected = amplitude * shape * math.cos(omega * simulation.time)
+    # float64 error of the method itself: Verlet's phase error omega^3 dt^2 t / 24, RK4 negligible
+    method = amplitude * omega**3 * dt**2 * simulation.time / 24 if integrator == "verlet" else 0
+    np.testing.assert_allclose(
+        displacement, expected, atol=float32_tolerance(extent, 2500) + 2 * method
+    )
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_float32_energy_conserved_nonlinear_grid(threads):
+    scene = sim.scenes.build("grid").with_displacement(40, (0.05, 0.03))
+    reference = sim.Simulation(scene, integrator="verlet", dt=0.01)
+    single = sim.Simulation(scene, integrator="verlet", dt=0.01, precision="float32",
+                            threads=threads)
+    start = reference.energy().total
+    steps = 2000
+    reference.step(steps)
+    single.step(steps)
+    extent = float(np.abs(scene.model.rest_positions).max())
+    # energy ~ k * stretch * (position error): relative to the spring force scale
+    tolerance = K * scene.model.spacing * float32_tolerance(extent, steps) * scene.model.n_springs
+    assert abs(single.energy().total - reference.energy().total) < tolerance
+    # Verlet's own bounded energy error, of order (omega_max dt)^2
+    bound = (reference.stability().omega_max * 0.01) ** 2 / 4
+    assert abs(reference.energy().total - start) < bound * start
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_threads_equal_one_thread_to_round_off(precision):
+    scene = sim.scenes.build("interference", nx=96, ny=41)
+    runs = []
+    for threads in (1, 2, 3):
+        simulation = sim.Simulation(scene, integrator="verlet", dt=0.01, precision=precision,
+                                    threads=threads)
+        simulation.step(200)
+        runs.append(simulation.state.positions.astype(float))
+    extent = float(np.abs(scene.model.rest_positions).max())
+    eps = float(np.finfo(precision).eps)
+    for other in runs[1:]:
+        np.testing.assert_allclose(other, runs[0], rtol=0, atol=20 * eps * extent * math.sqrt(200))
+
+
+def test_stability_limit_does_not_depend_on_precision_or_threads():
+    scene = sim.scenes.build("grid")
+    base = sim.Simulation(scene, integrator="verlet")
+    other = sim.Simulation(scene, integrator="verlet", precision="float32", threads=2)
+    for name in ("verlet", "rk4", "euler"):
+        assert other.stable_dt(name) == base.stable_dt(name)
+    omega = base.stability("verlet").omega_max
+    assert base.stable_dt("verlet") == pytest.approx(2.0 / omega)
+    assert base.stable_dt("rk4") == pytest.approx(2 * math.sqrt(2) / omega)
+
+
+def test_float32_kernels_compute_in_float32():
+    scene = sim.scenes.build("grid")
+    simulation = sim.Simulation(scene, integrator="rk4", precision="float32")
+    simulation.step(3)
+    signatures = [str(signature) for signature in stepping.rk4_steps.signatures]
+    assert any("float32" in signature and "float64, 3d" not in signature
+               for signature in signatures), signatures
+    assert simulation.state.velocities.dtype == np.float32
+    assert isinstance(simulation.energy().total, float)
+
+
+def test_precision_from_scene_files_and_cli(tmp_path):
+    scene = sim.scenes.build("chain", precision="float32")
+    path = tmp_path / "chain.toml"
+    sim.scenes.save(scene, path)
+    assert sim.scenes.load_file(str(path)).precision == "float32"
+    assert sim.Simulation(sim.scenes.load_file(str(path))).precision == "float32"
+    with pytest.raises(sim.SceneError):
+        sim.scenes.build("chain", precision="float16")
+    result = subprocess.run(
+        [sys.executable, "-m", "app.cli", "run", "chain", "--steps", "10", "--precision",
+         "float32", "--threads", "2", "--quiet"], capture_output=True, text=True,
+    )
+    assert result.returncode == 0, result.stderr
+
+
+# --- the one description of the integrators ---------------------------------------------------
+
+
+class SymplecticEuler(integrators.Integrator):
+    """The docs/api.md example: kick with a(x), then drift with the new velocity."""
+
+    name = "symplectic-euler"
+
+    def advance(self, state, n, dt):
+        for _ in range(n):
+            stepping.accelerations(*self._common(state), self.work[0])
+            state.velocities += self._dt(dt) * self.work[0]
+            state.positions += self._dt(dt) * state.velocities
+        state.advance_clock(n, dt)
+
+
+def test_every_integrator_table_comes_from_the_one_description():
+    from app.study import accuracy
+
+    registered = [d.name for d in integrators.descriptions()]
+    general = [d.name for d in integrators.descriptions() if d.applies_to is None]
+    assert list(sim.INTEGRATORS) == general
+    assert list(IntegratorChoices()) == registered
+    for table, field in ((sim.ORDERS, "order"), (integrators.LABELS, "label"),
+                         (integrators.FORCE_EVALUATIONS, "force_evaluations"),
+                         (integrators.STABILITY_FACTORS, "stability_factor")):
+        assert list(table) == registered
+        assert all(table[name] == getattr(integrators.describe(name), field) for name in table)
+    assert accuracy.ORDERS is integrators.ORDERS
+    assert accuracy.FORCE_EVALUATIONS is integrators.FORCE_EVALUATIONS
+
+
+def test_a_fifth_integrator_is_one_registration():
+    description = IntegratorDescription(
+        name="symplectic-euler", label="symplectic Euler", short_label="symplectic Euler",
+        order=1, force_evaluations=1, stability_factor=2.0, stepper=SymplecticEuler,
+        amplification=None, symplectic=True,
+    )
+    integrators.register(description)
+    try:
+        assert "symplectic-euler" in sim.INTEGRATORS
+        assert "symplectic-euler" in IntegratorChoices()
+        assert sim.ORDERS["symplectic-euler"] == 1
+        simulation = sim.Simulation(sim.scenes.build("single"), integrator="symplectic-euler",
+                                    dt=0.01)
+        omega = simulation.stability().omega_max
+        assert simulation.stable_dt() == pytest.approx(2.0 / omega)
+        simulation.positions[0] += (1e-3, 0.0)
+        start = simulation.energy().total
+        simulation.step(1000)
+        assert abs(simulation.energy().total - start) < 0.05 * start  # symplectic: bounded
+    finally:
+        integrators.unregister("symplectic-euler")
+    assert "symplectic-euler" not in sim.INTEGRATORS
+
+
+def test_non_kernel_integrators_only_where_they_apply():
+    nonlinear = sim.scenes.build("grid").model
+    for description in integrators.descriptions():
+        if description.applies_to is not None:
+            assert description.name not in sim.INTEGRATORS
+        if not description.kernel:
+            assert description.name not in integrators.names(kernel_only=True)
+    assert set(integrators.names(nonlinear)) <= set(integrators.ALL_INTEGRATORS)
+
+
+def test_bench_reports_host_vector_width_and_threads():
+    result = subprocess.run(
+        [sys.executable, "-m", "app.cli", "bench", "--scene", "grid", "--seconds", "0.05",
+         "--threads", "2", "--json"], capture_output=True, text=True, timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["host"]["vector_width_bits"] in (128, 256, 512)
+    assert report["threads"] == [1, 2]
+    configurations = {(r["integrator"], r["precision"], r["threads"]) for r in report["configurations"]}
+    assert ("verlet", "float32", 2) in configurations and ("rk4", "float64", 1) in configurations
+    gains = report["specialisation"]["rk4"]["gain"]
+    assert set(gains) == {"zero_damping_drag_gravity", "inverse_mass_array", "three_dimensional"}
