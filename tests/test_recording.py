@@ -387,3 +387,161 @@ def test_interference_thousand_frames_end_to_end(tmp_path):
     assert path.stat().st_size < 50e6
     steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     assert len(steps) == 1001
+
+
+# --- recordings that explain themselves -----------------------------------------------------------
+
+SMALL_PRESETS = ["single", "square", "chain", "grid", "ionic", "catenary", "membrane"]
+SIZE_LIMIT = 10e6  # bytes (10 MB)
+
+
+def static_value(chunks: list, entity: str, column: str) -> object:
+    for chunk in chunks:
+        if chunk.entity_path == entity and chunk.is_static:
+            batch = chunk.to_record_batch()
+            if column in batch.schema.names:
+                return batch.column(column)[0]
+    raise KeyError(f"{entity}:{column}")
+
+
+def document(chunks: list) -> str:
+    return static_value(chunks, "/scene", "TextDocument:text").as_py()[0]
+
+
+def table_rows(text: str) -> dict[str, list[str]]:
+    """{first cell: cells} of every markdown table row."""
+    rows = {}
+    for line in text.splitlines():
+        if line.startswith("|") and not line.startswith("| ---"):
+            cells = [cell.strip() for cell in line.strip("|").split("|")]
+            rows[cells[0]] = cells
+    return rows
+
+
+def default_timeline(path: Path) -> str:
+    reader = RrdReader(path)
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store).to_chunks():
+            batch = chunk.to_record_batch()
+            if "TimePanelBlueprint:timeline" in batch.schema.names:
+                return batch.column("TimePanelBlueprint:timeline")[0].as_py()[0]
+    raise AssertionError("no time panel in the blueprint")
+
+
+def pooled_percentile(rows: dict[int, object], offset: float = 0.0, q: float = 99.0) -> float:
+    values = np.concatenate([np.abs(as_array(value) - offset) for value in rows.values()])
+    return float(np.percentile(values, q))
+
+
+def check_default_recording(path: Path, name: str) -> None:
+    """What every preset's default recording must be: small, readable, self-explaining, in
+    seconds, with colour scales that are neither saturated nor faint."""
+    assert path.stat().st_size <= SIZE_LIMIT, f"{path.stat().st_size / 1e6:.1f} MB"
+    result = subprocess.run([rerun_binary(), "rrd", "verify", str(path)],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    chunks = read_chunks(path)
+    scene = sim.scenes.build(name)
+    model = scene.model
+    rows = table_rows(document(chunks))
+    for key in model.parameters():
+        assert key in rows and rows[key][3], f"{key} has no unit in the document"
+    assert rows["mass"][3] == "kg" and rows["time step dt"][2] == "s"
+    assert rows["stiffness"][3] == "N/m" and rows["spacing"][3] == "m"
+    for heading in ("## Initial condition", "## How to read the views", "## Versions",
+                    "recorded by", "frame interval", "rerun-sdk"):
+        assert heading in document(chunks), heading
+    assert default_timeline(path) == "sim_time"
+    energy = [c for c in chunks if c.entity_path == "/energy/total" and not c.is_static][0]
+    assert str(energy.to_record_batch().schema.field("sim_time").type).startswith("duration")
+    assert temporal(chunks, "/drift/energy_balance_error", "Scalars:scalars")
+    if model.dim == 2 and model.n_particles <= 2500:
+        scale = scalar(static_value(chunks, "/lattice/springs", "strain_colour_scale"))
+        rest = scalar(static_value(chunks, "/lattice/springs", "rest_strain"))
+        assert rest == pytest.approx((model.spacing - model.rest_length) / model.rest_length)
+        p99 = pooled_percentile(temporal(chunks, "/lattice/springs", "strain"), rest)
+        assert 0.3 <= p99 / scale <= 1.0, (p99, scale)
+    elif model.dim == 3:
+        scale = scalar(static_value(chunks, "/lattice/surface", "height_colour_scale"))
+        vertices = temporal(chunks, "/lattice/surface", "Mesh3D:vertex_positions")
+        heights = {step: as_array(value, 3)[:, 2] for step, value in vertices.items()}
+        p99 = np.percentile(np.abs(np.concatenate(list(heights.values()))), 99)
+        assert 0.3 <= p99 / scale <= 1.0, (p99, scale)
+
+
+@pytest.mark.parametrize("name", SMALL_PRESETS)
+def test_every_small_preset_default_recording(tmp_path, name):
+    path = tmp_path / f"{name}.rrd"
+    assert main(["record", name, "-o", str(path), "--quiet"]) == 0
+    check_default_recording(path, name)
+
+
+@pytest.mark.slow
+def test_interference_default_recording(tmp_path):
+    path = tmp_path / "interference.rrd"
+    assert main(["record", "interference", "-o", str(path), "--quiet"]) == 0
+    check_default_recording(path, "interference")
+
+
+def test_document_names_the_displaced_particle_and_the_command(grid_file, tmp_path):
+    path = tmp_path / "grid.rrd"
+    assert main(["record", "grid", "--steps", "20", "-o", str(path), "--quiet"]) == 0
+    text = document(read_chunks(path))
+    model = sim.scenes.build("grid").model
+    centre = (model.ny // 2) * model.nx + model.nx // 2  # the preset displaces the centre one
+    assert f"particle {centre} (column i = {model.nx // 2}, row j = {model.ny // 2})" in text
+    assert "(+0.4, +0.3) m" in text  # (0.4, 0.3) a with a = 1 m
+    command = [line for line in text.splitlines() if "recorded by" in line][0]
+    assert "`oscillators record grid " in command and "--steps 20" in command, command
+    assert "every 1 steps = 0.01 | s" in text
+
+
+def test_line_colours_are_readable_on_light_and_dark_themes(grid_file):
+    from app.recording import style
+
+    colours = [*style.TERM_COLOURS.values(), *style.INTEGRATOR_COLOURS.values(),
+               style.DRIFT_COLOUR, style.NEUTRAL_COLOUR]
+    for colour in colours:
+        assert style.contrast_ratio(colour, style.WHITE) >= 3.0, colour
+        assert style.contrast_ratio(colour, style.DARK_BACKGROUND) >= 3.0, colour
+    path, _ = grid_file
+    chunks = read_chunks(path)
+    for term, colour in style.TERM_COLOURS.items():
+        packed = static_value(chunks, f"/energy/{term}", "SeriesLines:colors").as_py()[0]
+        assert packed >> 8 == (colour[0] << 16) | (colour[1] << 8) | colour[2], term
+    assert static_rows(chunks, "/legend/strain") == 1
+
+
+def test_compare_plots_each_integrators_drift(tmp_path):
+    path = tmp_path / "compare.rrd"
+    assert main(["record", "grid", "--compare", "euler,verlet", "--dt", "0.01", "--steps", "300",
+                 "--every", "10", "-o", str(path), "--quiet"]) == 0
+    chunks = read_chunks(path)
+    drift = {name: temporal(chunks, f"/{name}/drift/energy_balance_error", "Scalars:scalars")
+             for name in ("euler", "verlet")}
+    reference = sim.Simulation(sim.scenes.build("grid"), integrator="verlet", dt=0.01)
+    reference.step(300)
+    assert scalar(drift["verlet"][300]) == pytest.approx(100 * reference.energy_balance_error(),
+                                                         rel=1e-6, abs=1e-9)
+    # Euler gains energy on an undamped lattice (its amplification exceeds 1); Verlet does not
+    assert scalar(drift["euler"][300]) > 10 * abs(scalar(drift["verlet"][300]))
+    for name in ("euler", "verlet"):  # each run keeps its own absolute-energy plot
+        assert temporal(chunks, f"/{name}/energy/total", "Scalars:scalars")
+
+
+def test_interference_field_is_signed_and_its_scale_fixed(tmp_path):
+    path = tmp_path / "interference.rrd"
+    assert main(["record", "interference", "--steps", "40", "--every", "20", "--field", "raw",
+                 "--raw-dtype", "float16", "-o", str(path), "--quiet"]) == 0
+    chunks = read_chunks(path)
+    model = sim.scenes.build("interference").model
+    images = temporal(chunks, "/field", "DepthImage:buffer")
+    image = np.frombuffer(as_array(images[0]).astype(np.uint8).tobytes(), np.float16)
+    field = image.reshape(model.ny, model.nx)[::-1].astype(float)  # row 0 at the bottom
+    middle = model.ny // 2
+    # at t = 0 the left source is pushed +0.5 a in y, the right one -0.5 a: opposite signs
+    assert field[middle, 0] == pytest.approx(0.5 * model.spacing, rel=1e-3)
+    assert field[middle, -1] == pytest.approx(-0.5 * model.spacing, rel=1e-3)
+    assert np.count_nonzero(field) == 2
+    assert "u_y (m)" in document(chunks)
+    assert not temporal(chunks, "/settings/field_scale", "Scalars:scalars")  # fixed, not per frame

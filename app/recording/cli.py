@@ -20,7 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from app.recording.explain import RunInfo, command_line
+from app.recording.explain import RunInfo, command_from_arguments
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.recorder import (
     DETAIL_LIMIT,
@@ -133,7 +133,7 @@ def register(subparsers: Any) -> None:
         "(one entity tree per integrator, shared timelines)",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.set_defaults(handler=command_record)
+    parser.set_defaults(handler=command_record, command_parser=parser)
 
 
 class _StopRequest:
@@ -247,6 +247,8 @@ def command_record(arguments: argparse.Namespace) -> int:
     if arguments.output is not None:
         _check_output(arguments.output, arguments.force)
     scene = scene_from_arguments(arguments)
+    command = (command_from_arguments(arguments.command_parser, arguments)
+               if getattr(arguments, "command_parser", None) else None)
     names = compare or [arguments.integrator or scene.integrator]
     simulations = {name: Simulation(scene, integrator=name, dt=arguments.dt) for name in names}
     first = next(iter(simulations.values()))
@@ -274,7 +276,7 @@ def command_record(arguments: argparse.Namespace) -> int:
         recorder = Recorder(
             output, scene, options=options, trees=trees, expected_frames=frames,
             integrator=", ".join(names), dt=dt, overwrite=arguments.force,
-            run=RunInfo(steps=steps, every=arguments.every, command=command_line()),
+            run=RunInfo(steps=steps, every=arguments.every, command=command),
         )
     except RecordingError as error:
         print(f"error: {error}", file=sys.stderr)

@@ -58,6 +58,34 @@ def command_line() -> str:
     return shlex.join([program, *arguments])
 
 
+def command_from_arguments(parser: Any, arguments: Any, program: str = "oscillators") -> str:
+    """The command line that reproduces parsed ``arguments`` of a subcommand's ``parser``: its
+    positionals and every option whose value differs from its default (whatever process parsed
+    them: a shell, a test, the web app)."""
+    import argparse
+
+    words = [program, parser.prog.split()[-1]]
+    options: list[str] = []
+    for action in parser._actions:  # noqa: SLF001 - argparse has no public list of actions
+        if isinstance(action, argparse._HelpAction) or action.dest in ("help", "handler"):  # noqa: SLF001
+            continue
+        value = getattr(arguments, action.dest, None)
+        if not action.option_strings:
+            words.append(str(value))
+            continue
+        if value is None or value == action.default or value is False:
+            continue
+        flag = action.option_strings[-1]
+        if value is True:
+            options.append(flag)
+        elif isinstance(value, list):
+            for item in value:
+                options += [flag, str(item)]
+        else:
+            options += [flag, str(value)]
+    return shlex.join(words + options)
+
+
 def versions() -> dict[str, str]:
     """Versions of the project and of the libraries that shape a recording."""
     import importlib.metadata
