@@ -184,3 +184,65 @@ def gravity_release_energy(model: Model) -> float:
     for component in range(model.dim):
         work += float((masses * model.gravity[component] * offset[component]).sum())
     return 0.5 * work
+
+
+POLARISATION_NAMES = ("x", "y", "z")
+"""Displacement components: in-plane x (along rows), in-plane y (along columns), out of plane z."""
+
+
+def mode_energies(model: Model, positions: np.ndarray, velocities: np.ndarray,
+                  basis: ModalBasis | None = None) -> list[np.ndarray]:
+    """Energy (J) in each normal mode of the lattice linearised about its equilibrium, per
+    polarisation: (ny, nx) arrays indexed [n-1, m-1] for mode (m, n) with equal masses (m
+    half-waves along x, n along y), (n_particles,) arrays in rising frequency otherwise.
+
+    positions, velocities: (n_particles, dim) m, m/s.  For a linear scene the energies add up to
+    kinetic + potential energy minus the potential energy of the equilibrium (without gravity:
+    kinetic + spring energy), to round-off, and each is constant without damping."""
+    basis = basis or ModalBasis.of(model)
+    shape = (model.dim, model.ny, model.nx)
+    displacement = (np.asarray(positions, float) - model.rest_positions).T.reshape(shape)
+    displacement = displacement - static_offset(model)
+    velocity = np.asarray(velocities, float).T.reshape(shape)
+    energies = []
+    for component in range(model.dim):
+        q = basis.to_modes(displacement[component], component)
+        v = basis.to_modes(velocity[component], component)
+        energies.append(0.5 * (v**2 + basis.omega_squared[component] * q**2))
+    return energies
+
+
+def mode_shape(model: Model, m: int, n: int) -> np.ndarray:
+    """(ny, nx) displacement pattern of the equal-mass sine mode (m, n), largest entry 1:
+    sin(m pi i / (nx + 1)) sin(n pi j / (ny + 1)) for column i, row j (1-based)."""
+    if not (1 <= m <= model.nx and 1 <= n <= model.ny):
+        raise ModelError(f"mode (m, n) must have 1 <= m <= {model.nx} and 1 <= n <= {model.ny}, "
+                         f"got ({m}, {n})")
+    columns = np.sin(m * np.pi * np.arange(1, model.nx + 1) / (model.nx + 1))
+    rows = np.sin(n * np.pi * np.arange(1, model.ny + 1) / (model.ny + 1))
+    shape = np.outer(rows, columns)
+    return shape / np.abs(shape).max()
+
+
+def mode_frequency(model: Model, m: int, n: int, polarisation: int) -> float:
+    """Angular frequency (rad/s) of the equal-mass sine mode (m, n) of one polarisation."""
+    k_columns, k_rows, _, _ = polarisations(model)[polarisation]
+    mass = float(np.asarray(model.masses).mean())
+    value = (k_columns * second_difference_eigenvalues(model.nx)[m - 1]
+             + k_rows * second_difference_eigenvalues(model.ny)[n - 1]) / mass
+    return float(np.sqrt(max(value, 0.0)))
+
+
+def excited_state(model: Model, m: int, n: int, polarisation: int,
+                  amplitude: float) -> tuple[np.ndarray, np.ndarray]:
+    """(positions, velocities) as (n_particles, dim) arrays: the lattice at its equilibrium with
+    the equal-mass mode (m, n) of one polarisation displaced by ``amplitude`` (m) at its largest
+    point, at rest: that mode alone carries the energy (linear scenes, equal masses)."""
+    if not model.uniform_mass:
+        raise ModelError("a single sine mode is a normal mode only when all masses are equal")
+    if not 0 <= polarisation < model.dim:
+        raise ModelError(f"polarisation must be one of {POLARISATION_NAMES[: model.dim]}")
+    displacement = static_offset(model)
+    displacement[polarisation] += amplitude * mode_shape(model, m, n)
+    positions = model.rest_positions + displacement.reshape(model.dim, -1).T
+    return positions, np.zeros_like(positions)

@@ -369,7 +369,7 @@ def test_the_page_shows_the_energy_balance_error_and_explains_it(web_app):
                     and "#c0392b" in accuracy.live.content)  # far above 1 %: red
     web_app.runner.pause()
     assert accuracy.why.visible and "adds energy" in accuracy.why.content
-    assert wait_for(lambda: "predicted" in accuracy.predicted.content)
+    assert wait_for(lambda: "predicted energy error" in accuracy.predicted.content)
     assert "euler at dt = 0.02" in accuracy.predicted.content
 
 

@@ -214,7 +214,7 @@ class AccuracyFolder:
                 try:
                     prediction = self._predictor(simulation).predict(
                         frame.integrator, frame.dt, simulation.scene.duration)
-                    text = "predicted: " + prediction.describe()
+                    text = prediction.describe()
                     tolerance = self.tolerance_value()
                     good = prediction.stable and abs(prediction.energy_error) <= tolerance
                     self.predicted.content = ok_html(text) if good else amber_html(text)

@@ -42,6 +42,7 @@ from app.web.inputs import (
 )
 from app.web.recording import RecordingBusy, WebRecordings
 from app.web.scene_files import SceneDirectory
+from app.web.spectrum import SpectrumFolder
 from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT, LatticeView
 from sim.runner import Frame
 
@@ -134,6 +135,7 @@ class ControlPanel:
         self.accuracy = AccuracyFolder(app, self.gui)
         self._build_physics_folder(model)
         self._build_selection_folder()
+        self.spectrum = SpectrumFolder(app, self.gui)
         self._build_view_folder()
         self._build_recording_folder()
         self._build_study_folder()
@@ -759,6 +761,7 @@ class ControlPanel:
         scene = simulation.scene
         self._clear_history()
         self.accuracy.clear()
+        self.spectrum.show_scene(simulation)
         self._stability_key = None
         self.integrator.options = sim.integrators.names(model)
         if scene.name in sim.scenes.names():
@@ -823,6 +826,7 @@ class ControlPanel:
         self._update_error(frame)
         self._update_part_failures()
         self.accuracy.update(frame, now)
+        self.spectrum.update(frame, now)
         if now - self._last_status > 0.5:
             started, steps = self._status_steps
             taken = self.app.runner.steps_taken
