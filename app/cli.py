@@ -323,7 +323,7 @@ def command_bench(arguments: argparse.Namespace) -> int:
 
 
 # Subcommands implemented in other modules register themselves through `register(subparsers)`.
-_PLUGIN_MODULES = ("app.web.serve", "app.recording.cli", "app.study.cli")
+_PLUGIN_MODULES = ("app.web.serve", "app.recording.cli", "app.study.cli", "app.movie.cli")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -26,8 +26,13 @@ from typing import Any
 import numpy as np
 
 QUANTITIES = ("displacement", "magnitude", "speed")
-"""Field quantities: signed displacement component (m), |u| (m), |v| (m/s)."""
-UNITS = {"displacement": "m", "magnitude": "m", "speed": "m/s"}
+"""Field quantities of recordings: signed displacement component (m), |u| (m), |v| (m/s)."""
+SITE_QUANTITIES = ("strain", "density")
+"""Per-particle quantities from the four springs of each particle (movies of large lattices):
+mean strain - rest strain (dimensionless) and relative density change rho/rho_0 - 1."""
+SIGNED = ("displacement", "strain", "density")
+UNITS = {"displacement": "m", "magnitude": "m", "speed": "m/s", "strain": "dimensionless",
+         "density": "dimensionless"}
 LOOK_AHEAD_BUDGET_SECONDS = 1.5
 PERCENTILE = 99.9
 AXIS_NAMES = "xyz"
@@ -79,11 +84,37 @@ def displacement_axis(scene: Any) -> int:
     return model.dim - 1
 
 
+def site_strain_density(positions: np.ndarray, model: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Per particle, from (n_particles, dim) positions (m): the mean strain of its four springs
+    minus the rest strain, and the relative density change a^2 / (l_h l_v) - 1, where l_h and l_v
+    are the mean lengths of its horizontal and vertical springs (shear is ignored)."""
+    nx, ny, dim = model.nx, model.ny, model.dim
+    grid = positions.reshape(ny, nx, dim)
+    anchors = model.anchor_positions
+    left, right = anchors[:ny], anchors[ny : 2 * ny]
+    bottom, top = anchors[2 * ny : 2 * ny + nx], anchors[2 * ny + nx :]
+    rows = np.concatenate([left[:, None, :], grid, right[:, None, :]], axis=1)
+    columns = np.concatenate([bottom[None, :, :], grid, top[None, :, :]], axis=0)
+    horizontal = np.linalg.norm(np.diff(rows, axis=1), axis=2)  # (ny, nx + 1)
+    vertical = np.linalg.norm(np.diff(columns, axis=0), axis=2)  # (ny + 1, nx)
+    mean_h = 0.5 * (horizontal[:, :-1] + horizontal[:, 1:])
+    mean_v = 0.5 * (vertical[:-1, :] + vertical[1:, :])
+    length = model.rest_length
+    rest_strain = (model.spacing - length) / length
+    strain = 0.5 * (mean_h + mean_v) / length - 1.0 - rest_strain
+    density = model.spacing**2 / np.maximum(mean_h * mean_v, 1e-12 * model.spacing**2) - 1.0
+    return strain.ravel(), density.ravel()
+
+
 def field_values(
     quantity: str, positions: np.ndarray, rest: np.ndarray, velocities: np.ndarray | None,
-    axis: int,
+    axis: int, model: Any = None,
 ) -> np.ndarray:
-    """(n_particles,) field values from (n_particles, dim) positions (m) / velocities (m/s)."""
+    """(n_particles,) field values from (n_particles, dim) positions (m) / velocities (m/s);
+    ``model`` is needed for the site quantities (strain, density)."""
+    if quantity in SITE_QUANTITIES:
+        strain, density = site_strain_density(positions, model)
+        return strain if quantity == "strain" else density
     if quantity == "displacement":
         return positions[:, axis] - rest[:, axis]
     if quantity == "magnitude":
@@ -145,7 +176,8 @@ def look_ahead(
             break
         positions = simulation.peek_positions()
         velocities = simulation.velocities if quantity == "speed" else None
-        field_pool.append(np.abs(field_values(quantity, positions, rest, velocities, axis))[::stride])
+        values = field_values(quantity, positions, rest, velocities, axis, model)
+        field_pool.append(np.abs(values)[::stride])
         if model.dim == 3:
             height_pool.append(np.abs(positions[::stride, 2] - rest[::stride, 2]))
         if strains:

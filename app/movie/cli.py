@@ -1,0 +1,116 @@
+"""``oscillators movie``: render a scene's run, or a recording, to an MP4, WebM or GIF movie.
+
+Registered into ``app.cli`` through ``register(subparsers)``.  Exit codes: 0 done, 2 bad input
+(checked before anything runs; an existing file is replaced only with ``--force``), 3 the run blew
+up (the frames before it are kept in the movie).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from app.movie.render import COLOURS, MAX_FRAMES, MovieOptions
+
+EPILOG = f"""examples:
+  oscillators movie interference -o interference.mp4         # the paper's 150 s, 1000 frames, 720p
+  oscillators movie grid -o grid.gif --size 480x270 --fps 15 # a small GIF for slides
+  oscillators movie membrane -o drum.webm --exaggerate 20    # VP9 WebM, heights drawn 20x
+  oscillators movie catenary -o sag.mp4 --color density --duration 10
+  oscillators movie recordings/grid.rrd -o grid.mp4          # re-render a recording's positions
+  oscillators movie interference -o short.mp4 --duration 10 --size 640x360
+
+the picture: large lattices as a field image (one block of pixels per particle, the lattice seen
+from the front), small ones as springs and particles, 3-D ones in an oblique view coloured by
+height; a title line, the simulated time, a colour bar with its unit and the scene's one-line
+summary. Colours (--color): displacement (the signed component the scene is displaced along, m;
+blue negative, red positive), speed |v| (m/s), strain (of the springs, minus the rest strain) or
+density (relative change rho/rho_0 - 1 from each particle's four springs). The colour scale is
+fixed for the whole movie from a look-ahead run, so frames are comparable.
+
+length: --duration simulated seconds (default: the scene's) shown in --frames frames (default:
+at most {MAX_FRAMES}, 25 per simulated second); the movie lasts frames / fps seconds.
+formats by suffix: .mp4 (H.264, yuv420p: browsers, slides), .webm (VP9), .gif.
+"""
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHT such as 1280x720, got {text!r}") from None
+    if not (64 <= width <= 7680 and 64 <= height <= 4320):
+        raise argparse.ArgumentTypeError(f"must be between 64x64 and 7680x4320, got {text!r}")
+    return width, height
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``movie`` subcommand to ``oscillators``."""
+    from app.cli import add_scene_arguments, bounded_int, positive_float
+
+    parser = subparsers.add_parser(
+        "movie", help="render a run or a recording to an MP4, WebM or GIF movie",
+        description="Run a scene (or read a .rrd recording) and render it to a movie without a "
+        "screen: field image or springs and particles, title, time, colour bar, summary.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_scene_arguments(parser)
+    parser.add_argument("-o", "--output", type=Path, required=True,
+                        help="the movie file: .mp4, .webm or .gif")
+    parser.add_argument("--force", action="store_true", help="replace the output if it exists")
+    parser.add_argument("--fps", type=bounded_int(1, 120), default=30,
+                        help="movie frames per second (default 30)")
+    parser.add_argument("--frames", type=bounded_int(2, 100_000),
+                        help=f"movie frames (default: at most {MAX_FRAMES}, 25 per simulated "
+                        "second)")
+    parser.add_argument("--duration", type=positive_float,
+                        help="simulated seconds to show (default: the scene's; a recording: all)")
+    parser.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH",
+                        help="frame size in pixels (default 1280x720)")
+    parser.add_argument("--color", "--colour", dest="colour", choices=COLOURS,
+                        help="what the colours show (default: strain for small planar lattices, "
+                        "displacement otherwise)")
+    parser.add_argument("--exaggerate", type=positive_float, metavar="FACTOR",
+                        help="3-D scenes: draw heights FACTOR times larger")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(handler=command_movie)
+
+
+def command_movie(arguments: argparse.Namespace) -> int:
+    from app.movie import encode
+    from app.movie.render import render_movie
+
+    output: Path = arguments.output
+    kind = encode.kind_of(output)
+    if not encode.available(kind):
+        raise ValueError(f"this PyAV build cannot write .{kind}; try .mp4 or .gif")
+    if output.is_dir():
+        raise ValueError(f"{output} is a directory; give a file name ending in .{kind}")
+    if output.exists() and not arguments.force:
+        raise ValueError(f"{output} already exists; use --force to replace it")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    options = MovieOptions(
+        fps=arguments.fps, frames=arguments.frames, duration=arguments.duration,
+        size=arguments.size, colour=arguments.colour, exaggeration=arguments.exaggerate,
+        integrator=arguments.integrator, dt=arguments.dt, progress=not arguments.quiet,
+    )
+    if arguments.scene.endswith(".rrd"):
+        if arguments.overrides or arguments.integrator or arguments.dt:
+            raise ValueError("--set, --integrator and --dt apply to scenes, not to recordings")
+        source: Any = Path(arguments.scene)
+        if not source.is_file():
+            raise ValueError(f"no recording {source}")
+    else:
+        from app.cli import scene_from_arguments
+
+        source = scene_from_arguments(arguments)
+    started = time.perf_counter()
+    path = render_movie(source, output, options)
+    elapsed = time.perf_counter() - started
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB, {elapsed:.1f} s)", file=sys.stderr
+          if arguments.quiet else sys.stdout)
+    return 0
