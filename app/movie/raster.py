@@ -93,3 +93,27 @@ def draw_discs(frame: np.ndarray, cx: np.ndarray, cy: np.ndarray, radii: np.ndar
                     frame[y, x, 0] = colours[k, 0] // 3
                     frame[y, x, 1] = colours[k, 1] // 3
                     frame[y, x, 2] = colours[k, 2] // 3
+
+
+@njit(cache=True, nogil=True)
+def field_to_frame(frame: np.ndarray, values: np.ndarray, rows: int, columns: int, low: float,
+                   high: float, table: np.ndarray, x0: int, y0: int, width: int,
+                   height: int) -> None:
+    """Colour-map a lattice's per-particle ``values`` ((rows * columns,), row 0 at the bottom)
+    linearly from [low, high] onto ``table`` (256, 3) uint8 (saturating) and draw it scaled to
+    ``width`` x ``height`` pixels at (x0, y0), nearest neighbour, the top lattice row first."""
+    factor = 255.0 / (high - low)
+    colours = np.empty((rows, columns, 3), dtype=np.uint8)
+    for j in range(rows):
+        for i in range(columns):
+            index = (values[j * columns + i] - low) * factor + 0.5
+            if index < 0.0:
+                index = 0.0
+            elif index > 255.0:
+                index = 255.0
+            k = int(index)
+            target = colours[rows - 1 - j, i]
+            target[0] = table[k, 0]
+            target[1] = table[k, 1]
+            target[2] = table[k, 2]
+    upscale_nearest(frame, colours, x0, y0, width, height)

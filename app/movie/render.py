@@ -307,10 +307,9 @@ class Painter:
         np.copyto(frame, self.template)
         low = -self.scale if self.signed else 0.0
         if not self.detailed:
-            values = self.values(state)
-            image = style.map_values(values.reshape(self.model.ny, self.model.nx)[::-1], low,
-                                     self.scale, self.table)
-            raster.upscale_nearest(frame, image, self.x0, self.y0, self.px, self.py)
+            values = np.ascontiguousarray(self.values(state), dtype=np.float64)
+            raster.field_to_frame(frame, values, self.model.ny, self.model.nx, low, self.scale,
+                                  self.table, self.x0, self.y0, self.px, self.py)
         else:
             self._paint_lattice(state, frame, low)
         self._paint_time(state.time, frame)
