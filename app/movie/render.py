@@ -15,7 +15,6 @@ for a recording, from its own frames, so frames are comparable.
 from __future__ import annotations
 
 import dataclasses
-import io
 import math
 import queue
 import threading
@@ -470,7 +469,13 @@ def movie_bytes(
     **changes: Any,
 ) -> bytes:
     """The movie as bytes (``kind``: mp4, webm or gif), for a download; see ``render_movie``."""
+    import tempfile
+
     options = dataclasses.replace(options or MovieOptions(), **changes).checked()
-    buffer = io.BytesIO()
-    _render(_source(scene_or_simulation, options), buffer, kind, options)
-    return buffer.getvalue()
+    encode.kind_of(f"movie.{kind}")
+    # through a temporary file: MP4's index goes to the front (+faststart) in a second pass
+    # that reopens the file by name
+    with tempfile.TemporaryDirectory(prefix="movie-") as directory:
+        path = Path(directory) / f"movie.{kind}"
+        _render(_source(scene_or_simulation, options), path, kind, options)
+        return path.read_bytes()
