@@ -295,9 +295,9 @@ def test_attach_and_close_while_the_runner_thread_runs(tmp_path):
     assert runner.error is None
     steps = temporal(read_chunks(tmp_path / "live.rrd"), "/energy/total", "Scalars:scalars")
     # >= 20 frames one step (0.01 s) apart went to the recorder, which keeps one every
-    # duration / 1000 = 0.02 s of simulated time; one may race the subscription
-    assert len(steps) >= 8 and min(steps) > 0
-    assert min(np.diff(sorted(steps))) >= 2
+    # 0.04 s of simulated time (25 a simulated second); one may race the subscription
+    assert len(steps) >= 4 and min(steps) > 0
+    assert min(np.diff(sorted(steps))) >= 4
 
 
 # --- command line --------------------------------------------------------------------------------

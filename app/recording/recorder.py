@@ -64,6 +64,8 @@ DETAIL_LIMIT = 2500
 """Lattices with at most this many particles (50x50) are logged particle by particle."""
 
 MIN_FREE_BYTES = 16 * 2**20
+DEFAULT_FRAME_INTERVAL = 0.04
+"""Simulated seconds between frames recorded from a live runner by default (25 per second)."""
 
 
 class RecordingError(RuntimeError):
@@ -83,8 +85,9 @@ class RecordingOptions:
     exaggeration: 3-D lattices: display scale of heights (z); None picks one so the typical
         height shows as 8 % of the lattice width.
     frame_interval: simulated seconds between recorded frames at least (frames published sooner
-        are skipped; a blow-up frame never is); None: the scene's duration / 1000 (the web app
-        publishes a frame every step); 0: every published frame.
+        are skipped; a blow-up frame never is); None: ``DEFAULT_FRAME_INTERVAL`` or the scene's
+        duration / 1000, whichever is longer (the web app publishes a frame every step);
+        0: every published frame.
     positions: "auto" (every frame for small lattices, never for large ones), "all", "none",
         or an integer N: every N-th recorded frame.
     detail_limit: the particle count up to which a lattice counts as small.
@@ -493,7 +496,8 @@ class Recorder:
                 self.model.dim == 3 and self.scales.height > 0) else 1.0
         self.exaggeration = max(1.0, float(exaggeration))
         interval = self.options.frame_interval
-        self.frame_interval = scene.duration / 1000 if interval is None else float(interval)
+        self.frame_interval = (max(DEFAULT_FRAME_INTERVAL, scene.duration / 1000)
+                               if interval is None else float(interval))
 
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
         legends = self._legends()
