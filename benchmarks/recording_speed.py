@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     frames = arguments.frames
     print(f"{frames} frames per measurement, one step apart; cpu count {os.cpu_count()}")
     header = (f"{'scene':22s} {'mode':27s} {'ms/frame':>9s} {'overhead':>9s} {'recorder':>9s} "
-              f"{'KB/frame':>9s} {'MB/1000 fr':>10s}")
+              f"{'kB/frame':>9s} {'MB/1000 fr':>10s}")
     print(header)
     print("-" * len(header))
     with tempfile.TemporaryDirectory() as directory:
@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
                 ms, own, total_bytes = record(case, options, frames, Path(directory, "run.rrd"))
                 per_frame = (total_bytes - static_bytes) / frames
                 print(f"{'':22s} {label:27s} {ms:9.1f} {ms - bare:9.1f} {own:9.1f} "
-                      f"{per_frame / 1024:9.1f} {per_frame * 1000 / 2**20:10.1f}", flush=True)
+                      f"{per_frame / 1e3:9.1f} {per_frame * 1000 / 1e6:10.1f}", flush=True)
     return 0
 
 
