@@ -401,3 +401,24 @@ def test_linearised_springs_offer_the_exact_solver(web_app):
     settle(web_app)
     assert abs(web_app.runner.simulation.energy_balance_error()) < 1e-12
     assert wait_for(lambda: "no time-step error" in panel.accuracy.predicted.content)
+
+
+def test_precision_and_threads_from_the_page_are_checked_and_applied(web_app):
+    panel = web_app.panel
+    send(panel.precision, "float16")
+    settle(web_app)
+    assert web_app.runner.simulation.precision == "float64"
+    assert "precision" in panel.integrator_message.content
+    send(panel.precision, "float32")
+    settle(web_app)
+    assert web_app.runner.simulation.precision == "float32"
+    send(panel.threads, 10**6)
+    settle(web_app)
+    assert web_app.runner.simulation.threads == 1
+    send(panel.threads, 1)
+    settle(web_app)
+    web_app.runner.play()
+    steps = web_app.runner.simulation.step_count
+    assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 20)
+    web_app.runner.pause()
+    assert np.isfinite(web_app.runner.simulation.peek_positions()).all()

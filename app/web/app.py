@@ -144,7 +144,7 @@ class WebApp:
     def stop(self) -> None:
         """Close a running recording (so its file verifies), stop the loop and the server."""
         try:
-            self.recordings.stop()
+            self.recordings.shutdown()
         finally:
             self._stop_threads()
 

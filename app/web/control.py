@@ -120,6 +120,22 @@ class SimulationControl:
 
         return self.runner.post(command)
 
+    def set_precision(self, precision: str) -> concurrent.futures.Future:
+        """"float64" or "float32" state and kernels (the state is converted between steps)."""
+
+        def command(simulation: sim.Simulation) -> None:
+            simulation.precision = precision
+
+        return self.runner.post(command)
+
+    def set_threads(self, threads: int) -> concurrent.futures.Future:
+        """Threads the compiled sweeps use (1 to the machine's cores)."""
+
+        def command(simulation: sim.Simulation) -> None:
+            simulation.threads = threads
+
+        return self.runner.post(command)
+
     def set_dt(self, dt: float) -> concurrent.futures.Future:
         def command(simulation: sim.Simulation) -> None:
             simulation.dt = float(dt)

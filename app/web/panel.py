@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import collections
 import math
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -44,6 +45,7 @@ from app.web.recording import RecordingBusy, WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.spectrum import SpectrumFolder
 from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT, LatticeView
+from sim.integrators import PRECISIONS
 from sim.runner import Frame
 
 MAX_STIFFNESS = 100.0
@@ -60,6 +62,8 @@ MAX_PAGE_PARTICLES = 1_000_000
 """Largest lattice (nx * ny) the page builds; bigger ones: the command line."""
 MAX_DT = 10.0
 """Largest time step (s) the page accepts."""
+MAX_THREADS = max(1, os.cpu_count() or 1)
+"""Most threads the page lets the compiled steps use: the machine's cores."""
 AS_LOADED = "as loaded"
 """Mass-pattern entry shown for masses that are neither uniform nor the ionic checkerboard."""
 
@@ -328,6 +332,16 @@ class ControlPanel:
                 "Steps per frame", 1, MAX_STEPS_PER_FRAME, 1, int(self.app.runner.steps_per_frame),
                 hint="simulation steps between two pictures: faster, coarser animation",
             )
+            self.precision = gui.add_dropdown(
+                "Precision", list(PRECISIONS), initial_value=simulation.precision,
+                hint="float32 runs about twice as fast and is less accurate (error floor near "
+                "1e-7 of the motion); energies are always summed in float64",
+            )
+            self.threads = gui.add_slider(
+                "Threads", 1, MAX_THREADS, 1, simulation.threads,
+                hint="cores the compiled steps use (large lattices; results equal one thread's "
+                "to round-off)", disabled=MAX_THREADS == 1,
+            )
             self.integrator_message = gui.add_html("")
 
         @self.integrator.on_update
@@ -356,6 +370,30 @@ class ControlPanel:
             self._say(self.integrator_message, None)
             self.control.set_dt(value)
             self._stability_key = None
+
+        @self.precision.on_update
+        @from_user
+        async def _(_: viser.GuiEvent) -> None:
+            try:
+                value = choice(self.precision.value, "precision", list(PRECISIONS))
+            except InputRefused as error:
+                self._say(self.integrator_message, error)
+                self.precision.value = self.app.runner.simulation.precision
+                return
+            self._say(self.integrator_message, None)
+            self.control.set_precision(value)
+
+        @self.threads.on_update
+        @from_user
+        async def _(_: viser.GuiEvent) -> None:
+            try:
+                value = whole_number(self.threads.value, "threads", 1, MAX_THREADS)
+            except InputRefused as error:
+                self._say(self.integrator_message, error)
+                self.threads.value = self.app.runner.simulation.threads
+                return
+            self._say(self.integrator_message, None)
+            self.control.set_threads(value)
 
         @self.steps_per_frame.on_update
         @from_user
@@ -774,6 +812,8 @@ class ControlPanel:
         )
         self.integrator.value = simulation.integrator
         self.dt.value = simulation.dt
+        self.precision.value = simulation.precision
+        self.threads.value = simulation.threads
         self._show_number(self.stiffness, "stiffness", float(model.stiffness))
         self._show_number(self.rest_ratio, "rest_ratio", float(model.rest_length / model.spacing))
         self.damping_on.value = model.damping > 0

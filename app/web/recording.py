@@ -31,7 +31,8 @@ class WebRecordings:
         self.runner = runner
         self.directory = Path(directory)
         self._lock = threading.Lock()
-        self._busy = False
+        self._starting = threading.Lock()
+        self._closed = False
         self._recorder: Any = None
         self.last_path: Path | None = None
         self.last_error: str | None = None
@@ -61,14 +62,17 @@ class WebRecordings:
 
     def start(self, scene: sim.Scene) -> Path:
         """Start recording ``scene`` (a snapshot of the running state) now; returns the file
-        path.  Raises ``RecordingBusy`` while another recording is starting or running."""
+        path.  Raises ``RecordingBusy`` while another recording is starting or running, or once
+        ``shutdown`` has begun."""
         from app.recording import Recorder
 
-        with self._lock:
-            if self._busy or self._recorder is not None:
-                raise RecordingBusy("a recording is already running; stop it first")
-            self._busy = True
+        if not self._starting.acquire(blocking=False):
+            raise RecordingBusy("a recording is starting; wait a moment")
         try:
+            if self._closed:
+                raise RecordingBusy("the server is stopping")
+            if self._recorder is not None:
+                raise RecordingBusy("a recording is already running; stop it first")
             self.directory.mkdir(parents=True, exist_ok=True)
             path = self._free_name(scene.name)
             recorder = Recorder(path, scene, integrator=scene.integrator, dt=scene.dt)
@@ -78,8 +82,14 @@ class WebRecordings:
             self.last_error = None
             return path
         finally:
-            with self._lock:
-                self._busy = False
+            self._starting.release()
+
+    def shutdown(self) -> Path | None:
+        """Refuse new recordings, wait for one that is starting, and close the running one (the
+        server is stopping).  Returns the closed file's path, or None."""
+        with self._starting:
+            self._closed = True
+        return self.stop()
 
     def failure(self) -> str | None:
         """Why the running recording stopped by itself (a full disk), or None."""
