@@ -4,7 +4,8 @@
 (height, width, 3) uint8 RGB frames and ``close()``; ``target`` is a path or a binary file object
 (``io.BytesIO``).  MP4 is H.264 in yuv420p with the index at the front (``+faststart``), so it plays
 in browsers and slide software; WebM is VP9 (if this PyAV build has libvpx-vp9); GIF frames are
-reduced to one 256-colour palette taken from the first frame, without dithering.
+reduced, without dithering, to one 256-colour palette: the movie's colour map (192 entries) and 64
+greys (background, text), given as ``palette``; without one, taken from the first frame.
 """
 
 from __future__ import annotations
@@ -72,11 +73,21 @@ class _AvWriter:
 
 
 class _GifWriter:
-    def __init__(self, target: str | Path | BinaryIO, width: int, height: int, fps: float):
+    def __init__(self, target: str | Path | BinaryIO, width: int, height: int, fps: float,
+                 palette: np.ndarray | None = None):
         self.target = target
         self.duration_ms = max(20, round(1000 / fps / 10) * 10)  # GIF counts hundredths
         self.frames: list[Any] = []
         self.palette: Any = None
+        if palette is not None:
+            from PIL import Image
+
+            table = np.asarray(palette, np.uint8)
+            picks = table[np.linspace(0, len(table) - 1, 192).round().astype(int)]
+            greys = np.repeat(np.linspace(0, 255, 64).round().astype(np.uint8)[:, None], 3, 1)
+            colours = np.concatenate([picks, greys])
+            self.palette = Image.new("P", (1, 1))
+            self.palette.putpalette(colours.ravel().tolist())
 
     def write(self, frame: np.ndarray) -> None:
         from PIL import Image
@@ -94,12 +105,14 @@ class _GifWriter:
                    duration=self.duration_ms, loop=0, optimize=False, disposal=1)
 
 
-def open_writer(target: str | Path | BinaryIO, kind: str, width: int, height: int, fps: float):
-    """A writer of ``kind`` (mp4, webm, gif) for frames of ``width`` x ``height`` pixels."""
+def open_writer(target: str | Path | BinaryIO, kind: str, width: int, height: int, fps: float,
+                palette: np.ndarray | None = None):
+    """A writer of ``kind`` (mp4, webm, gif) for frames of ``width`` x ``height`` pixels;
+    ``palette``: (n, 3) uint8 colours the GIF palette must hold (the colour map)."""
     if kind not in KINDS:
         raise ValueError(f"movie kind must be one of {KINDS}, got {kind!r}")
     if kind == "gif":
-        return _GifWriter(target, width, height, fps)
+        return _GifWriter(target, width, height, fps, palette)
     if not available(kind):
         codec = "libx264" if kind == "mp4" else "libvpx-vp9"
         raise ValueError(f"this PyAV build has no {codec} encoder for .{kind}; try .mp4 or .gif")

@@ -306,9 +306,21 @@ class Painter:
         np.copyto(frame, self.template)
         low = -self.scale if self.signed else 0.0
         if not self.detailed:
-            values = np.ascontiguousarray(self.values(state), dtype=np.float64)
-            raster.field_to_frame(frame, values, self.model.ny, self.model.nx, low, self.scale,
-                                  self.table, self.x0, self.y0, self.px, self.py)
+            rows, columns = self.model.ny, self.model.nx
+            values = np.asarray(self.values(state), dtype=np.float64)
+            block = math.ceil(columns / self.px)
+            if block > 1:
+                # fewer pixels than particles: each block shows its largest value (with its
+                # sign), so short waves neither alias into noise nor average away
+                rows, columns = rows // block, columns // block
+                blocks = values.reshape(self.model.ny, self.model.nx)[
+                    : rows * block, : columns * block
+                ].reshape(rows, block, columns, block).transpose(0, 2, 1, 3).reshape(
+                    rows, columns, block * block)
+                pick = np.abs(blocks).argmax(axis=2)
+                values = np.take_along_axis(blocks, pick[:, :, None], axis=2).ravel()
+            raster.field_to_frame(frame, np.ascontiguousarray(values), rows, columns, low,
+                                  self.scale, self.table, self.x0, self.y0, self.px, self.py)
         else:
             self._paint_lattice(state, frame, low)
         self._paint_time(state.time, frame)
@@ -390,7 +402,7 @@ def _render(source: Any, target: str | Path | BinaryIO, kind: str, options: Movi
     scales = source.scales(colour)
     painter = Painter(source.scene, model, source.summary, colour, scales, options)
     width, height = options.size
-    writer = encode.open_writer(target, kind, width, height, options.fps)
+    writer = encode.open_writer(target, kind, width, height, options.fps, palette=painter.table)
     frames: queue.Queue = queue.Queue(maxsize=6)
     errors: list[BaseException] = []
     worker = threading.Thread(target=_encode_in_background, args=(writer, frames, errors),
