@@ -277,6 +277,17 @@ def command_run(arguments: argparse.Namespace) -> int:
     print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}")
     start_energy = simulation.energy()
     chunk = max(1, steps // 200)
+    probes = None
+    if arguments.probe:
+        from sim.observables import highest_frequency
+        from sim.probes import ProbeSeries
+
+        model = simulation.model
+        particles = [_probe_index(text, model) for text in arguments.probe]
+        probes = ProbeSeries(model, particles, limit=steps + 1)
+        probes.add(simulation.time, simulation.state.particle_positions())
+        # sample four times per period of the fastest mode (twice the Nyquist rate)
+        chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
     started = time.perf_counter()
     status = 0
     with tqdm(total=steps, unit="step", disable=arguments.quiet, dynamic_ncols=True) as bar:
@@ -287,6 +298,8 @@ def command_run(arguments: argparse.Namespace) -> int:
                 simulation.step(n)
                 done += n
                 bar.update(n)
+                if probes is not None:
+                    probes.add(simulation.time, simulation.state.particle_positions())
         except BlowUpError as error:
             bar.close()
             print(f"\nstopped: {error}", file=sys.stderr)
@@ -301,6 +314,8 @@ def command_run(arguments: argparse.Namespace) -> int:
         "energy_balance_error": simulation.energy_balance_error(),
         "energy_scale": simulation.energy_scale(),
     }
+    if probes is not None:
+        summary["probes"] = _probe_report(probes)
     if arguments.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -313,6 +328,14 @@ def command_run(arguments: argparse.Namespace) -> int:
         print(f"energy balance error: {summary['energy_balance_error']:+.3%} of the energy in play "
               f"({balance_error:+.3g} J of {summary['energy_scale']:.4g} J; kinetic + potential + "
               "dissipated should stay constant)")
+        for probe in summary.get("probes", []):
+            peaks = "; ".join(
+                f"{peak['frequency']:.4g} Hz" + (f" ({peak['nearest_mode']})"
+                                                 if peak["nearest_mode"] else "")
+                for peak in probe["peaks"]
+            ) or "no motion"
+            print(f"probe particle {probe['particle']} (column {probe['column']}, row "
+                  f"{probe['row']}), {probe['component']} motion: {peaks}")
     return status
 
 
@@ -320,6 +343,41 @@ def command_bench(arguments: argparse.Namespace) -> int:
     from app.bench import main as bench_main
 
     return bench_main(arguments)
+
+
+def _probe_index(text: str, model: Any) -> int:
+    """``--probe i,j`` (column i, row j, from 0) -> particle index, checked."""
+    try:
+        column, row = (int(part) for part in text.split(","))
+    except ValueError:
+        raise ValueError(f"--probe takes column,row (whole numbers), got {text!r}") from None
+    if not (0 <= column < model.nx and 0 <= row < model.ny):
+        raise ValueError(f"--probe {text}: the lattice has columns 0-{model.nx - 1} and rows "
+                         f"0-{model.ny - 1}")
+    return row * model.nx + column
+
+
+def _probe_report(probes: Any) -> list[dict[str, Any]]:
+    """Each probe's strongest motion component and its dominant frequencies, with the nearest
+    normal mode (equal masses)."""
+    from sim.modes import POLARISATION_NAMES
+    from sim.probes import nearest_modes
+
+    model = probes.model
+    displacements = probes.displacements
+    report = []
+    for index, particle in enumerate(probes.particles):
+        component = int(np.argmax(displacements[:, index, :].std(axis=0)))
+        peaks = []
+        if len(probes.times) > 2:
+            for frequency, amplitude in probes.dominant(index, component):
+                near = nearest_modes(model, frequency)
+                peaks.append({"frequency": frequency, "amplitude": amplitude,
+                              "nearest_mode": near[0].describe() if near else None})
+        row, column = divmod(particle, model.nx)
+        report.append({"particle": particle, "column": column, "row": row,
+                       "component": POLARISATION_NAMES[component], "peaks": peaks})
+    return report
 
 
 # Subcommands implemented in other modules register themselves through `register(subparsers)`.
@@ -357,6 +415,11 @@ def build_parser() -> argparse.ArgumentParser:
     length.add_argument("--duration", type=positive_float,
                         help="simulated seconds instead of --steps")
     run_parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    run_parser.add_argument(
+        "--probe", action="append", metavar="I,J",
+        help="record the displacement of the particle in column I, row J (from 0) and print the "
+        "dominant frequencies of its motion with the nearest normal modes; repeatable",
+    )
     run_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     run_parser.set_defaults(handler=command_run)
 

@@ -1,0 +1,81 @@
+"""Probes against theory: the spectrum of a probed particle peaks at the normal-mode frequency.
+
+The chain's longitudinal modes are those of the paper's equation (3):
+omega_n = 2 sqrt(k/m) sin(n pi / (2 (N + 1))).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import sim
+from sim.modes import excited_state
+from sim.probes import ProbeSeries, dominant_frequencies, spectrum, uniform_series
+
+
+def chain_frequency(n: int, model: sim.Model) -> float:
+    """Hz of the chain's n-th longitudinal mode (equation (3))."""
+    omega = 2 * math.sqrt(model.stiffness / model.masses.flat[0]) * math.sin(
+        n * math.pi / (2 * (model.nx + 1)))
+    return omega / (2 * math.pi)
+
+
+@pytest.mark.parametrize("mode", [1, 2, 4])
+def test_a_probe_on_an_excited_mode_peaks_at_its_frequency(mode):
+    scene = sim.scenes.build("chain", linear=True)
+    model = scene.model
+    positions, velocities = excited_state(model, mode, 1, 0, 0.05)
+    simulation = sim.Simulation(sim.Scene(name="chain", model=model, initial_positions=positions,
+                                          initial_velocities=velocities), integrator="rk4",
+                                dt=0.01)
+    probe = ProbeSeries(model, [0])
+    duration = 80.0
+    for _ in range(int(duration / 0.05)):
+        probe.add(simulation.time, simulation.state.particle_positions())
+        simulation.step(5)
+    (frequency, _), *_ = probe.dominant(0, 0)
+    resolution = 1.0 / duration
+    assert frequency == pytest.approx(chain_frequency(mode, model), abs=resolution)
+
+
+def test_the_spectrum_reads_a_sine_at_its_amplitude_and_frequency():
+    interval, count = 0.01, 4000
+    times = interval * np.arange(count)
+    values = 0.3 * np.sin(2 * np.pi * 2.37 * times) + 0.05
+    frequencies, amplitudes = spectrum(values, interval)
+    assert frequencies[np.argmax(amplitudes)] == pytest.approx(2.37, abs=1 / (count * interval))
+    assert amplitudes.max() == pytest.approx(0.3, rel=0.2)  # Hann window: scalloping < 16 %
+    (peak, _), = dominant_frequencies(values, interval, count=1)
+    assert peak == pytest.approx(2.37, abs=0.1 / (count * interval))
+
+
+def test_uneven_samples_are_resampled_onto_an_even_grid():
+    times = np.sort(np.random.default_rng(1).uniform(0, 10, 500))
+    values, interval = uniform_series(times, np.sin(times))
+    grid = times[0] + interval * np.arange(500)
+    np.testing.assert_allclose(values, np.sin(grid), atol=2e-3)
+
+
+def test_run_prints_the_dominant_frequencies_of_a_probe(capsys):
+    from app.cli import main
+
+    assert main(["run", "chain", "--set", "linear=true", "--probe", "2,0", "--duration", "60",
+                 "--quiet"]) == 0
+    output = capsys.readouterr().out
+    line = next(line for line in output.splitlines() if line.startswith("probe particle 2"))
+    first = float(line.split(": ")[1].split(" Hz")[0])
+    model = sim.scenes.build("chain").model
+    assert first == pytest.approx(chain_frequency(1, model), abs=1 / 60)
+    assert "mode (1, 1) x" in line
+
+
+@pytest.mark.parametrize("probe", ["9,0", "1", "a,b", "-1,0"])
+def test_a_bad_probe_is_refused_with_one_line(probe, capsys):
+    from app.cli import main
+
+    assert main(["run", "chain", f"--probe={probe}", "--steps", "10", "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("error: --probe") and "Traceback" not in error
