@@ -79,3 +79,36 @@ def test_a_bad_probe_is_refused_with_one_line(probe, capsys):
     assert main(["run", "chain", f"--probe={probe}", "--steps", "10", "--quiet"]) == 2
     error = capsys.readouterr().err
     assert error.startswith("error: --probe") and "Traceback" not in error
+
+
+def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
+    from app.web.app import WebApp
+    from tests.helpers import free_port, wait_for
+    from tests.test_web_safety import press, settle
+
+    model = sim.scenes.build("chain", linear=True).model
+    positions, velocities = excited_state(model, 2, 1, 0, 0.05)
+    scene = sim.Scene(name="chain", model=model, initial_positions=positions,
+                      initial_velocities=velocities, integrator="exact", dt=0.1)
+    app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path,
+                 recordings_dir=tmp_path)
+    app.start()
+    try:
+        probes = app.panel.probes
+        press(probes.probe_button)
+        assert "select particles first" in probes.text.content
+        app.set_selection(np.array([1]))
+        press(probes.probe_button)
+        probes.component.value = "x"
+        app.runner.steps_per_frame = 2  # a frame every 0.2 s: Nyquist 2.5 Hz
+        app.runner.play()
+        assert wait_for(lambda: probes.series is not None and probes.series.times.size > 0
+                        and probes.series.times[-1] > 60, timeout=60)
+        app.runner.pause()
+        settle(app)
+        (frequency, _), *_ = probes.series.dominant(0, 0)
+        span = probes.series.times[-1] - probes.series.times[0]
+        assert frequency == pytest.approx(chain_frequency(2, model), abs=1 / span)
+        assert wait_for(lambda: "mode (2, 1) x" in probes.text.content)
+    finally:
+        app.stop()

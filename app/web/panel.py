@@ -41,6 +41,7 @@ from app.web.inputs import (
     warning_html,
     whole_number,
 )
+from app.web.probes import ProbesFolder
 from app.web.recording import RecordingBusy, WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.spectrum import SpectrumFolder
@@ -140,6 +141,7 @@ class ControlPanel:
         self._build_physics_folder(model)
         self._build_selection_folder()
         self.spectrum = SpectrumFolder(app, self.gui)
+        self.probes = ProbesFolder(app, self.gui)
         self._build_view_folder()
         self._build_recording_folder()
         self._build_study_folder()
@@ -800,6 +802,7 @@ class ControlPanel:
         self._clear_history()
         self.accuracy.clear()
         self.spectrum.show_scene(simulation)
+        self.probes.show_scene(simulation)
         self._stability_key = None
         self.integrator.options = sim.integrators.names(model)
         if scene.name in sim.scenes.names():
@@ -867,6 +870,7 @@ class ControlPanel:
         self._update_part_failures()
         self.accuracy.update(frame, now)
         self.spectrum.update(frame, now)
+        self.probes.update(frame, now)
         if now - self._last_status > 0.5:
             started, steps = self._status_steps
             taken = self.app.runner.steps_taken

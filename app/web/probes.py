@@ -1,0 +1,175 @@
+"""The page's "Probes" folder: selected particles' displacement against time, and its spectrum.
+
+*Probe the selection* watches up to ``MAX_PROBES`` selected particles: a runner subscriber (in the
+simulation thread, cheap: a few numbers per frame) appends their displacements to a
+``sim.probes.ProbeSeries`` at every published frame; about twice a second the folder plots the
+chosen component against time and its spectrum (amplitude against frequency), and lists the
+dominant frequencies with the nearest normal modes of the lattice (equal masses).  A reset or a
+new scene starts the series again.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import viser
+
+import sim
+from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, warning_html
+from sim.modes import POLARISATION_NAMES
+from sim.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
+from sim.runner import Frame
+
+if TYPE_CHECKING:
+    from app.web.panel import PanelHost
+
+MAX_PROBES = 4
+"""Particles probed at once (one line each in the plots)."""
+COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
+REFRESH_SECONDS = 0.5
+
+
+class ProbesFolder:
+    """Builds the folder in ``host``'s GUI; ``update(frame, now)`` for every frame drawn."""
+
+    def __init__(self, host: PanelHost, gui: Any) -> None:
+        self.host = host
+        self.series: ProbeSeries | None = None
+        self._lock = threading.Lock()
+        self._unsubscribe: Any = None
+        self._last = 0.0
+        self._gui = gui
+        with gui.add_folder("Probes", expand_by_default=False):
+            self.probe_button = gui.add_button(
+                "Probe the selection", icon=viser.Icon.CHART_DOTS,
+                hint=f"watch the selected particles (up to {MAX_PROBES}): displacement against "
+                "time and its spectrum")
+            self.clear_button = gui.add_button("Stop probing", icon=viser.Icon.X)
+            self.component = gui.add_dropdown("Component", ["x", "y"], initial_value="y")
+            self.text = gui.add_html(as_html("Select particles, then press Probe the selection."))
+            self.time_plot: Any = None
+            self.spectrum_plot: Any = None
+            self._plots_folder = gui.add_folder("Plots")
+
+        @self.probe_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            selection = np.asarray(self.host.view.selection)
+            if selection.size == 0:
+                self.text.content = warning_html("select particles first (click one)")
+                return
+            self.start([int(p) for p in selection[:MAX_PROBES]])
+
+        @self.clear_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            self.stop()
+            self.text.content = as_html("not probing")
+
+        @self.component.on_update
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            self._last = 0.0
+
+    # --- probing -------------------------------------------------------------------------------
+
+    def start(self, particles: list[int]) -> None:
+        """Probe these particle indices from now on (replacing any earlier probes)."""
+        self.stop()
+        model = self.host.runner.simulation.model
+        series = ProbeSeries(model, particles)
+        with self._lock:
+            self.series = series
+
+        def receive(frame: Frame) -> None:
+            with self._lock:
+                current = self.series
+            if current is None:
+                return
+            if frame.model is not current.model:  # a new scene: these probes mean nothing now
+                return
+            current.add(frame.time, frame.positions)
+
+        self._unsubscribe = self.host.runner.subscribe(receive)
+        count = len(particles)
+        self._build_plots(count)
+        rows = [f"{p} (column {p % model.nx}, row {p // model.nx})" for p in particles]
+        self.text.content = ok_html("probing " + ", ".join(rows) + "; press Play")
+
+    def stop(self) -> None:
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+            self._unsubscribe = None
+        with self._lock:
+            self.series = None
+
+    def _build_plots(self, count: int) -> None:
+        for plot in (self.time_plot, self.spectrum_plot):
+            if plot is not None:
+                plot.remove()
+        empty = np.zeros(1)
+        with self._plots_folder:
+            self.time_plot = self._gui.add_uplot(
+                data=(empty,) * (count + 1),
+                series=({"label": "t (s)"}, *(
+                    {"label": f"probe {k + 1} (m)", "stroke": COLOURS[k], "width": 1.2}
+                    for k in range(count))),
+                scales={"x": {"time": False}}, aspect=2.0,
+            )
+            self.spectrum_plot = self._gui.add_uplot(
+                data=(empty,) * (count + 1),
+                series=({"label": "f (Hz)"}, *(
+                    {"label": f"probe {k + 1} amplitude (m)", "stroke": COLOURS[k], "width": 1.2}
+                    for k in range(count))),
+                scales={"x": {"time": False}}, aspect=2.0,
+            )
+
+    # --- keeping in step -------------------------------------------------------------------------
+
+    def show_scene(self, simulation: sim.Simulation) -> None:
+        self.stop()
+        self.component.options = list(POLARISATION_NAMES[: simulation.model.dim])
+        self.text.content = as_html("Select particles, then press Probe the selection.")
+
+    def update(self, frame: Frame, now: float) -> None:
+        if now - self._last < REFRESH_SECONDS:
+            return
+        self._last = now
+        with self._lock:
+            series = self.series
+        if series is None or len(series.times) < 8 or self.time_plot is None:
+            return
+        try:
+            component = POLARISATION_NAMES.index(
+                choice(self.component.value, "component",
+                       list(POLARISATION_NAMES[: series.model.dim])))
+        except InputRefused as error:
+            self.text.content = warning_html(str(error))
+            return
+        times = series.times
+        values = series.displacements[:, :, component]
+        self.time_plot.data = (times, *values.T)
+        columns = []
+        lines = []
+        frequencies = None
+        for k in range(values.shape[1]):
+            even, interval = uniform_series(times, values[:, k])
+            frequencies, amplitudes = spectrum(even, interval)
+            columns.append(amplitudes)
+            peaks = series.dominant(k, component, count=2)
+            described = []
+            for frequency, _ in peaks:
+                near = nearest_modes(series.model, frequency)
+                described.append(f"{frequency:.4g} Hz" + (f" ≈ {near[0].describe()}" if near
+                                                           else ""))
+            lines.append(f"probe {k + 1}: " + ("; ".join(described) or "no motion"))
+        if frequencies is not None:
+            self.spectrum_plot.data = (frequencies, *columns)
+        span = max(times[-1] - times[0], 1e-12)
+        nyquist = 0.5 * (times.size - 1) / span
+        self.text.content = as_html(
+            "\n".join(lines) + f"\n(resolution {1 / span:.2g} Hz: longer runs resolve closer "
+            f"frequencies; sampled at each frame, so motion above {nyquist:.3g} Hz folds back "
+            "to lower frequencies: fewer steps per frame raise that limit)")
