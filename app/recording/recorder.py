@@ -84,10 +84,12 @@ class RecordingOptions:
         look-ahead run (``app.recording.scales``).
     exaggeration: 3-D lattices: display scale of heights (z); None picks one so the typical
         height shows as 8 % of the lattice width.
-    frame_interval: simulated seconds between recorded frames at least (frames published sooner
-        are skipped; a blow-up frame never is); None: ``DEFAULT_FRAME_INTERVAL`` or the scene's
-        duration / 1000, whichever is longer (the web app publishes a frame every step);
-        0: every published frame.
+    frame_interval: simulated seconds between recorded frames at least, for frames published
+        while the runner plays (its own loop, e.g. the web app, which publishes a frame every
+        step); sooner ones are skipped, never a blow-up frame.  None: ``DEFAULT_FRAME_INTERVAL``
+        or the scene's duration / 1000, whichever is longer; 0: every frame.  Frames published
+        by ``Runner.advance(steps, every=K)`` or ``publish()`` are all recorded (the caller
+        chose them).
     positions: "auto" (every frame for small lattices, never for large ones), "all", "none",
         or an integer N: every N-th recorded frame.
     detail_limit: the particle count up to which a lattice counts as small.
@@ -651,7 +653,8 @@ class Recorder:
             if self._closed:
                 return
             last = self._last_enqueued.get(track.name)
-            if (last is not None and frame.error is None and frame.time >= last
+            if (frame.playing and last is not None and frame.error is None
+                    and frame.time >= last
                     and frame.time - last < self.frame_interval * (1 - 1e-9)):
                 return  # sooner than the frame interval: skipped
             self._last_enqueued[track.name] = frame.time
