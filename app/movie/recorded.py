@@ -159,9 +159,11 @@ class RecordingSource:
                 return 0.0
             return max(float(np.percentile(np.concatenate(pool), PERCENTILE)), smallest)
 
+        every = np.concatenate([p[:, :2] for p in self.positions])
+        bounds = (tuple(every.min(axis=0)), tuple(every.max(axis=0)))
         return ColourScales(strain=scale(strain, 1e-6), field=scale(field, floor),
                             height=scale(height, floor), axis=axis, rest_strain=rest_strain,
-                            seconds=float(self.times[-1] - self.times[0]))
+                            seconds=float(self.times[-1] - self.times[0]), bounds=bounds)
 
     def states(self, velocities: bool, strains: bool) -> Iterator[Any]:
         from app.movie.render import State

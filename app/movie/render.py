@@ -204,9 +204,12 @@ class Painter:
         if not self.detailed:
             aspect = model.nx / model.ny
         else:
-            points = np.concatenate([model.rest_positions, model.anchor_positions])
-            self.low = points.min(axis=0)[:2] - 0.6 * model.spacing
-            self.high = points.max(axis=0)[:2] + 0.6 * model.spacing
+            points = np.concatenate([model.rest_positions, model.anchor_positions])[:, :2]
+            self.low = points.min(axis=0) - 0.6 * model.spacing
+            self.high = points.max(axis=0) + 0.6 * model.spacing
+            if self.scales.bounds is not None and model.dim == 2:  # where the particles went
+                self.low = np.minimum(self.low, np.array(self.scales.bounds[0]) - 0.6 * model.spacing)
+                self.high = np.maximum(self.high, np.array(self.scales.bounds[1]) + 0.6 * model.spacing)
             if model.dim == 3:  # oblique view: y shortened, room above and below for heights
                 self.tilt = math.radians(50.0)
                 span = (self.high[1] - self.low[1]) * math.sin(self.tilt)
@@ -288,7 +291,7 @@ class Painter:
             return "speed |v| (m/s)"
         if self.colour == "strain":
             return "spring strain - rest strain (dimensionless)"
-        return "density change ρ/ρ₀ - 1 (dimensionless)"
+        return "density change rho/rho_0 - 1 (dimensionless)"
 
     # -- per frame --
 

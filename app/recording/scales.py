@@ -48,6 +48,8 @@ class ColourScales:
     axis: displacement component of the signed field (0 x, 1 y, 2 z).
     rest_strain: (a - L)/L, the strain of every spring in the rest lattice.
     seconds: simulated seconds the look-ahead covered (0 if it was not run).
+    bounds: ((x_min, y_min), (x_max, y_max)) m of the particles over the sampled states, or None
+        (movies frame the lattice with it: the catenary sags below its rest box).
     """
 
     strain: float
@@ -56,6 +58,7 @@ class ColourScales:
     axis: int
     rest_strain: float
     seconds: float
+    bounds: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def describe(self, quantity: str) -> str:
         text = (f"colour scales fixed from a {self.seconds:g} s look-ahead run (99.9th percentile "
@@ -168,6 +171,8 @@ def look_ahead(
     strain_pool: list[np.ndarray] = []
     field_pool: list[np.ndarray] = []
     height_pool: list[np.ndarray] = []
+    low = np.full(2, np.inf)
+    high = np.full(2, -np.inf)
     marks = np.unique(np.linspace(0, steps, samples).round().astype(int))
     for mark in marks:
         try:
@@ -175,6 +180,8 @@ def look_ahead(
         except BlowUpError:
             break
         positions = simulation.peek_positions()
+        low = np.minimum(low, positions[:, :2].min(axis=0))
+        high = np.maximum(high, positions[:, :2].max(axis=0))
         velocities = simulation.velocities if quantity == "speed" else None
         values = field_values(quantity, positions, rest, velocities, axis, model)
         field_pool.append(np.abs(values)[::stride])
@@ -194,4 +201,5 @@ def look_ahead(
         field=scale(field_pool, floor),
         height=scale(height_pool, floor) if model.dim == 3 else 0.0,
         axis=axis, rest_strain=rest_strain, seconds=simulation.time,
+        bounds=(tuple(low), tuple(high)) if np.isfinite(low).all() else None,
     )
