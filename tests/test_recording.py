@@ -383,7 +383,8 @@ def test_interference_thousand_frames_end_to_end(tmp_path):
     """The size budget, measured whole: 1000 frames in under 50 MB (the time budget is
     measured by benchmarks/recording_speed.py)."""
     path = tmp_path / "interference.rrd"
-    assert main(["record", "interference", "--steps", "1000", "-o", str(path), "--quiet"]) == 0
+    assert main(["record", "interference", "--steps", "1000", "--every", "1", "-o", str(path),
+                 "--quiet"]) == 0
     assert path.stat().st_size < 50e6
     steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     assert len(steps) == 1001
