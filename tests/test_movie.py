@@ -109,6 +109,13 @@ def test_grid_gif_and_movie_bytes(tmp_path):
                        progress=False)
     frames, _, rate = decoded(data)
     assert len(frames) == 5 and frames[0].shape == (144, 256, 3) and rate == pytest.approx(30)
+    # a running simulation (the web page's current run): its state now is the movie's start
+    simulation = sim.Simulation(sim.scenes.build("grid"))
+    simulation.step(50)
+    before = simulation.peek_positions().copy()
+    data = movie_bytes(simulation, "mp4", frames=3, size=(256, 144), progress=False)
+    assert len(decoded(data)[0]) == 3
+    np.testing.assert_array_equal(simulation.peek_positions(), before)  # left untouched
 
 
 @pytest.mark.skipif(not available("webm"), reason="PyAV without libvpx-vp9")

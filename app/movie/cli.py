@@ -43,8 +43,8 @@ def _size(text: str) -> tuple[int, int]:
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected WIDTHxHEIGHT such as 1280x720, got {text!r}") from None
-    if not (64 <= width <= 7680 and 64 <= height <= 4320):
-        raise argparse.ArgumentTypeError(f"must be between 64x64 and 7680x4320, got {text!r}")
+    if not (160 <= width <= 7680 and 90 <= height <= 4320):
+        raise argparse.ArgumentTypeError(f"must be between 160x90 and 7680x4320, got {text!r}")
     return width, height
 
 

@@ -5,7 +5,8 @@
 (``io.BytesIO``).  MP4 is H.264 in yuv420p with the index at the front (``+faststart``), so it plays
 in browsers and slide software; WebM is VP9 (if this PyAV build has libvpx-vp9); GIF frames are
 reduced, without dithering, to one 256-colour palette: the movie's colour map (192 entries) and 64
-greys (background, text), given as ``palette``; without one, taken from the first frame.
+greys (background, text), given as ``palette``; without one, taken from the first frame.  Pillow
+merges identical consecutive GIF frames into one longer frame (the timing is kept).
 """
 
 from __future__ import annotations

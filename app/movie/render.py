@@ -74,8 +74,8 @@ class MovieOptions:
 
     def checked(self) -> MovieOptions:
         width, height = self.size
-        if not (64 <= width <= 7680 and 64 <= height <= 4320):
-            raise ValueError(f"size must be between 64x64 and 7680x4320 pixels, got {width}x{height}")
+        if not (160 <= width <= 7680 and 90 <= height <= 4320):
+            raise ValueError(f"size must be between 160x90 and 7680x4320 pixels, got {width}x{height}")
         if not (math.isfinite(self.fps) and 1 <= self.fps <= 120):
             raise ValueError(f"fps must be between 1 and 120, got {self.fps}")
         if self.frames is not None and not 2 <= self.frames <= 100_000:
