@@ -111,19 +111,34 @@ def legend_png(
     colour_map: str, low: float, high: float, label: str, *, width: int = 520, height: int = 96,
     note: str | None = None,
 ) -> bytes:
-    """A colour bar from ``low`` to ``high`` with ticks and ``label`` (its unit in it), as PNG
-    bytes of ``width`` x ``height`` pixels (matplotlib Agg, no screen)."""
-    from matplotlib.figure import Figure
+    """A colour bar from ``low`` to ``high`` with five ticks and ``label`` (its unit in it), as PNG
+    bytes of ``width`` x ``height`` pixels, drawn with Pillow (no matplotlib: its text parser is
+    not safe to use from several threads, and recorders start in any thread)."""
+    from PIL import Image, ImageDraw, ImageFont
 
-    figure = Figure(figsize=(width / 100, height / 100), dpi=100, facecolor="white")
-    axes = figure.add_axes((0.04, 0.52, 0.92, 0.22))
-    table = colour_table(colour_map).astype(float) / 255.0
-    axes.imshow(table[None, :, :], aspect="auto", extent=(low, high, 0, 1))
-    axes.set_yticks([])
-    axes.tick_params(labelsize=8)
-    axes.set_title(label, fontsize=9, loc="left")
+    image = Image.new("RGB", (width, height), WHITE)
+    draw = ImageDraw.Draw(image)
+    font = ImageFont.load_default(size=13)
+    small = ImageFont.load_default(size=11)
+    margin = 26
+    bar_top, bar_height = 28, 18
+    bar_width = width - 2 * margin
+    table = colour_table(colour_map)
+    gradient = table[np.linspace(0, 255, bar_width).round().astype(int)]
+    pixels = np.asarray(image).copy()
+    pixels[bar_top : bar_top + bar_height, margin : margin + bar_width] = gradient[None]
+    image = Image.fromarray(pixels)
+    draw = ImageDraw.Draw(image)
+    text = (40, 40, 40)
+    draw.text((margin, 6), label, fill=text, font=font)
+    for fraction in np.linspace(0.0, 1.0, 5):
+        x = margin + fraction * (bar_width - 1)
+        draw.line([(x, bar_top + bar_height), (x, bar_top + bar_height + 4)], fill=text)
+        value = low + fraction * (high - low)
+        draw.text((x, bar_top + bar_height + 5), f"{value:.3g}", fill=text, font=small,
+                  anchor="ma")
     if note:
-        figure.text(0.04, 0.04, note, fontsize=7.5, color="#333333")
+        draw.text((margin, height - 16), note, fill=(80, 80, 80), font=small)
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
+    image.save(buffer, format="PNG")
     return buffer.getvalue()
