@@ -526,6 +526,11 @@ def test_compare_plots_each_integrators_drift(tmp_path):
                                                          rel=1e-6, abs=1e-9)
     # Euler gains energy on an undamped lattice (its amplification exceeds 1); Verlet does not
     assert scalar(drift["euler"][300]) > 10 * abs(scalar(drift["verlet"][300]))
+    logs = {name: temporal(chunks, f"/{name}/drift/log10_abs_error", "Scalars:scalars")
+            for name in ("euler", "verlet")}
+    for name in ("euler", "verlet"):
+        assert scalar(logs[name][300]) == pytest.approx(
+            np.log10(abs(scalar(drift[name][300]))), abs=1e-9)
     for name in ("euler", "verlet"):  # each run keeps its own absolute-energy plot
         assert temporal(chunks, f"/{name}/energy/total", "Scalars:scalars")
 

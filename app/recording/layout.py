@@ -65,6 +65,10 @@ class TreePaths:
         return self._path("drift/energy_balance_error")
 
     @property
+    def log_balance_error(self) -> str:
+        return self._path("drift/log10_abs_error")
+
+    @property
     def energy(self) -> str:
         return self._path("energy")
 
@@ -129,7 +133,8 @@ def blueprint(
         energy: rrb.View | rrb.Container = rrb.TimeSeriesView(
             origin=paths.energy, name="energy (J)"
         )
-        drift: rrb.View = rrb.TimeSeriesView(origin=paths.drift, name="energy-balance error (%)")
+        drift: rrb.View | rrb.Container = rrb.TimeSeriesView(
+            origin=paths.drift, name="energy-balance error (%)")
         settings_plot = rrb.TimeSeriesView(origin=paths.settings, name="dt (s)")
         logs = rrb.TextLogView(origin=paths.log, name="events")
     else:
@@ -139,9 +144,17 @@ def blueprint(
                 for name in trees
             ],
         )
-        drift = rrb.TimeSeriesView(
-            origin="/", name="energy-balance error (%)",
-            contents=[f"+ {tree_paths(name).balance_error}" for name in trees],
+        # Euler's error grows by orders of magnitude: on a linear axis the others look flat, so
+        # the first tab shows log10 |error in %| (-2 is 0.01 %), the second the signed error.
+        drift = rrb.Tabs(
+            rrb.TimeSeriesView(
+                origin="/", name="log10 |energy-balance error (%)|",
+                contents=[f"+ {tree_paths(name).log_balance_error}" for name in trees],
+            ),
+            rrb.TimeSeriesView(
+                origin="/", name="energy-balance error (%)",
+                contents=[f"+ {tree_paths(name).balance_error}" for name in trees],
+            ),
         )
         settings_plot = rrb.TimeSeriesView(
             origin="/", name="dt (s)", contents=[f"+ {tree_paths(name).dt}" for name in trees]

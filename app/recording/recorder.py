@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import os
 import queue
 import shutil
@@ -290,6 +291,12 @@ class _Track:
             rr.SeriesLines(names=f"{self.name or 'energy-balance'} error (%)", colors=drift_colour),
             static=True,
         )
+        if self.name:
+            stream.log(
+                paths.log_balance_error,
+                rr.SeriesLines(names=f"{self.name} log10 |error (%)|", colors=drift_colour),
+                static=True,
+            )
         stream.log(paths.dt, rr.SeriesLines(names=f"{self.name} dt" if self.name else "dt",
                                             colors=drift_colour if self.name
                                             else style.NEUTRAL_COLOUR),
@@ -346,7 +353,11 @@ class _Track:
         energy = frame.energy
         for term in ENERGY_TERMS:
             stream.log(paths.energy_term(term), rr.Scalars(float(getattr(energy, term))))
-        stream.log(paths.balance_error, rr.Scalars(100.0 * float(frame.energy_balance_error)))
+        percent = 100.0 * float(frame.energy_balance_error)
+        stream.log(paths.balance_error, rr.Scalars(percent))
+        if self.name:  # comparisons: also on a log scale (orders of magnitude apart)
+            stream.log(paths.log_balance_error,
+                       rr.Scalars(math.log10(max(abs(percent), 1e-12))))
         if plan.positions_every and self.frames_logged % plan.positions_every == 0:
             positions = np.asarray(frame.positions, dtype=np.float32)
             if plan.surface:
