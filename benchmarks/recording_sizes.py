@@ -40,7 +40,9 @@ def web_recording(directory: Path, name: str = "grid", frames: int = 3600) -> tu
     path = directory / f"web-{name}.rrd"
     recorder = Recorder(path, scene, integrator=scene.integrator, dt=scene.dt)
     recorder.attach(runner, snapshot=True)
+    runner.play()  # frames published while playing, as the web app's loop publishes them
     runner.advance(frames, every=1)
+    runner.pause()
     recorder.close()
     return path.stat().st_size / 1e6, recorder.frames_logged
 

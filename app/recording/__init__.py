@@ -4,6 +4,7 @@
 See ``docs/recording.md`` for the file layout and how to open or analyse a recording.
 """
 
+from app.recording.explain import RunInfo
 from app.recording.recorder import (
     DETAIL_LIMIT,
     LoggingPlan,
@@ -11,5 +12,9 @@ from app.recording.recorder import (
     RecordingError,
     RecordingOptions,
 )
+from app.recording.scales import ColourScales, look_ahead
 
-__all__ = ["DETAIL_LIMIT", "LoggingPlan", "Recorder", "RecordingError", "RecordingOptions"]
+__all__ = [
+    "DETAIL_LIMIT", "ColourScales", "LoggingPlan", "Recorder", "RecordingError",
+    "RecordingOptions", "RunInfo", "look_ahead",
+]
