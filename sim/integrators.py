@@ -295,6 +295,24 @@ class Integrator:
         rows = model.ny if self.ring_rows is None else self.ring_rows
         shape = (model.dim, rows, model.nx)
         self.work = [np.zeros(shape, dtype=self.dtype) for _ in range(self.work_arrays)]
+        blocks = min(self.threads, model.ny)
+        self._block_starts = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
+        self._full_work: list[np.ndarray] = []
+
+    @property
+    def parallel(self) -> bool:
+        """Whether the sweeps run as row blocks on numba's threads (threads > 1, ny > 1)."""
+        return self._block_starts.size > 2
+
+    def _start_threads(self) -> None:
+        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
+
+    def _full_arrays(self, count: int) -> list[np.ndarray]:
+        """``count`` full (dim, ny, nx) work arrays for the parallel loops, allocated at first use."""
+        model = self.model
+        while len(self._full_work) < count:
+            self._full_work.append(np.zeros((model.dim, model.ny, model.nx), dtype=self.dtype))
+        return self._full_work[:count]
 
     def invalidate(self) -> None:
         """The state was changed from outside (a drag, a reset): drop any cached forces."""
@@ -318,7 +336,13 @@ class Euler(Integrator):
     work_arrays = 0
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.euler_steps(n, self._dt(dt), *self._common(state))
+        if self.parallel:
+            self._start_threads()
+            state.dissipated += stepping.euler_steps_parallel(
+                n, self._dt(dt), *self._common(state), *self._full_arrays(1), self._block_starts
+            )
+        else:
+            state.dissipated += stepping.euler_steps(n, self._dt(dt), *self._common(state))
         state.advance_clock(n, dt)
 
 
@@ -328,7 +352,15 @@ class Heun(Integrator):
     ring_rows = 2
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.heun_steps(n, self._dt(dt), *self._common(state), *self.work)
+        if self.parallel:
+            self._start_threads()
+            state.dissipated += stepping.heun_steps_parallel(
+                n, self._dt(dt), *self._common(state), *self._full_arrays(3), self._block_starts
+            )
+        else:
+            state.dissipated += stepping.heun_steps(
+                n, self._dt(dt), *self._common(state), *self.work
+            )
         state.advance_clock(n, dt)
 
 
@@ -345,8 +377,7 @@ class Verlet(Integrator):
         # Undamped nonlinear springs: the steps between the first and the last run as fused
         # leapfrog sweeps over row blocks (one block per thread), the fastest loop shape.
         self._leapfrog = k.dashpot is None and k.drag is None and not k.linear
-        blocks = min(self.threads, model.ny)
-        self._block_starts = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
+        blocks = self._block_starts.size - 1
         self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
         self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
         self._horizontal = np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype)
@@ -354,26 +385,40 @@ class Verlet(Integrator):
     def invalidate(self) -> None:
         self._cached_for = None
 
+    def _accelerations(self, state: State) -> float:
+        """a(x, v) of the state into ``work[0]`` (on the row blocks' threads when parallel);
+        returns the dissipated power (W)."""
+        if self.parallel:
+            return stepping.accelerations_parallel(
+                *self._common(state), self.work[0], self._block_starts
+            )
+        return stepping.accelerations(*self._common(state), self.work[0])
+
     def advance(self, state: State, n: int, dt: float) -> None:
         stamp = (state.revision, state.time)
+        if self.parallel:
+            self._start_threads()
         if self._cached_for != stamp:
-            self._power = stepping.accelerations(*self._common(state), self.work[0])
+            self._power = self._accelerations(state)
         step = self._dt(dt)
         if self._leapfrog and n >= 2:
             k = self.kernel
             acceleration = self.work[0]
             stepping.verlet_open(step, state.positions, state.velocities, acceleration)
-            leapfrog = stepping.leapfrog_steps
-            if self.threads > 1:
-                numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
-                leapfrog = stepping.leapfrog_steps_parallel
+            leapfrog = stepping.leapfrog_steps_parallel if self.parallel else stepping.leapfrog_steps
             leapfrog(
                 n - 1, step, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
                 k.uniform_inverse_mass, k.parameters, k.gravity, self._block_starts,
                 self._boundary, self._below, self._horizontal,
             )
-            self._power = stepping.accelerations(*self._common(state), acceleration)
+            self._power = self._accelerations(state)
             stepping.verlet_close(step, state.velocities, acceleration)
+        elif self.parallel:
+            dissipated, self._power = stepping.verlet_steps_parallel(
+                n, step, *self._common(state), self.work[0], self._power, self.work[1],
+                self._block_starts,
+            )
+            state.dissipated += dissipated
         else:
             dissipated, self._power = stepping.verlet_steps(
                 n, step, *self._common(state), self.work[0], self._power, self.work[1]
@@ -389,7 +434,15 @@ class RungeKutta4(Integrator):
     ring_rows = 4
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        state.dissipated += stepping.rk4_steps(n, self._dt(dt), *self._common(state), *self.work)
+        if self.parallel:
+            self._start_threads()
+            state.dissipated += stepping.rk4_steps_parallel(
+                n, self._dt(dt), *self._common(state), *self._full_arrays(6), self._block_starts
+            )
+        else:
+            state.dissipated += stepping.rk4_steps(
+                n, self._dt(dt), *self._common(state), *self.work
+            )
         state.advance_clock(n, dt)
 
 

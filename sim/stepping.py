@@ -379,3 +379,263 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
             leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
                           inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
                           boundary[b + 1], horizontal[b])
+
+
+# --- row-block parallel step loops (threads > 1) -----------------------------------------------
+#
+# The one-thread loops above fuse every stage into one wavefront sweep; a wavefront cannot be cut
+# into independent row blocks without halo rows recomputed at every block edge.  The loops below
+# instead run each force evaluation as one phase over all row blocks in parallel (``prange`` over
+# blocks, ``numba.set_num_threads`` sets how many threads): a phase reads only arrays that no
+# block writes during it and writes only its own rows, so the blocks need no synchronisation
+# inside a phase.  Stage states therefore live in full (dim, ny, nx) arrays.  Per particle the
+# arithmetic is the same expressions as the one-thread loops, so positions and velocities agree
+# with one thread to round-off (usually bitwise); the dissipated energy is summed block by block
+# and differs in the last bits.  ``block_starts`` (blocks + 1,) int64: block b is rows
+# block_starts[b] .. block_starts[b + 1] - 1.
+
+
+@njit(**_JIT)
+def _force_rows(j0, j1, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass, linear,
+                parameters, dashpot, drag, gravity, acceleration, kick, velocity):
+    """Accelerations (m/s^2) of rows j0 .. j1-1 into the full array ``acceleration``; with
+    ``kick`` not None also ``velocity += kick * a`` for those rows.  Returns the dissipated power
+    (W) of the springs in and above those rows and below row j0 only when j0 == 0 (each spring's
+    power counted by exactly one block)."""
+    dim, _, nx = acceleration.shape
+    below = np.empty((3, nx), x.dtype)
+    above = np.empty((3, nx), x.dtype)
+    horizontal = np.empty((3, nx + 1), x.dtype)
+    row = np.empty((3, nx), x.dtype)
+    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+    if j0 > 0:
+        power = 0.0
+    for j in range(j0, j1):
+        power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+                                   dashpot, drag, gravity, below, above, horizontal, row,
+                                   uniform_inverse_mass)
+        for c in range(dim):
+            for i in range(nx):
+                acceleration[c, j, i] = row[c, i]
+                if kick is not None:
+                    velocity[c, j, i] += kick * row[c, i]
+        below, above = above, below
+    return power
+
+
+@njit(parallel=True, **_JIT)
+def accelerations_parallel(
+    linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters,
+    dashpot, drag, gravity, acceleration, block_starts,
+):
+    """``accelerations`` with the row blocks on numba's threads; returns the dissipated power (W)."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    powers = np.zeros(blocks)
+    for b in prange(blocks):
+        powers[b] = _force_rows(block_starts[b], block_starts[b + 1], ny, x, y, z, vx, vy, vz,
+                                inverse_mass, uniform_inverse_mass, linear, parameters, dashpot,
+                                drag, gravity, acceleration, None, velocity)
+    return powers.sum()
+
+
+@njit(parallel=True, **_JIT)
+def euler_steps_parallel(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, acceleration, block_starts,
+):
+    """``euler_steps`` in two phases per step: accelerations of all row blocks in parallel into
+    ``acceleration`` (dim, ny, nx), then x += dt v; v += dt a over the blocks in parallel."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    dim, ny, nx = position.shape
+    blocks = block_starts.size - 1
+    powers = np.zeros(blocks)
+    dissipated = 0.0
+    for _ in range(n):
+        for b in prange(blocks):
+            powers[b] = _force_rows(block_starts[b], block_starts[b + 1], ny, x, y, z, vx, vy, vz,
+                                    inverse_mass, uniform_inverse_mass, linear, parameters,
+                                    dashpot, drag, gravity, acceleration, None, velocity)
+        for b in prange(blocks):
+            for c in range(dim):
+                for j in range(block_starts[b], block_starts[b + 1]):
+                    for i in range(nx):
+                        position[c, j, i] += dt * velocity[c, j, i]
+                        velocity[c, j, i] += dt * acceleration[c, j, i]
+        dissipated += dt * powers.sum()
+    return dissipated
+
+
+@njit(parallel=True, **_JIT)
+def verlet_steps_parallel(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, acceleration, previous_power, predicted_velocity,
+    block_starts,
+):
+    """Velocity Verlet steps (damped scenes and linearised springs) in two phases per step: half
+    kick and drift of every row (and the predicted velocity v + dt a when damped), then the new
+    accelerations and the second half kick, each phase over the row blocks in parallel.
+    ``acceleration`` holds a(x, v) on entry and on exit, as for ``verlet_steps``.
+    Returns (dissipated, power)."""
+    damped = dashpot is not None or drag is not None
+    x, y, z = _components(out_of_plane, position)
+    if damped:
+        vx, vy, vz = _components(out_of_plane, predicted_velocity)
+    else:
+        vx, vy, vz = _components(out_of_plane, velocity)
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    powers = np.zeros(blocks)
+    half = type(dt)(0.5) * dt
+    dissipated = 0.0
+    power = previous_power
+    for _ in range(n):
+        for b in prange(blocks):
+            for j in range(block_starts[b], block_starts[b + 1]):
+                _verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, damped)
+        for b in prange(blocks):
+            powers[b] = _force_rows(block_starts[b], block_starts[b + 1], ny, x, y, z, vx, vy, vz,
+                                    inverse_mass, uniform_inverse_mass, linear, parameters,
+                                    dashpot, drag, gravity, acceleration, half, velocity)
+        new_power = powers.sum()
+        dissipated += half * (power + new_power)
+        power = new_power
+    return dissipated, power
+
+
+@njit(**_JIT)
+def _stage_rows(kind, j0, j1, ny, dt, linear, out_of_plane, position, velocity, inverse_mass,
+                uniform_inverse_mass, parameters, dashpot, drag, gravity, source_position,
+                source_velocity, target_position, target_velocity, sum_position, sum_velocity):
+    """One stage of RK4 (``kind`` 0..3) or Heun (``kind`` 4: predictor, 5: corrector) on rows
+    j0 .. j1-1: the forces of the stage input (``source_*``, full arrays) and the fused update,
+    the same expressions as ``rk4_steps`` and ``heun_steps``.  Writes the next stage's input into
+    ``target_*`` (Heun's predictor keeps a(x, v) in ``sum_velocity``), the running RK4 sums into
+    ``sum_*``, and the new state into ``position``/``velocity`` at the last stage.  Reads
+    ``position``/``velocity`` of its own rows only, except as the input of stages 0 and 4.
+    Returns the dissipated power (W) as ``_force_rows`` counts it."""
+    xs, ys, zs = _components(out_of_plane, source_position)
+    vxs, vys, vzs = _components(out_of_plane, source_velocity)
+    dim, _, nx = position.shape
+    below = np.empty((3, nx), position.dtype)
+    above = np.empty((3, nx), position.dtype)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
+    sixth = dt / type(dt)(6.0)
+    third = dt / type(dt)(3.0)
+    half = type(dt)(0.5) * dt
+    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot, below)
+    if j0 > 0:
+        power = 0.0
+    for j in range(j0, j1):
+        power += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                   parameters, dashpot, drag, gravity, below, above, horizontal,
+                                   row, uniform_inverse_mass)
+        below, above = above, below
+        if kind == 0:
+            for c in range(dim):
+                for i in range(nx):
+                    v = velocity[c, j, i]
+                    sum_position[c, j, i] = position[c, j, i] + sixth * v
+                    sum_velocity[c, j, i] = v + sixth * row[c, i]
+                    target_position[c, j, i] = position[c, j, i] + half * v
+                    target_velocity[c, j, i] = v + half * row[c, i]
+        elif kind == 1 or kind == 2:
+            step_to_next = half if kind == 1 else dt
+            for c in range(dim):
+                for i in range(nx):
+                    stage_v = source_velocity[c, j, i]
+                    sum_position[c, j, i] += third * stage_v
+                    sum_velocity[c, j, i] += third * row[c, i]
+                    target_position[c, j, i] = position[c, j, i] + step_to_next * stage_v
+                    target_velocity[c, j, i] = velocity[c, j, i] + step_to_next * row[c, i]
+        elif kind == 3:
+            for c in range(dim):
+                for i in range(nx):
+                    position[c, j, i] = sum_position[c, j, i] + sixth * source_velocity[c, j, i]
+                    velocity[c, j, i] = sum_velocity[c, j, i] + sixth * row[c, i]
+        elif kind == 4:
+            for c in range(dim):
+                for i in range(nx):
+                    sum_velocity[c, j, i] = row[c, i]
+                    target_position[c, j, i] = position[c, j, i] + dt * velocity[c, j, i]
+                    target_velocity[c, j, i] = velocity[c, j, i] + dt * row[c, i]
+        else:
+            for c in range(dim):
+                for i in range(nx):
+                    position[c, j, i] += half * (velocity[c, j, i] + source_velocity[c, j, i])
+                    velocity[c, j, i] += half * (sum_velocity[c, j, i] + row[c, i])
+    return power
+
+
+@njit(parallel=True, **_JIT)
+def rk4_steps_parallel(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, stage_position, stage_velocity, next_position,
+    next_velocity, sum_position, sum_velocity, block_starts,
+):
+    """``rk4_steps`` with each of the four stages one parallel phase over the row blocks.
+
+    The work arrays are full (dim, ny, nx) arrays: stage inputs alternate between
+    (``stage_*``) and (``next_*``) so that no phase overwrites what another block still reads."""
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    powers = np.zeros((4, blocks))
+    sixth = dt / type(dt)(6.0)
+    dissipated = 0.0
+    for _ in range(n):
+        for stage in range(4):
+            source_p, source_v = stage_position, stage_velocity  # stages 1 and 3
+            target_p, target_v = next_position, next_velocity
+            if stage == 0:
+                source_p, source_v = position, velocity
+                target_p, target_v = stage_position, stage_velocity
+            elif stage == 2:
+                source_p, source_v = next_position, next_velocity
+                target_p, target_v = stage_position, stage_velocity
+            for b in prange(blocks):
+                powers[stage, b] = _stage_rows(
+                    stage, block_starts[b], block_starts[b + 1], ny, dt, linear, out_of_plane,
+                    position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
+                    drag, gravity, source_p, source_v, target_p, target_v, sum_position,
+                    sum_velocity,
+                )
+        p = powers.sum(axis=1)
+        dissipated += sixth * (p[0] + 2.0 * p[1] + 2.0 * p[2] + p[3])
+    return dissipated
+
+
+@njit(parallel=True, **_JIT)
+def heun_steps_parallel(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, first_acceleration, stage_position, stage_velocity,
+    block_starts,
+):
+    """``heun_steps`` with the predictor and the corrector each one parallel phase over the row
+    blocks; the work arrays are full (dim, ny, nx) arrays."""
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    powers = np.zeros((2, blocks))
+    half = type(dt)(0.5) * dt
+    dissipated = 0.0
+    for _ in range(n):
+        for b in prange(blocks):
+            powers[0, b] = _stage_rows(
+                4, block_starts[b], block_starts[b + 1], ny, dt, linear, out_of_plane, position,
+                velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot, drag, gravity,
+                position, velocity, stage_position, stage_velocity, stage_position,
+                first_acceleration,
+            )
+        for b in prange(blocks):
+            powers[1, b] = _stage_rows(
+                5, block_starts[b], block_starts[b + 1], ny, dt, linear, out_of_plane, position,
+                velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot, drag, gravity,
+                stage_position, stage_velocity, stage_position, stage_velocity, stage_position,
+                first_acceleration,
+            )
+        p = powers.sum(axis=1)
+        dissipated += half * (p[0] + p[1])
+    return dissipated
