@@ -639,3 +639,161 @@ def heun_steps_parallel(
         p = powers.sum(axis=1)
         dissipated += half * (p[0] + p[1])
     return dissipated
+
+
+# --- RK4 as a wavefront per row block, with halo rows ------------------------------------------
+
+
+RK4_HALO = 3
+"""Rows beyond its own that a block's RK4 wavefront recomputes on each side (stage s on 3 - s)."""
+RK4_RING = 8
+"""Rows kept by a block's ring-buffer stage arrays (the wavefront needs 5 alive at once)."""
+
+
+@njit(**_JIT)
+def _deferred_slot(j, j0, j1, ny):
+    """Slot (0..7) in a block's deferred rows of row j, or -1: the new state of the 4 rows at each
+    inner block edge is written after all blocks are done, since the next block reads them."""
+    if j0 > 0 and j < j0 + RK4_HALO + 1:
+        return j - j0
+    if j1 < ny and j >= j1 - RK4_HALO - 1:
+        return RK4_HALO + 1 + j - (j1 - RK4_HALO - 1)
+    return -1
+
+
+@njit(**_JIT)
+def _rk4_block(
+    j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
+    sum_velocity, deferred_position, deferred_velocity, powers,
+):
+    """One RK4 step of rows j0 .. j1-1 as the wavefront of ``rk4_steps``, extended by halo rows.
+
+    Stage s runs on rows j0 - 3 + s .. j1 + 2 - s (clipped to the lattice), so the last stage has
+    its inputs for the block's own rows without waiting for another block; the stage arrays are
+    this block's ring buffers (dim, RK4_RING, nx).  ``position``/``velocity`` are read, never
+    written, within 4 rows of an inner block edge: those rows' new state goes to
+    ``deferred_*`` (dim, 8, nx) (``_deferred_slot``).  ``powers`` (4,) receives each stage's
+    dissipated power (W) of the springs of the block's own rows.
+    """
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    xs, ys, zs = _components(out_of_plane, stage_position)
+    vxs, vys, vzs = _components(out_of_plane, stage_velocity)
+    dim, ny, nx = position.shape
+    ring = stage_position.shape[1]
+    vertical = np.empty((4, 2, 3, nx), position.dtype)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
+    sixth = dt / type(dt)(6.0)
+    third = dt / type(dt)(3.0)
+    half = type(dt)(0.5) * dt
+    powers[:] = 0.0
+    for t in range(max(j0 - RK4_HALO, 0), j1 + 3):
+        for stage in range(4):
+            j = t - stage
+            first = max(j0 - RK4_HALO + stage, 0)
+            if j < first or j >= min(j1 + RK4_HALO - stage, ny):
+                continue
+            own = j >= j0 and j < j1
+            below = vertical[stage, j % 2]
+            above = vertical[stage, (j + 1) % 2]
+            slot = j % ring
+            if stage == 0:
+                if j == first:
+                    p = vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot,
+                                         below)
+                    if j == 0:
+                        powers[0] += p
+                p = row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
+                                      parameters, dashpot, drag, gravity, below, above,
+                                      horizontal, row, uniform_inverse_mass)
+                if own:
+                    powers[0] += p
+                for c in range(dim):
+                    for i in range(nx):
+                        v = velocity[c, j, i]
+                        sum_position[c, slot, i] = position[c, j, i] + sixth * v
+                        sum_velocity[c, slot, i] = v + sixth * row[c, i]
+                        stage_position[c, slot, i] = position[c, j, i] + half * v
+                        stage_velocity[c, slot, i] = v + half * row[c, i]
+                continue
+            if j == first:
+                p = vertical_springs(j, ny, xs, ys, zs, vxs, vys, vzs, linear, parameters,
+                                     dashpot, below)
+                if j == 0:
+                    powers[stage] += p
+            p = row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                  parameters, dashpot, drag, gravity, below, above, horizontal,
+                                  row, uniform_inverse_mass)
+            if own:
+                powers[stage] += p
+            if stage < 3:
+                step_to_next = half if stage == 1 else dt
+                for c in range(dim):
+                    for i in range(nx):
+                        stage_v = stage_velocity[c, slot, i]
+                        sum_position[c, slot, i] += third * stage_v
+                        sum_velocity[c, slot, i] += third * row[c, i]
+                        stage_position[c, slot, i] = position[c, j, i] + step_to_next * stage_v
+                        stage_velocity[c, slot, i] = velocity[c, j, i] + step_to_next * row[c, i]
+            else:
+                deferred = _deferred_slot(j, j0, j1, ny)
+                if deferred < 0:
+                    for c in range(dim):
+                        for i in range(nx):
+                            position[c, j, i] = (
+                                sum_position[c, slot, i] + sixth * stage_velocity[c, slot, i]
+                            )
+                            velocity[c, j, i] = sum_velocity[c, slot, i] + sixth * row[c, i]
+                else:
+                    for c in range(dim):
+                        for i in range(nx):
+                            deferred_position[c, deferred, i] = (
+                                sum_position[c, slot, i] + sixth * stage_velocity[c, slot, i]
+                            )
+                            deferred_velocity[c, deferred, i] = (
+                                sum_velocity[c, slot, i] + sixth * row[c, i]
+                            )
+
+
+@njit(**_JIT)
+def _write_deferred(j0, j1, position, velocity, deferred_position, deferred_velocity):
+    """Copy a block's deferred rows (``_deferred_slot``) into the state."""
+    dim, ny, nx = position.shape
+    for j in range(j0, j1):
+        slot = _deferred_slot(j, j0, j1, ny)
+        if slot >= 0:
+            for c in range(dim):
+                for i in range(nx):
+                    position[c, j, i] = deferred_position[c, slot, i]
+                    velocity[c, j, i] = deferred_velocity[c, slot, i]
+
+
+@njit(parallel=True, **_JIT)
+def rk4_steps_blocks(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
+    sum_velocity, deferred_position, deferred_velocity, block_starts,
+):
+    """``rk4_steps`` with each row block's wavefront on one of numba's threads (``_rk4_block``).
+
+    Work arrays per block: ``stage_*``, ``sum_*`` (blocks, dim, RK4_RING, nx), ``deferred_*``
+    (blocks, dim, 8, nx).  Blocks need at least 8 rows.  Each step is one parallel sweep plus
+    the copy of the deferred edge rows."""
+    blocks = block_starts.size - 1
+    powers = np.zeros((blocks, 4))
+    sixth = dt / type(dt)(6.0)
+    dissipated = 0.0
+    for _ in range(n):
+        for b in prange(blocks):
+            _rk4_block(block_starts[b], block_starts[b + 1], dt, linear, out_of_plane, position,
+                       velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot, drag,
+                       gravity, stage_position[b], stage_velocity[b], sum_position[b],
+                       sum_velocity[b], deferred_position[b], deferred_velocity[b], powers[b])
+        for b in prange(blocks):
+            _write_deferred(block_starts[b], block_starts[b + 1], position, velocity,
+                            deferred_position[b], deferred_velocity[b])
+        p = powers.sum(axis=0)
+        dissipated += sixth * (p[0] + 2.0 * p[1] + 2.0 * p[2] + p[3])
+    return dissipated
