@@ -365,20 +365,40 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
                             uniform_inverse_mass, parameters, gravity, block_starts, boundary,
                             below, horizontal):
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
-    threads (``prange``; ``numba.set_num_threads`` sets how many)."""
-    x, y, z = _components(out_of_plane, position)
-    vx, vy, vz = _components(out_of_plane, velocity)
-    ny = position.shape[1]
+    threads (``prange``; ``numba.set_num_threads`` sets how many).  The loop bodies are
+    functions of their own: numba's parallel transformation of the inlined 3-D body read stale
+    out-of-plane components (runs differed from one thread and blew up)."""
     blocks = block_starts.size - 1
     for _ in range(n):
         for b in prange(blocks + 1):
-            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
-                             boundary[b])
+            _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
+                              boundary)
         for b in prange(blocks):
-            below[b, :, :] = boundary[b]
-            leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
-                          inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
-                          boundary[b + 1], horizontal[b])
+            _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
+                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
+                            below, horizontal)
+
+
+@njit(**_JIT)
+def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts, boundary):
+    """The springs below row block_starts[b] into boundary[b] (a function of its own, so that
+    numba's parallel transformation leaves its body alone)."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, False, parameters,
+                     None, boundary[b])
+
+
+@njit(**_JIT)
+def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                    parameters, gravity, block_starts, boundary, below, horizontal):
+    """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    below[b, :, :] = boundary[b]
+    leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
+                  vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                  boundary[b + 1], horizontal[b])
 
 
 # --- row-block parallel step loops (threads > 1) -----------------------------------------------

@@ -91,6 +91,104 @@ def test_threads_equal_one_thread_to_round_off(precision):
         np.testing.assert_allclose(other, runs[0], rtol=0, atol=20 * eps * extent * math.sqrt(200))
 
 
+SCENE_FLAGS = [
+    pytest.param({}, id="undamped"),
+    pytest.param({"linear": True}, id="linear"),
+    pytest.param({"damping": 0.3}, id="dashpots"),
+    pytest.param({"drag": 0.2, "gravity": 2.0}, id="drag-gravity"),
+    pytest.param({"dim": 3}, id="3d"),
+    pytest.param({"mass": "ionic", "damping": 0.3}, id="mass-array"),
+]
+
+
+def _flagged_scene(flags: dict, ny: int):
+    scene = sim.scenes.build("interference", nx=48, ny=ny, **flags)
+    if flags.get("dim") == 3:
+        scene = scene.with_displacement(48 * ny // 2 + 24, (0.0, 0.0, 0.05))
+    return scene
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "heun", "euler", "verlet"])
+@pytest.mark.parametrize("flags", SCENE_FLAGS)
+@pytest.mark.parametrize("ny", [10, 37])
+def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
+    """Row blocks on 2 and 3 threads against the one-thread loop, every flag combination; ny = 10
+    gives blocks thinner than 8 rows (RK4's per-stage phases), ny = 37 RK4's halo wavefront."""
+    scene = _flagged_scene(flags, ny)
+    runs = []
+    for threads in (1, 2, 3):
+        simulation = sim.Simulation(scene, integrator=integrator, dt=0.004, threads=threads)
+        simulation.step(60)
+        simulation.step(1)  # a call of one step takes Verlet's full-step path
+        runs.append(simulation)
+    extent = float(np.abs(scene.model.rest_positions).max())
+    atol = 20 * float(np.finfo(np.float64).eps) * extent * math.sqrt(61)
+    for other in runs[1:]:
+        np.testing.assert_allclose(other.state.positions, runs[0].state.positions, rtol=0,
+                                   atol=atol)
+        np.testing.assert_allclose(other.state.velocities, runs[0].state.velocities, rtol=0,
+                                   atol=atol / 0.004)
+        assert other.state.dissipated == pytest.approx(runs[0].state.dissipated, rel=1e-12,
+                                                       abs=1e-300)
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "heun", "euler"])
+def test_threaded_float32_equals_one_thread(integrator):
+    scene = sim.scenes.build("interference", nx=48, ny=37, damping=0.1)
+    runs = []
+    for threads in (1, 2):
+        simulation = sim.Simulation(scene, integrator=integrator, dt=0.004, precision="float32",
+                                    threads=threads)
+        simulation.step(50)
+        runs.append(simulation.state.positions.astype(float))
+    extent = float(np.abs(scene.model.rest_positions).max())
+    np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=20 * EPS32 * extent * math.sqrt(50))
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+def test_threaded_energy_conserved(integrator):
+    """Undamped nonlinear grid on 2 threads: the energy stays within the method's own error."""
+    scene = sim.scenes.build("grid", ny=24).with_displacement(40, (0.05, 0.03))
+    simulation = sim.Simulation(scene, integrator=integrator, dt=0.01, threads=2)
+    start = simulation.energy().total
+    simulation.step(1500)
+    omega_dt = simulation.stability().omega_max * 0.01
+    bound = omega_dt**2 / 4 if integrator == "verlet" else omega_dt**4
+    assert abs(simulation.energy().total - start) < bound * start
+
+
+def test_threaded_damped_energy_balance():
+    """Kinetic + potential + dissipated stays the initial energy with the blocks on 2 threads."""
+    scene = sim.scenes.build("grid", ny=24, damping=0.5).with_displacement(40, (0.05, 0.03))
+    simulation = sim.Simulation(scene, integrator="rk4", dt=0.01, threads=2)
+    start = simulation.energy().total
+    simulation.step(500)
+    assert simulation.state.dissipated > 0.1 * start
+    balance = simulation.energy().total + simulation.state.dissipated
+    assert balance == pytest.approx(start, rel=1e-4)
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+def test_threaded_stability_limit_unchanged(integrator):
+    """Just below the analysed limit a threaded run stays bounded; just above it grows, as on one
+    thread."""
+    scene = sim.scenes.build("grid", linear=True, ny=24).with_displacement(40, (0.01, 0.01))
+    limit = sim.Simulation(scene, integrator=integrator).stable_dt(integrator)
+    for factor, stable in ((0.98, True), (1.05, False)):
+        energies = []
+        for threads in (1, 2):
+            simulation = sim.Simulation(scene, integrator=integrator, dt=factor * limit,
+                                        threads=threads)
+            start = simulation.energy().total
+            try:
+                simulation.step(3000)
+                energies.append(simulation.energy().total / start)
+            except sim.BlowUpError:
+                energies.append(math.inf)
+        assert (energies[1] < 2.0) is stable
+        assert (energies[0] < 2.0) is stable
+
+
 def test_stability_limit_does_not_depend_on_precision_or_threads():
     scene = sim.scenes.build("grid")
     base = sim.Simulation(scene, integrator="verlet")
