@@ -416,13 +416,20 @@ def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, unifo
 
 
 @njit(**_JIT)
-def _force_rows(j0, j1, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass, linear,
-                parameters, dashpot, drag, gravity, acceleration, kick, velocity):
-    """Accelerations (m/s^2) of rows j0 .. j1-1 into the full array ``acceleration``; with
-    ``kick`` not None also ``velocity += kick * a`` for those rows.  Returns the dissipated power
-    (W) of the springs in and above those rows and below row j0 only when j0 == 0 (each spring's
-    power counted by exactly one block)."""
-    dim, _, nx = acceleration.shape
+def _force_rows(j0, j1, linear, out_of_plane, position, force_velocity, inverse_mass,
+                uniform_inverse_mass, parameters, dashpot, drag, gravity, acceleration, kick,
+                velocity):
+    """Accelerations (m/s^2) of rows j0 .. j1-1 of the state (``position``, ``force_velocity``)
+    into the full array ``acceleration``; with ``kick`` not None also ``velocity += kick * a``
+    for those rows.  Returns the dissipated power (W) of the springs in and above those rows and
+    below row j0 only when j0 == 0 (each spring's power counted by exactly one block).
+
+    The parallel loops call only such functions of whole arrays from their ``prange`` bodies:
+    numba's parallel transformation of bodies that use the unpacked (x, y, z) components read
+    stale out-of-plane components in 3-D."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, force_velocity)
+    dim, ny, nx = acceleration.shape
     below = np.empty((3, nx), x.dtype)
     above = np.empty((3, nx), x.dtype)
     horizontal = np.empty((3, nx + 1), x.dtype)
@@ -449,15 +456,12 @@ def accelerations_parallel(
     dashpot, drag, gravity, acceleration, block_starts,
 ):
     """``accelerations`` with the row blocks on numba's threads; returns the dissipated power (W)."""
-    x, y, z = _components(out_of_plane, position)
-    vx, vy, vz = _components(out_of_plane, velocity)
-    ny = position.shape[1]
     blocks = block_starts.size - 1
     powers = np.zeros(blocks)
     for b in prange(blocks):
-        powers[b] = _force_rows(block_starts[b], block_starts[b + 1], ny, x, y, z, vx, vy, vz,
-                                inverse_mass, uniform_inverse_mass, linear, parameters, dashpot,
-                                drag, gravity, acceleration, None, velocity)
+        powers[b] = _force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
+                                position, velocity, inverse_mass, uniform_inverse_mass,
+                                parameters, dashpot, drag, gravity, acceleration, None, velocity)
     return powers.sum()
 
 
@@ -468,17 +472,16 @@ def euler_steps_parallel(
 ):
     """``euler_steps`` in two phases per step: accelerations of all row blocks in parallel into
     ``acceleration`` (dim, ny, nx), then x += dt v; v += dt a over the blocks in parallel."""
-    x, y, z = _components(out_of_plane, position)
-    vx, vy, vz = _components(out_of_plane, velocity)
     dim, ny, nx = position.shape
     blocks = block_starts.size - 1
     powers = np.zeros(blocks)
     dissipated = 0.0
     for _ in range(n):
         for b in prange(blocks):
-            powers[b] = _force_rows(block_starts[b], block_starts[b + 1], ny, x, y, z, vx, vy, vz,
-                                    inverse_mass, uniform_inverse_mass, linear, parameters,
-                                    dashpot, drag, gravity, acceleration, None, velocity)
+            powers[b] = _force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
+                                    position, velocity, inverse_mass, uniform_inverse_mass,
+                                    parameters, dashpot, drag, gravity, acceleration, None,
+                                    velocity)
         for b in prange(blocks):
             for c in range(dim):
                 for j in range(block_starts[b], block_starts[b + 1]):
@@ -501,12 +504,7 @@ def verlet_steps_parallel(
     ``acceleration`` holds a(x, v) on entry and on exit, as for ``verlet_steps``.
     Returns (dissipated, power)."""
     damped = dashpot is not None or drag is not None
-    x, y, z = _components(out_of_plane, position)
-    if damped:
-        vx, vy, vz = _components(out_of_plane, predicted_velocity)
-    else:
-        vx, vy, vz = _components(out_of_plane, velocity)
-    ny = position.shape[1]
+    force_velocity = predicted_velocity if damped else velocity
     blocks = block_starts.size - 1
     powers = np.zeros(blocks)
     half = type(dt)(0.5) * dt
@@ -517,9 +515,10 @@ def verlet_steps_parallel(
             for j in range(block_starts[b], block_starts[b + 1]):
                 _verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, damped)
         for b in prange(blocks):
-            powers[b] = _force_rows(block_starts[b], block_starts[b + 1], ny, x, y, z, vx, vy, vz,
-                                    inverse_mass, uniform_inverse_mass, linear, parameters,
-                                    dashpot, drag, gravity, acceleration, half, velocity)
+            powers[b] = _force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
+                                    position, force_velocity, inverse_mass, uniform_inverse_mass,
+                                    parameters, dashpot, drag, gravity, acceleration, half,
+                                    velocity)
         new_power = powers.sum()
         dissipated += half * (power + new_power)
         power = new_power
