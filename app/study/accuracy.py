@@ -10,6 +10,10 @@ scene from its initial state to time T and measures, against a reference solutio
 * ``phase_error``: phase error (rad) of the dominant normal mode of the linearised lattice;
 * ``wall_seconds`` of ``Simulation.step`` (compilation excluded, short runs repeated).
 
+The compiled integrators run in every precision of ``precisions`` (default float64 and float32:
+float32's rounding sets an error floor, and it is faster); orders, the predicted dt and the
+recommendation come from the float64 runs.
+
 Reference: the exact normal-mode solution (``app.study.linear``) when the springs are linearised
 (``--set linear=true``) and the lattice small; otherwise RK4 at h = (smallest dt) / 8, with its own
 error estimated by Richardson extrapolation from the run at 2 h: |r_h - r_2h| / (2^4 - 1).
@@ -78,6 +82,8 @@ class Run:
     blew_up: bool
     refined: bool = False
     note: str = ""
+    precision: str = "float64"
+    """Precision of the state and the kernels' arithmetic ("float64" or "float32")."""
 
     @property
     def usable(self) -> bool:
@@ -120,11 +126,15 @@ class AccuracyStudy:
     """The exact normal-mode integrator on the same scene (linear scenes only): no time-step
     error, so it is the reference line of the picture, with its own cost."""
 
-    def runs_of(self, integrator: str, refined: bool | None = False) -> list[Run]:
-        """Runs of one integrator sorted by dt (only the planned ones unless refined is None)."""
+    def runs_of(
+        self, integrator: str, refined: bool | None = False, precision: str = "float64"
+    ) -> list[Run]:
+        """Runs of one integrator in one precision sorted by dt (only the planned ones unless
+        refined is None)."""
         chosen = [
             run for run in self.runs
             if run.integrator == integrator and (refined is None or run.refined == refined)
+            and run.precision == precision
         ]
         return sorted(chosen, key=lambda run: run.dt)
 
@@ -187,15 +197,26 @@ def _position_error(positions: np.ndarray, reference: np.ndarray) -> float:
     return float(np.sqrt(((positions - reference) ** 2).sum(axis=0)).max())
 
 
-def warm_up(scene: sim.Scene, integrators: Iterable[str]) -> None:
+def warm_up(
+    scene: sim.Scene, integrators: Iterable[str], precisions: Iterable[str] = ("float64",)
+) -> None:
     """Compile the kernels the runs will use, so compilation is not timed."""
     for name in integrators:
-        simulation = sim.Simulation(scene, integrator=name, dt=1e-6)
-        simulation.step(1)
+        for precision in _precisions_of(name, precisions):
+            simulation = sim.Simulation(scene, integrator=name, dt=1e-6, precision=precision)
+            simulation.step(1)
+
+
+def _precisions_of(integrator: str, precisions: Iterable[str]) -> list[str]:
+    """The precisions an integrator runs in: all of them for compiled kernels, else float64."""
+    if sim.integrators.describe(integrator).kernel:
+        return list(precisions)
+    return ["float64"]
 
 
 def timed_run(
     scene: sim.Scene, integrator: str, dt: float, steps: int, minimum_seconds: float = 0.02,
+    precision: str = "float64",
 ) -> tuple[sim.Simulation, float, bool]:
     """Run ``steps`` steps from the scene's initial state; returns (simulation at the end,
     wall seconds of one run, blew up).  A run is repeated from the start (the stepping is
@@ -203,7 +224,7 @@ def timed_run(
     than 0.2 s, and the fastest repeat is returned (the least disturbed by other processes)."""
     times: list[float] = []
     while True:
-        simulation = sim.Simulation(scene, integrator=integrator, dt=dt)
+        simulation = sim.Simulation(scene, integrator=integrator, dt=dt, precision=precision)
         simulation.chunk_steps = max(32, min(steps, 4096))
         started = time.perf_counter()
         try:
@@ -330,15 +351,23 @@ def accuracy_study(
     refine: bool = True,
     progress: ProgressCallback | None = None,
     minimum_seconds: float = 0.02,
+    precisions: Sequence[str] = ("float64", "float32"),
 ) -> AccuracyStudy:
     """Measure error and wall time of every integrator at every dt on ``scene`` (see module doc).
 
     ``dts`` is a list of steps (s) for all integrators, or a mapping integrator -> list; default
     ``default_dts``.  ``until`` is T (s), default ``default_until``.  ``tolerance`` is the target
     relative position error of the recommendation.  ``progress`` is called with a short label
-    before every run (the CLI drives a progress bar with it).
+    before every run (the CLI drives a progress bar with it).  ``precisions``: the compiled
+    integrators run in each of them (float64 always; the others only show on the picture and in
+    the table).
     """
     integrators = [sim.integrators.check_integrator_name(name) for name in integrators]
+    precisions = ["float64"] + [
+        name for name in dict.fromkeys(
+            sim.integrators.check_precision(p).__name__ for p in precisions
+        ) if name != "float64"
+    ]
     until = float(until) if until is not None else default_until(scene)
     if not (math.isfinite(until) and until > 0):
         raise ValueError(f"--until must be a positive, finite time in seconds, got {until}")
@@ -358,28 +387,34 @@ def accuracy_study(
     omega_max = probe.stability("verlet").omega_max
     smallest_dt = min(dt for steps in plan.values() for dt in steps)
     reference = reference_solution(scene, until, min(smallest_dt, until / 16), progress)
-    warm_up(scene, integrators)
+    warm_up(scene, integrators, precisions)
     modes = _modes_or_none(scene)
     measure = _Measurer(scene, until, reference, limits, omega_max, modes, minimum_seconds)
     runs: list[Run] = []
     for name in integrators:
-        for dt in plan[name]:
-            if progress:
-                progress(f"{name} dt={dt:.3g}")
-            runs.append(measure(name, dt))
+        for precision in _precisions_of(name, precisions):
+            for dt in plan[name]:
+                if progress:
+                    suffix = "" if precision == "float64" else f" {precision}"
+                    progress(f"{name} dt={dt:.3g}{suffix}")
+                runs.append(measure(name, dt, precision=precision))
     orders = {
         name: convergence_order(
-            [run for run in runs if run.integrator == name], floor=reference.error
+            [run for run in runs if run.integrator == name and run.precision == "float64"],
+            floor=reference.error,
         )
         for name in integrators
     }
     if refine:
         for name in integrators:
-            extra = _refined_run(name, runs, orders[name], tolerance, reference.error, limits,
+            double = [run for run in runs if run.precision == "float64"]
+            extra = _refined_run(name, double, orders[name], tolerance, reference.error, limits,
                                  measure, progress)
             if extra is not None:
                 runs.append(extra)
-    recommendation = recommend(runs, tolerance, reference.error)
+    recommendation = recommend(
+        [run for run in runs if run.precision == "float64"], tolerance, reference.error
+    )
     exact = None
     if "exact" in sim.integrators.names(scene.model):
         if progress:
@@ -422,20 +457,24 @@ class _Measurer:
                 reference.velocities.ravel(),
             )
 
-    def __call__(self, integrator: str, dt: float, refined: bool = False, note: str = "") -> Run:
+    def __call__(
+        self, integrator: str, dt: float, refined: bool = False, note: str = "",
+        precision: str = "float64",
+    ) -> Run:
         steps = max(1, round(self.until / dt))
         dt = self.until / steps
-        start = sim.Simulation(self.scene, integrator=integrator, dt=dt)
+        start = sim.Simulation(self.scene, integrator=integrator, dt=dt, precision=precision)
         energy_scale = _energy_scale(start, self.scene)
         balance_start = start.energy().balance
         simulation, wall, blew_up = timed_run(
-            self.scene, integrator, dt, steps, self.minimum_seconds
+            self.scene, integrator, dt, steps, self.minimum_seconds, precision
         )
         limit = self.limits.get(integrator)
         ratio = dt / limit if limit else None
         common = dict(
             integrator=integrator, dt=dt, steps=steps, dt_over_limit=ratio,
             omega_dt=self.omega_max * dt, wall_seconds=wall, refined=refined,
+            precision=precision,
         )
         if blew_up:
             return Run(
@@ -443,14 +482,14 @@ class _Measurer:
                 error=math.inf, position_error=math.inf, energy_drift=math.inf, phase_error=None,
                 blew_up=True, note=(note + "; " if note else "") + "blew up",
             )
-        positions = simulation.state.positions
+        positions = simulation.state.positions.astype(float)
         position_error = _position_error(positions, self.reference.positions)
         drift = (simulation.energy().balance - balance_start) / energy_scale
         phase_error = None
         if self.dominant is not None:
             phase = self.modes.phase(
                 self.dominant, (positions - self.rest).ravel(),
-                simulation.state.velocities.ravel(),
+                simulation.state.velocities.astype(float).ravel(),
             )
             phase_error = float(np.angle(np.exp(1j * (phase - self.reference_phase))))
         return Run(
@@ -525,14 +564,14 @@ def _format(value: float | None, spec: str = ".3g") -> str:
 def format_table(study: AccuracyStudy) -> str:
     """The runs as a fixed-width text table."""
     header = (
-        f"{'integrator':10s} {'dt (s)':>10s} {'dt/limit':>8s} {'wall (s)':>9s} "
+        f"{'integrator':10s} {'precision':9s} {'dt (s)':>10s} {'dt/limit':>8s} {'wall (s)':>9s} "
         f"{'steps/s':>9s} {'error':>9s} {'energy':>9s} {'phase':>9s}"
     )
     lines = [header, "-" * len(header)]
-    for run in sorted(study.runs, key=lambda run: (run.integrator, run.dt)):
+    for run in sorted(study.runs, key=lambda run: (run.integrator, run.precision, run.dt)):
         marker = " *" if run.refined else ""
         lines.append(
-            f"{run.integrator:10s} {run.dt:10.4g} {_format(run.dt_over_limit, '.3f'):>8s} "
+            f"{run.integrator:10s} {run.precision:9s} {run.dt:10.4g} {_format(run.dt_over_limit, '.3f'):>8s} "
             f"{run.wall_seconds:9.3g} {run.steps_per_second:9.3g} "
             f"{'blew up' if run.blew_up else _format(run.error):>9s} "
             f"{_format(run.energy_drift):>9s} {_format(run.phase_error):>9s}{marker}"
@@ -583,6 +622,7 @@ def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
     import matplotlib.pyplot as plt
 
     figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
+    single_precisions = sorted({run.precision for run in study.runs} - {"float64"})
     for name in study.orders:
         runs = [run for run in study.runs_of(name, refined=None) if run.usable and run.error > 0]
         if not runs:
@@ -591,8 +631,18 @@ def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
         label = f"{name} (order {order:.2f})" if order is not None else name
         lines = left.loglog([r.wall_seconds for r in runs], [r.error for r in runs], "o-",
                             label=label)
-        right.loglog([r.dt for r in runs], [r.error for r in runs], "o-",
-                     color=lines[0].get_color(), label=label)
+        colour = lines[0].get_color()
+        right.loglog([r.dt for r in runs], [r.error for r in runs], "o-", color=colour,
+                     label=label)
+        for precision in single_precisions:  # hollow markers, dashed: same integrator, float32
+            other = [run for run in study.runs_of(name, refined=None, precision=precision)
+                     if run.usable and run.error > 0]
+            if not other:
+                continue
+            style = dict(color=colour, linestyle="--", marker="o", markerfacecolor="none",
+                         label=f"{name} {precision}")
+            left.loglog([r.wall_seconds for r in other], [r.error for r in other], **style)
+            right.loglog([r.dt for r in other], [r.error for r in other], **style)
     tolerance = study.recommendation.tolerance
     for axis in (left, right):
         axis.axhline(tolerance, color="grey", linestyle=":", label=f"tolerance {tolerance:g}")

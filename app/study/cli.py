@@ -128,6 +128,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     accuracy.add_argument("--no-refine", action="store_true",
                           help="do not run the dt predicted to just meet the tolerance")
+    accuracy.add_argument(
+        "--precisions", nargs="+", choices=("float64", "float32"), default=None,
+        metavar="PRECISION",
+        help="precisions the compiled integrators run in (default: float64 float32; "
+        "the recommendation uses float64)",
+    )
     _add_output_arguments(accuracy)
     accuracy.add_argument("--no-plot", action="store_true",
                           help="do not save the picture (by default it goes to "
@@ -283,12 +289,12 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
         runs = [(until / dt, particles, name) for name in integrators for dt in dts]
         runs.append((8 * until / min(dts), particles, "rk4"))  # the numerical reference
         _check_plan(runs, "accuracy")
-    planned = len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
+    planned = 2 * len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
     with _progress_bar(planned, arguments.quiet) as bar:
         study = accuracy_study(
             scene, integrators=integrators, dts=dts, until=arguments.until,
             tolerance=arguments.tolerance, refine=not arguments.no_refine,
-            progress=_advance(bar),
+            progress=_advance(bar), precisions=arguments.precisions or ("float64", "float32"),
         )
         bar.total = bar.n
     data = study.as_dict()
