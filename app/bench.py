@@ -11,7 +11,8 @@ printed beside them and included in ``--json``):
   reference (``app.c_reference``: gcc -O3 -march=native -ffast-math; the C leapfrog in the same
   precision and thread count for Verlet, the C fused RK4 in float64 on one thread for RK4).  The
   ratio uses ``Simulation.step``, which includes the blow-up checks.  Without a C compiler the
-  ratios are skipped with a note;
+  ratios are skipped with a note.  Each row also gives its speed-up over the same integrator and
+  precision on one thread, measured in the same run;
 * specialisation, one effect at a time, each against the kernel the scene actually runs: zero
   damping, drag and gravity terms compiled in; a (ny, nx) 1/m array instead of the scalar one;
   the 3-D kernel with z = 0 instead of the planar one.
@@ -176,6 +177,13 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
                     row["c_reference"] = c_reference.describe(key[0], np.dtype(key[1]).type, key[2])
                     row["c_steps_per_second"] = c_rates[key]
                     row["ratio_to_c"] = checked_rate / c_rates[key]
+                single = next(
+                    (r for r in rows if (r["integrator"], r["precision"], r["threads"])
+                     == (integrator, precision, 1)), row,
+                )
+                row["speedup_over_one_thread"] = (
+                    checked_rate / single["simulation_steps_per_second"]
+                )
                 rows.append(row)
     return rows
 
@@ -278,7 +286,8 @@ def print_table(results: dict) -> None:
     print(f"\nprecision and threads (ratio to C = Simulation.step / C kernel; "
           f"threads measured: {', '.join(map(str, results['threads']))})")
     header = f"{'integrator':10s} {'precision':9s} {'threads':>7s} {'kernel steps/s':>15s} " \
-             f"{'Simulation.step':>16s} {'C steps/s':>10s} {'ratio to C':>11s}  C kernel"
+             f"{'Simulation.step':>16s} {'vs 1 thread':>11s} {'C steps/s':>10s} " \
+             f"{'ratio to C':>11s}  C kernel"
     print(header)
     print("-" * len(header))
     for row in results["configurations"]:
@@ -286,6 +295,7 @@ def print_table(results: dict) -> None:
         ratio = f"{row['ratio_to_c']:10.2f}x" if "ratio_to_c" in row else f"{'-':>11s}"
         print(f"{row['integrator']:10s} {row['precision']:9s} {row['threads']:7d} "
               f"{row['kernel_steps_per_second']:15.1f} {row['simulation_steps_per_second']:16.1f} "
+              f"{row['speedup_over_one_thread']:10.2f}x "
               f"{c_rate} {ratio}  {row.get('c_reference', '')}")
     if results["c_reference_note"]:
         print(f"note: {results['c_reference_note']}")
