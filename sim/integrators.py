@@ -351,8 +351,28 @@ class Heun(Integrator):
     work_arrays = 3
     ring_rows = 2
 
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        super().__init__(model, dtype, threads)
+        # Blocks of at least 4 rows run the wavefront with one halo row (one sweep per step);
+        # thinner lattices fall back to a parallel phase for the predictor and the corrector.
+        blocks = min(self.threads, model.ny // 4)
+        self._blocks: np.ndarray | None = None
+        self._block_work: list[np.ndarray] = []
+        if blocks >= 2:
+            self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
+            ring = (blocks, model.dim, stepping.RK4_RING, model.nx)
+            edges = (blocks, model.dim, 2 * (stepping.HEUN_HALO + 1), model.nx)
+            self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(3)] + [
+                np.zeros(edges, dtype=self.dtype) for _ in range(2)
+            ]
+
     def advance(self, state: State, n: int, dt: float) -> None:
-        if self.parallel:
+        if self.parallel and self._blocks is not None:
+            self._start_threads()
+            state.dissipated += stepping.heun_steps_blocks(
+                n, self._dt(dt), *self._common(state), *self._block_work, self._blocks
+            )
+        elif self.parallel:
             self._start_threads()
             state.dissipated += stepping.heun_steps_parallel(
                 n, self._dt(dt), *self._common(state), *self._full_arrays(3), self._block_starts

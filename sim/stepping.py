@@ -404,9 +404,11 @@ def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, unifo
 # --- row-block parallel step loops (threads > 1) -----------------------------------------------
 #
 # The one-thread loops above fuse every stage into one wavefront sweep; a wavefront cannot be cut
-# into independent row blocks without halo rows recomputed at every block edge.  The loops below
-# instead run each force evaluation as one phase over all row blocks in parallel (``prange`` over
-# blocks, ``numba.set_num_threads`` sets how many threads): a phase reads only arrays that no
+# into independent row blocks without halo rows recomputed at every block edge, which is what
+# ``rk4_steps_blocks`` and ``heun_steps_blocks`` at the end of this module do.  The loops below
+# (the other integrators, and RK4 and Heun on lattices too thin for halos) run each force
+# evaluation as one phase over all row blocks in parallel (``prange`` over blocks,
+# ``numba.set_num_threads`` sets how many threads): a phase reads only arrays that no
 # block writes during it and writes only its own rows, so the blocks need no synchronisation
 # inside a phase.  Stage states therefore live in full (dim, ny, nx) arrays.  Per particle the
 # arithmetic is the same expressions as the one-thread loops, so positions and velocities agree
@@ -670,13 +672,14 @@ RK4_RING = 8
 
 
 @njit(**_JIT)
-def _deferred_slot(j, j0, j1, ny):
-    """Slot (0..7) in a block's deferred rows of row j, or -1: the new state of the 4 rows at each
-    inner block edge is written after all blocks are done, since the next block reads them."""
-    if j0 > 0 and j < j0 + RK4_HALO + 1:
+def _deferred_slot(j, j0, j1, ny, halo):
+    """Slot (0 .. 2 halo + 1) in a block's deferred rows of row j, or -1: the new state of the
+    halo + 1 rows at each inner block edge is written after all blocks are done, since the
+    neighbouring block's halo reads them."""
+    if j0 > 0 and j < j0 + halo + 1:
         return j - j0
-    if j1 < ny and j >= j1 - RK4_HALO - 1:
-        return RK4_HALO + 1 + j - (j1 - RK4_HALO - 1)
+    if j1 < ny and j >= j1 - halo - 1:
+        return halo + 1 + j - (j1 - halo - 1)
     return -1
 
 
@@ -757,7 +760,7 @@ def _rk4_block(
                         stage_position[c, slot, i] = position[c, j, i] + step_to_next * stage_v
                         stage_velocity[c, slot, i] = velocity[c, j, i] + step_to_next * row[c, i]
             else:
-                deferred = _deferred_slot(j, j0, j1, ny)
+                deferred = _deferred_slot(j, j0, j1, ny, RK4_HALO)
                 if deferred < 0:
                     for c in range(dim):
                         for i in range(nx):
@@ -777,11 +780,11 @@ def _rk4_block(
 
 
 @njit(**_JIT)
-def _write_deferred(j0, j1, position, velocity, deferred_position, deferred_velocity):
+def _write_deferred(j0, j1, halo, position, velocity, deferred_position, deferred_velocity):
     """Copy a block's deferred rows (``_deferred_slot``) into the state."""
     dim, ny, nx = position.shape
     for j in range(j0, j1):
-        slot = _deferred_slot(j, j0, j1, ny)
+        slot = _deferred_slot(j, j0, j1, ny, halo)
         if slot >= 0:
             for c in range(dim):
                 for i in range(nx):
@@ -811,8 +814,114 @@ def rk4_steps_blocks(
                        gravity, stage_position[b], stage_velocity[b], sum_position[b],
                        sum_velocity[b], deferred_position[b], deferred_velocity[b], powers[b])
         for b in prange(blocks):
-            _write_deferred(block_starts[b], block_starts[b + 1], position, velocity,
+            _write_deferred(block_starts[b], block_starts[b + 1], RK4_HALO, position, velocity,
                             deferred_position[b], deferred_velocity[b])
         p = powers.sum(axis=0)
         dissipated += sixth * (p[0] + 2.0 * p[1] + 2.0 * p[2] + p[3])
+    return dissipated
+
+
+HEUN_HALO = 1
+"""Rows beyond its own that a block's Heun wavefront predicts on each side."""
+
+
+@njit(**_JIT)
+def _heun_block(
+    j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, first_acceleration, stage_position, stage_velocity,
+    deferred_position, deferred_velocity, powers,
+):
+    """One Heun step of rows j0 .. j1-1 as the wavefront of ``heun_steps``, the predictor also run
+    on one halo row on each side (the same scheme as ``_rk4_block``).  Work arrays are this
+    block's ring buffers (dim, RK4_RING, nx); ``deferred_*`` (dim, 4, nx); ``powers`` (2,)."""
+    x, y, z = _components(out_of_plane, position)
+    vx, vy, vz = _components(out_of_plane, velocity)
+    xs, ys, zs = _components(out_of_plane, stage_position)
+    vxs, vys, vzs = _components(out_of_plane, stage_velocity)
+    dim, ny, nx = position.shape
+    ring = stage_position.shape[1]
+    vertical = np.empty((2, 2, 3, nx), position.dtype)
+    horizontal = np.empty((3, nx + 1), position.dtype)
+    row = np.empty((3, nx), position.dtype)
+    half = type(dt)(0.5) * dt
+    powers[:] = 0.0
+    for t in range(max(j0 - HEUN_HALO, 0), j1 + HEUN_HALO):
+        for sweep in range(2):
+            j = t - sweep
+            first = max(j0 - HEUN_HALO + sweep, 0)
+            if j < first or j >= min(j1 + HEUN_HALO - sweep, ny):
+                continue
+            own = j >= j0 and j < j1
+            below = vertical[sweep, j % 2]
+            above = vertical[sweep, (j + 1) % 2]
+            slot = j % ring
+            if sweep == 0:  # predictor on (x, v)
+                if j == first:
+                    p = vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot,
+                                         below)
+                    if j == 0:
+                        powers[0] += p
+                p = row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
+                                      parameters, dashpot, drag, gravity, below, above,
+                                      horizontal, row, uniform_inverse_mass)
+                if own:
+                    powers[0] += p
+                for c in range(dim):
+                    for i in range(nx):
+                        first_acceleration[c, slot, i] = row[c, i]
+                        stage_position[c, slot, i] = position[c, j, i] + dt * velocity[c, j, i]
+                        stage_velocity[c, slot, i] = velocity[c, j, i] + dt * row[c, i]
+                continue
+            if j == first:  # corrector on the prediction
+                p = vertical_springs(j, ny, xs, ys, zs, vxs, vys, vzs, linear, parameters,
+                                     dashpot, below)
+                if j == 0:
+                    powers[1] += p
+            p = row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                  parameters, dashpot, drag, gravity, below, above, horizontal,
+                                  row, uniform_inverse_mass)
+            if own:
+                powers[1] += p
+            deferred = _deferred_slot(j, j0, j1, ny, HEUN_HALO)
+            if deferred < 0:
+                for c in range(dim):
+                    for i in range(nx):
+                        position[c, j, i] += half * (velocity[c, j, i] + stage_velocity[c, slot, i])
+                        velocity[c, j, i] += half * (first_acceleration[c, slot, i] + row[c, i])
+            else:
+                for c in range(dim):
+                    for i in range(nx):
+                        deferred_position[c, deferred, i] = position[c, j, i] + half * (
+                            velocity[c, j, i] + stage_velocity[c, slot, i]
+                        )
+                        deferred_velocity[c, deferred, i] = velocity[c, j, i] + half * (
+                            first_acceleration[c, slot, i] + row[c, i]
+                        )
+
+
+@njit(parallel=True, **_JIT)
+def heun_steps_blocks(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, first_acceleration, stage_position, stage_velocity,
+    deferred_position, deferred_velocity, block_starts,
+):
+    """``heun_steps`` with each row block's wavefront on one of numba's threads (``_heun_block``).
+
+    Work arrays per block: ``first_acceleration``, ``stage_*`` (blocks, dim, RK4_RING, nx),
+    ``deferred_*`` (blocks, dim, 4, nx).  Blocks need at least 4 rows."""
+    blocks = block_starts.size - 1
+    powers = np.zeros((blocks, 2))
+    half = type(dt)(0.5) * dt
+    dissipated = 0.0
+    for _ in range(n):
+        for b in prange(blocks):
+            _heun_block(block_starts[b], block_starts[b + 1], dt, linear, out_of_plane, position,
+                        velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot, drag,
+                        gravity, first_acceleration[b], stage_position[b], stage_velocity[b],
+                        deferred_position[b], deferred_velocity[b], powers[b])
+        for b in prange(blocks):
+            _write_deferred(block_starts[b], block_starts[b + 1], HEUN_HALO, position, velocity,
+                            deferred_position[b], deferred_velocity[b])
+        p = powers.sum(axis=0)
+        dissipated += half * (p[0] + p[1])
     return dissipated

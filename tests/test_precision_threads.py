@@ -110,10 +110,11 @@ def _flagged_scene(flags: dict, ny: int):
 
 @pytest.mark.parametrize("integrator", ["rk4", "heun", "euler", "verlet"])
 @pytest.mark.parametrize("flags", SCENE_FLAGS)
-@pytest.mark.parametrize("ny", [10, 37])
+@pytest.mark.parametrize("ny", [6, 10, 37])
 def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
     """Row blocks on 2 and 3 threads against the one-thread loop, every flag combination; ny = 10
-    gives blocks thinner than 8 rows (RK4's per-stage phases), ny = 37 RK4's halo wavefront."""
+        gives blocks thinner than 8 rows (RK4 per-stage phases, Heun halo wavefront), ny = 6 the
+    per-stage phases of both, ny = 37 their halo wavefronts."""
     scene = _flagged_scene(flags, ny)
     runs = []
     for threads in (1, 2, 3):
