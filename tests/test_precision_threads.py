@@ -113,7 +113,7 @@ def _flagged_scene(flags: dict, ny: int):
 @pytest.mark.parametrize("ny", [6, 10, 37])
 def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
     """Row blocks on 2 and 3 threads against the one-thread loop, every flag combination; ny = 10
-        gives blocks thinner than 8 rows (RK4 per-stage phases, Heun halo wavefront), ny = 6 the
+    gives blocks thinner than 8 rows (RK4 per-stage phases, Heun halo wavefront), ny = 6 the
     per-stage phases of both, ny = 37 their halo wavefronts."""
     scene = _flagged_scene(flags, ny)
     runs = []
