@@ -192,9 +192,11 @@ def test_page_recording_records_the_running_lattice(running, tmp_path):
     assert path.exists() and path.suffix == ".rrd"
     totals = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     recorded_steps = sorted(totals)
-    assert recorded_steps and recorded_steps[-1] == last_step  # frames while playing were logged
-    assert len([step for step in recorded_steps if step > started_at]) >= 10
-    assert totals[last_step][0].as_py() == pytest.approx(energy_before_stop)
+    # live runs are thinned to at most 25 frames per simulated second (dt = 0.01 s: every 4th)
+    assert recorded_steps and last_step - recorded_steps[-1] < 4
+    assert len([step for step in recorded_steps if step > started_at]) >= 5
+    if recorded_steps[-1] == last_step:
+        assert totals[last_step][0].as_py() == pytest.approx(energy_before_stop)
 
 
 def test_speed_accuracy_study_from_the_page(web_app):

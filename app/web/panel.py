@@ -613,6 +613,32 @@ class ControlPanel:
                       if available else "the recorder (app.recording) is not installed"),
             )
             self.record_text = gui.add_html("")
+            self.movie_button = gui.add_button(
+                "Download a movie", icon=viser.Icon.MOVIE,
+                hint="render the scene's run from the current state (its duration) to an MP4 "
+                "on your computer: title, time, colour bar; plays in browsers and slides")
+            self.movie_text = gui.add_html("")
+
+        @self.movie_button.on_click
+        @from_user
+        def _(event: viser.GuiEvent) -> None:  # thread pool: rendering takes seconds
+            if self.movie_button.disabled:
+                return
+            self.movie_button.disabled = True
+            try:
+                from app.movie import movie_bytes
+
+                self.movie_text.content = as_html("rendering the movie… (about a second per "
+                                                  "100 frames on large lattices)")
+                scene = self.control.snapshot().result(timeout=30)
+                content = movie_bytes(scene, "mp4", progress=False)
+                name = _file_name(scene.name) + ".mp4"
+                event.client.send_file_download(name, content, save_immediately=True)
+                self.movie_text.content = ok_html(f"sent {name} ({len(content) / 1e6:.2g} MB)")
+            except Exception as error:  # a failed movie must not take the page down
+                self._say(self.movie_text, error, "could not make the movie")
+            finally:
+                self.movie_button.disabled = False
 
         @self.record_button.on_click
         @from_user
@@ -733,7 +759,8 @@ class ControlPanel:
             total[0] += 1
             self.study_text.content = as_html(f"measuring… run {total[0]}: {label}")
 
-        study = accuracy_study(scene, tolerance=tolerance, progress=progress)
+        study = accuracy_study(scene, tolerance=tolerance, progress=progress,
+                               precisions=tuple(dict.fromkeys(("float64", scene.precision))))
         with tempfile.TemporaryDirectory() as folder:
             picture = Path(folder) / "work_precision.png"
             plot_work_precision(study, str(picture))
