@@ -108,9 +108,21 @@ def _flagged_scene(flags: dict, ny: int):
     return scene
 
 
+def _thread_matrix() -> list:
+    """Every (flags, ny); the default run keeps the undamped and dashpot kernels at ny = 37 (the
+    halo wavefronts): each other flag set compiles its own kernels (minutes on a fresh clone),
+    so those run with the slow tests."""
+    cases = []
+    for flags in SCENE_FLAGS:
+        for ny in (6, 10, 37):
+            fast = flags.id in ("undamped", "dashpots") and ny == 37
+            cases.append(pytest.param(flags.values[0], ny, id=f"{flags.id}-ny{ny}",
+                                      marks=() if fast else pytest.mark.slow))
+    return cases
+
+
 @pytest.mark.parametrize("integrator", ["rk4", "heun", "euler", "verlet"])
-@pytest.mark.parametrize("flags", SCENE_FLAGS)
-@pytest.mark.parametrize("ny", [6, 10, 37])
+@pytest.mark.parametrize("flags, ny", _thread_matrix())
 def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
     """Row blocks on 2 and 3 threads against the one-thread loop, every flag combination; ny = 10
     gives blocks thinner than 8 rows (RK4 per-stage phases, Heun halo wavefront), ny = 6 the
