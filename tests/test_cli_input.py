@@ -213,9 +213,11 @@ def test_the_memory_estimate_covers_a_real_simulation():
     import sim
     from sim.model import estimated_bytes
 
-    warm = sim.Simulation(sim.scenes.build("grid", nx=8, ny=8), integrator="verlet")
-    warm.step(70)
-    warm.strains()
+    for dim in (2, 3):  # compile the kernels first: numba's compiler allocates too
+        warm = sim.Simulation(sim.scenes.build("grid", nx=8, ny=8, dim=dim), integrator="verlet")
+        warm.step(70)
+        warm.energy()
+        warm.strains()
     for dim in (2, 3):
         tracemalloc.start()
         try:
