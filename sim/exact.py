@@ -29,6 +29,9 @@ from sim.state import State
 
 def reason_not_applicable(model: Model) -> str | None:
     """Why the exact solver cannot run ``model`` (None: it can)."""
+    if model.has_forcing:
+        return ("the exact solver follows the free normal modes; a driver or an absorbing "
+                "layer acts from outside them")
     if not model.linear:
         return ("the exact solver needs linearised springs (linear=true; "
                 "--set linear=true, or 'Linearised springs' in the page)")

@@ -139,6 +139,11 @@ class Model:
         drag: drag coefficient (N s/m) on every particle's absolute velocity.
         gravity: (3,) acceleration vector (m/s^2); the z component only acts when dim == 3.
         linear: use the springs linearised about the rest lattice instead of the full law.
+        driver: a ``sim.forcing.Driver`` (a sinusoidal force or displacement on one particle),
+            or None.
+        boundary: "fixed" (walls of anchors) or "absorbing" (the same walls behind a sponge
+            layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak damping rate
+            ``sponge_strength`` * omega_0; see ``sim.forcing``).
     """
 
     nx: int
@@ -152,6 +157,11 @@ class Model:
     drag: float
     gravity: tuple[float, float, float]
     linear: bool
+    driver: Any = None
+    boundary: str = "fixed"
+    sponge_width: int = 30
+    sponge_strength: float = 0.5
+    sponge_sides: tuple[str, ...] = ()
 
     @classmethod
     def create(
@@ -168,6 +178,11 @@ class Model:
         drag: float = 0.0,
         gravity: float | tuple[float, ...] | np.ndarray = 0.0,
         linear: bool = False,
+        driver: Any = None,
+        boundary: str = "fixed",
+        sponge_width: int = 30,
+        sponge_strength: float | None = None,
+        sponge_sides: Any = "auto",
     ) -> Model:
         """Validate the parameters and build a model.
 
@@ -189,10 +204,33 @@ class Model:
         gravity_vector = _gravity_vector(gravity)
         if not isinstance(linear, (bool, np.bool_)):
             raise ModelError(f"linear must be true or false, got {linear!r}")
+        from sim import forcing
+
+        if sponge_strength is None:
+            sponge_strength = forcing.DEFAULT_SPONGE_STRENGTH
+        try:
+            boundary, sponge_width, sponge_strength = forcing.check_boundary(
+                boundary, sponge_width, sponge_strength
+            )
+            driver = None if driver is None or driver is False else forcing.Driver.create(driver)
+        except forcing.ForcingError as error:
+            raise ModelError(str(error)) from None
+        if driver is not None and not (driver.column < nx and driver.row < ny):
+            raise ModelError(f"the driven particle (column {driver.column}, row {driver.row}) is "
+                             f"outside the {nx}x{ny} lattice")
+        if driver is not None and dim == 2 and driver.direction[2] != 0.0:
+            raise ModelError("a planar (2-D) lattice cannot be driven out of the plane (z)")
+        sides: tuple[str, ...] = ()
+        if boundary == "absorbing":
+            try:
+                sides = forcing.check_sides(sponge_sides, nx, ny, sponge_width)
+            except forcing.ForcingError as error:
+                raise ModelError(str(error)) from None
         return cls(
             nx=nx, ny=ny, dim=int(dim), spacing=spacing, masses=masses, stiffness=stiffness,
             rest_length=rest_length, damping=damping, drag=drag, gravity=gravity_vector,
-            linear=bool(linear),
+            linear=bool(linear), driver=driver, boundary=boundary, sponge_width=sponge_width,
+            sponge_strength=sponge_strength, sponge_sides=sides,
         )
 
     def replace(self, **changes: Any) -> Model:
@@ -207,8 +245,15 @@ class Model:
         return dict(
             nx=self.nx, ny=self.ny, dim=self.dim, spacing=self.spacing, stiffness=self.stiffness,
             rest_length=self.rest_length, damping=self.damping, drag=self.drag,
-            gravity=self.gravity, linear=self.linear,
+            gravity=self.gravity, linear=self.linear, driver=self.driver, boundary=self.boundary,
+            sponge_width=self.sponge_width, sponge_strength=self.sponge_strength,
+            sponge_sides=self.sponge_sides if self.boundary == "absorbing" else "auto",
         )
+
+    @property
+    def has_forcing(self) -> bool:
+        """Whether a driver or an absorbing layer acts between the steps (``sim.forcing``)."""
+        return self.driver is not None or self.boundary != "fixed"
 
     # --- derived quantities ---------------------------------------------------------------------
 
@@ -335,6 +380,11 @@ class Model:
             extras.append("gravity (" + ", ".join(f"{g:g}" for g in self.gravity[: self.dim]) + ")")
         if self.linear:
             extras.append("linearised springs")
+        if self.boundary == "absorbing":
+            extras.append(f"absorbing {'/'.join(self.sponge_sides)} walls "
+                          f"({self.sponge_width}-particle sponge)")
+        if self.driver is not None:
+            extras.append(self.driver.describe())
         masses = (
             f"m={self.masses.flat[0]:g}"
             if self.uniform_mass

@@ -25,12 +25,13 @@ from sim.state import State
 @dataclasses.dataclass(frozen=True)
 class Energy:
     """Energy account of a state (J).  ``total = kinetic + potential``; ``balance`` adds what the
-    dampers took out, and is conserved by the exact dynamics."""
+    dampers took out and subtracts what a driver put in, and is conserved by the exact dynamics."""
 
     kinetic: float
     spring: float
     gravity: float
     dissipated: float
+    driven: float = 0.0
 
     @property
     def potential(self) -> float:
@@ -42,12 +43,13 @@ class Energy:
 
     @property
     def balance(self) -> float:
-        return self.total + self.dissipated
+        return self.total + self.dissipated - self.driven
 
     def as_dict(self) -> dict[str, float]:
         return dict(
             kinetic=self.kinetic, spring=self.spring, gravity=self.gravity,
-            potential=self.potential, dissipated=self.dissipated, total=self.total,
+            potential=self.potential, dissipated=self.dissipated, driven=self.driven,
+            total=self.total,
         )
 
     def __getitem__(self, key: str) -> float:
@@ -132,6 +134,7 @@ def energy(model: Model, state: State) -> Energy:
         spring=spring,
         gravity=gravity_energy(model, state.positions),
         dissipated=state.dissipated,
+        driven=state.driven,
     )
 
 

@@ -103,6 +103,7 @@ class Simulation:
             self._model, scene.initial_positions, scene.initial_velocities, self._precision
         )
         self._integrator = self._make_integrator()
+        self._forcing = self._make_forcing()
         self._stability_cache: dict[str, observables.StabilityLimit] = {}
         self._reference_energy: float | None = None
         self._balance_reference: tuple[float, float] | None = None
@@ -230,9 +231,15 @@ class Simulation:
         """Replace the masses: a scalar, an (n_particles,) or an (ny, nx) array of kg."""
         self._set_model(self._model.replace(mass=masses))
 
+    def _make_forcing(self):
+        from sim.forcing import Forcing
+
+        return Forcing(self._model) if self._model.has_forcing else None
+
     def _set_model(self, model: Model) -> None:
         self._model = model
         self._integrator = self._make_integrator()
+        self._forcing = self._make_forcing()
         self._stability_cache.clear()
         self._reference_energy = None
         self._balance_reference = None
@@ -247,6 +254,7 @@ class Simulation:
         self.state.time = 0.0
         self.state.step = 0
         self.state.dissipated = 0.0
+        self.state.driven = 0.0
         self._integrator.invalidate()
         self._reference_energy = None
         self._balance_reference = None
@@ -321,13 +329,31 @@ class Simulation:
         while remaining > 0:
             chunk = min(remaining, self.chunk_steps)
             self._save_checkpoint()
-            self._integrator.advance(self.state, chunk, self._dt)
+            self._advance(chunk)
             problem = self._problem()
             if problem is not None:
                 self.state.restore(self._checkpoint)
                 self._integrator.invalidate()
                 self._find_bad_step(chunk)
             remaining -= chunk
+
+    def _advance(self, n: int) -> None:
+        """n steps of the integrator; with a driver or a sponge, one at a time between their
+        half actions (``sim.forcing``), else all in one compiled call."""
+        forcing = self._forcing
+        if forcing is None:
+            self._integrator.advance(self.state, n, self._dt)
+            return
+        # forces that depend on velocities, or a moved particle, make cached forces stale
+        refresh = forcing.moves_particles or self._model.is_damped
+        for _ in range(n):
+            forcing.before(self.state, self._dt)
+            if refresh:
+                self._integrator.invalidate()
+            self._integrator.advance(self.state, 1, self._dt)
+            forcing.after(self.state, self._dt)
+            if refresh:
+                self._integrator.invalidate()
 
     def _save_checkpoint(self) -> None:
         """Copy the state into the preallocated checkpoint (no allocation per chunk)."""
@@ -340,11 +366,12 @@ class Simulation:
         self._checkpoint.time = self.state.time
         self._checkpoint.step = self.state.step
         self._checkpoint.dissipated = self.state.dissipated
+        self._checkpoint.driven = self.state.driven
 
     def _find_bad_step(self, chunk: int) -> None:
         for _ in range(chunk):
             checkpoint = self.state.copy()
-            self._integrator.advance(self.state, 1, self._dt)
+            self._advance(1)
             problem = self._problem()
             if problem is not None:
                 self.state.restore(checkpoint)

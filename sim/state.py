@@ -17,7 +17,7 @@ from sim.model import Model
 
 @dataclasses.dataclass
 class State:
-    """Positions (m), velocities (m/s), time (s), step count, dissipated energy (J).
+    """Positions (m), velocities (m/s), time (s), step count, dissipated energy and driver work (J).
 
     ``positions`` and ``velocities`` are ``(dim, ny, nx)`` arrays; ``revision`` counts changes made
     from outside the integrators (a drag, a reset) so cached forces know when to recompute.
@@ -29,6 +29,8 @@ class State:
     step: int = 0
     dissipated: float = 0.0
     revision: int = 0
+    driven: float = 0.0
+    """Work done on the lattice by a driver so far (J)."""
 
     @classmethod
     def at_rest(cls, model: Model, dtype: type[np.floating] = np.float64) -> State:
@@ -67,6 +69,7 @@ class State:
         self.time = other.time
         self.step = other.step
         self.dissipated = other.dissipated
+        self.driven = other.driven
         self.revision += 1
 
     def advance_clock(self, n: int, dt: float) -> None:

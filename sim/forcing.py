@@ -1,0 +1,394 @@
+"""A sinusoidal driver and an absorbing boundary layer (sponge): what a scene may add to the
+lattice besides its springs, and how they act between the integrator's steps.
+
+Both act by operator splitting, so the compiled step loops stay exactly as they are for scenes
+without them (``Simulation`` only takes this path when the model has a driver or a sponge):
+
+    half sponge, half driver  ->  one step of the integrator  ->  half driver, half sponge
+
+* **Sponge** (``boundary="absorbing"``): a layer ``sponge_width`` particles deep along the walls
+  in which each particle feels a drag m * rate(d).  Each half step multiplies its velocity by
+  exp(-rate * dt / 2): the drag integrated exactly, so the layer never limits the stable step.
+  The rate grows smoothly with depth d (0 at the inner edge, 1 at the wall),
+  rate(d) = ``sponge_strength`` * omega_0 * d^2, omega_0 = sqrt(k / m_mean): a wave entering the
+  layer sees a gradient too gentle to reflect it, and what reaches the wall has been damped in
+  and out again (``docs/instruments.md`` measures the reflection against wavelength).
+* **Driver**: one particle (column i, row j) driven along ``direction``, either by a force
+  A k sin(2 pi f t) (``kind="force"``, A in m so that the force is that of a spring stretched by
+  A) applied as two half kicks of impulse F dt / 2 around each step (Strang splitting,
+  second order in dt), or by a prescribed displacement A sin(2 pi f t) from its rest position
+  (``kind="displacement"``, the paper's mouse, automated): its position and velocity are set to
+  the prescribed ones at the start of every step.  Both start at ``start`` (s) and ramp up over
+  ``ramp`` (s) with a smooth envelope (1 - cos) / 2, so the drive does not kick the lattice.
+
+Energy accounting: the energy the sponge takes out adds to ``State.dissipated`` and the work the
+driver does adds to ``State.driven``, both measured exactly as the change of kinetic (and, for the
+prescribed displacement, the particle's spring) energy each action makes, so
+kinetic + potential + dissipated - driven stays constant to the integrator's accuracy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from sim import forcing_kernels
+
+DRIVER_KINDS = ("force", "displacement")
+BOUNDARIES = ("fixed", "absorbing")
+SPONGE_POWER = 2
+DEFAULT_SPONGE_STRENGTH = 0.5
+"""Peak damping rate of the sponge in units of omega_0 = sqrt(k / m) (designed with the
+reflection study in ``docs/instruments.md``)."""
+
+_DIRECTIONS = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+class ForcingError(ValueError):
+    """An invalid driver or boundary parameter (the message says which and why)."""
+
+
+def _number(name: str, value: Any, *, positive: bool = False, allow_zero: bool = True) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ForcingError(f"driver {name} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ForcingError(f"driver {name} must be finite, got {value!r}")
+    if positive and (number < 0 or (number == 0 and not allow_zero)):
+        raise ForcingError(f"driver {name} must be {'positive' if not allow_zero else '>= 0'}, "
+                           f"got {number:g}")
+    return number
+
+
+@dataclasses.dataclass(frozen=True)
+class Driver:
+    """A sinusoidal drive on particle (``column``, ``row``).
+
+    ``direction``: unit 3-vector (given as x, y, z or a 2-/3-vector, normalised);
+    ``amplitude`` A (m); ``frequency`` f (Hz); ``kind`` "force" (F = A k sin 2 pi f t, N) or
+    "displacement" (u = A sin 2 pi f t, m); ``start`` (s) and ``ramp`` (s) of the envelope.
+    """
+
+    column: int = 0
+    row: int = 0
+    direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    amplitude: float = 0.05
+    frequency: float = 1.0
+    kind: str = "force"
+    start: float = 0.0
+    ramp: float = 2.0
+
+    FIELDS = ("column", "row", "direction", "amplitude", "frequency", "kind", "start", "ramp")
+
+    @classmethod
+    def create(cls, value: Any) -> Driver:
+        """A validated driver from a ``Driver``, a mapping of its fields, or a text
+        "key=value,key=value" (``direction`` as x, y, z or "dx dy dz")."""
+        if isinstance(value, Driver):
+            fields = dataclasses.asdict(value)
+        elif isinstance(value, str):
+            fields = parse_driver_text(value)
+        elif isinstance(value, dict):
+            fields = dict(value)
+        else:
+            raise ForcingError(
+                f"driver must be a Driver, a table of its fields or 'key=value,...', got {value!r}"
+            )
+        unknown = set(fields) - set(cls.FIELDS)
+        if unknown:
+            raise ForcingError(f"unknown driver field(s) {', '.join(sorted(unknown))}; "
+                               f"accepted: {', '.join(cls.FIELDS)}")
+        merged = {**dataclasses.asdict(cls()), **fields}
+        for name in ("column", "row"):
+            raw = merged[name]
+            if isinstance(raw, bool) or not float(_number(name, raw)).is_integer() or raw < 0:
+                raise ForcingError(f"driver {name} must be a whole number >= 0, got {raw!r}")
+        kind = str(merged["kind"]).strip().lower()
+        if kind not in DRIVER_KINDS:
+            raise ForcingError(f"driver kind must be one of {', '.join(DRIVER_KINDS)}, got {kind!r}")
+        return cls(
+            column=int(merged["column"]), row=int(merged["row"]),
+            direction=_unit_vector(merged["direction"]),
+            amplitude=_number("amplitude", merged["amplitude"], positive=True),
+            frequency=_number("frequency", merged["frequency"], positive=True, allow_zero=False),
+            kind=kind,
+            start=_number("start", merged["start"], positive=True),
+            ramp=_number("ramp", merged["ramp"], positive=True),
+        )
+
+    @property
+    def angular_frequency(self) -> float:
+        """omega = 2 pi f (rad/s)."""
+        return 2.0 * math.pi * self.frequency
+
+    def envelope(self, time: float) -> tuple[float, float]:
+        """(s, ds/dt) of the start-up envelope at ``time`` (0 before ``start``, 1 after the ramp)."""
+        elapsed = time - self.start
+        if elapsed <= 0.0:
+            return 0.0, 0.0
+        if self.ramp <= 0.0 or elapsed >= self.ramp:
+            return 1.0, 0.0
+        phase = math.pi * elapsed / self.ramp
+        return 0.5 * (1.0 - math.cos(phase)), 0.5 * math.pi / self.ramp * math.sin(phase)
+
+    def signal(self, time: float) -> tuple[float, float]:
+        """(value, rate) of the drive at ``time``: s(t) sin(omega (t - start)) and its derivative
+        (times A for a displacement in m, times A k for a force in N)."""
+        envelope, envelope_rate = self.envelope(time)
+        if envelope == 0.0:
+            return 0.0, 0.0
+        omega = self.angular_frequency
+        phase = omega * (time - self.start)
+        return (envelope * math.sin(phase),
+                envelope_rate * math.sin(phase) + envelope * omega * math.cos(phase))
+
+    def as_table(self) -> dict[str, Any]:
+        """The fields as plain values (for scene files and JSON)."""
+        table = dataclasses.asdict(self)
+        table["direction"] = list(self.direction)
+        return table
+
+    def describe(self) -> str:
+        what = "force A k" if self.kind == "force" else "displacement"
+        axis = next((name for name, vector in _DIRECTIONS.items() if vector == self.direction),
+                    "(" + ", ".join(f"{c:.3g}" for c in self.direction) + ")")
+        return (f"driven ({what}) at particle ({self.column}, {self.row}) along {axis}, "
+                f"A={self.amplitude:g} m, f={self.frequency:g} Hz")
+
+
+def parse_driver_text(text: str) -> dict[str, Any]:
+    """Fields from "column=3,row=0,frequency=1.2,kind=force,direction=y" (direction also as
+    "0 1 0")."""
+    fields: dict[str, Any] = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        if "=" not in part:
+            raise ForcingError(f"driver fields are key=value, got {part!r} in {text!r}")
+        key, raw = (item.strip() for item in part.split("=", 1))
+        if key == "direction":
+            fields[key] = raw if raw.lower() in _DIRECTIONS else [float(v) for v in raw.split()]
+        elif key == "kind":
+            fields[key] = raw
+        else:
+            fields[key] = raw
+    return fields
+
+
+def _unit_vector(value: Any) -> tuple[float, float, float]:
+    if isinstance(value, str):
+        key = value.strip().lower()
+        if key not in _DIRECTIONS:
+            raise ForcingError(f"driver direction must be x, y, z or a vector, got {value!r}")
+        return _DIRECTIONS[key]
+    try:
+        vector = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ForcingError(f"driver direction must be x, y, z or a vector, got {value!r}") from None
+    if vector.size not in (2, 3) or not np.all(np.isfinite(vector)):
+        raise ForcingError(f"driver direction must be a 2- or 3-vector, got {value!r}")
+    vector = np.concatenate([vector, np.zeros(3 - vector.size)])
+    length = float(np.linalg.norm(vector))
+    if length == 0.0:
+        raise ForcingError("driver direction must not be the zero vector")
+    return tuple(float(c) for c in vector / length)  # type: ignore[return-value]
+
+
+SIDES = ("left", "right", "bottom", "top")
+
+
+def check_boundary(boundary: Any, sponge_width: Any, sponge_strength: Any
+                   ) -> tuple[str, int, float]:
+    """Validated (boundary, sponge_width, sponge_strength); raises ``ForcingError``."""
+    name = str(boundary).strip().lower()
+    if name not in BOUNDARIES:
+        raise ForcingError(f"boundary must be one of {', '.join(BOUNDARIES)}, got {boundary!r}")
+    try:
+        width = float(sponge_width)
+        strength = float(sponge_strength)
+    except (TypeError, ValueError):
+        raise ForcingError(
+            f"sponge_width and sponge_strength must be numbers, got {sponge_width!r}, "
+            f"{sponge_strength!r}"
+        ) from None
+    if not width.is_integer() or width < 1:
+        raise ForcingError(
+            f"sponge_width must be a whole number of particles >= 1, got {sponge_width!r}"
+        )
+    if not (math.isfinite(strength) and strength > 0):
+        raise ForcingError(f"sponge_strength must be a positive number, got {sponge_strength!r}")
+    return name, int(width), strength
+
+
+def check_sides(sides: Any, nx: int, ny: int, width: int) -> tuple[str, ...]:
+    """The walls that get a layer: "auto" (every wall across which the lattice is more than
+    3 layers long, so a chain absorbs at its two ends only), or a list of left/right/bottom/top
+    (as a sequence or a text separated by commas or spaces).  Raises ``ForcingError`` when a
+    named wall's direction is too short for the layer."""
+    if isinstance(sides, str) and sides.strip().lower() in ("auto", ""):
+        chosen = tuple(
+            side for side in SIDES
+            if (nx > 3 * width if side in ("left", "right") else ny > 3 * width)
+        )
+        if not chosen:
+            raise ForcingError(
+                f"an absorbing layer {width} particles deep needs more than {3 * width} "
+                f"particles along x or y; this lattice is {nx}x{ny} (lower sponge_width)"
+            )
+        return chosen
+    names = sides.replace(",", " ").split() if isinstance(sides, str) else list(sides)
+    chosen = []
+    for side in names:
+        key = str(side).strip().lower()
+        if key not in SIDES:
+            raise ForcingError(f"sponge side must be one of {', '.join(SIDES)}, got {side!r}")
+        count = nx if key in ("left", "right") else ny
+        if count < 2 * width:
+            raise ForcingError(
+                f"a {width}-particle layer on the {key} wall needs at least {2 * width} "
+                f"particles in that direction; this lattice has {count} (lower sponge_width)"
+            )
+        if key not in chosen:
+            chosen.append(key)
+    if not chosen:
+        raise ForcingError("sponge_sides names no wall")
+    return tuple(side for side in SIDES if side in chosen)
+
+
+def sponge_depth(nx: int, ny: int, width: int, sides: tuple[str, ...]) -> np.ndarray:
+    """(ny, nx) depth of each particle in the layer: 0 inside the lattice and at the layer's
+    inner edge, 1 next to the wall (the largest depth over the walls that have a layer)."""
+
+    def ramp(distance_to_wall: np.ndarray) -> np.ndarray:
+        return np.clip((width - distance_to_wall) / width, 0.0, 1.0)
+
+    columns = np.arange(nx)[None, :]
+    rows = np.arange(ny)[:, None]
+    depth = np.zeros((ny, nx))
+    distances = {"left": columns, "right": nx - 1 - columns, "bottom": rows, "top": ny - 1 - rows}
+    for side in sides:
+        depth = np.maximum(depth, ramp(distances[side] + 0.0))
+    return depth
+
+
+def sponge_rates(model: Any) -> np.ndarray:
+    """(ny, nx) damping rate of every particle (1/s): strength * omega_0 * depth^SPONGE_POWER,
+    omega_0 = sqrt(k / mean mass)."""
+    omega_0 = math.sqrt(model.stiffness / float(np.mean(model.masses)))
+    depth = sponge_depth(model.nx, model.ny, model.sponge_width, model.sponge_sides)
+    return model.sponge_strength * omega_0 * depth**SPONGE_POWER
+
+
+class Forcing:
+    """The driver and sponge of one model, applied to a state around each integrator step.
+
+    ``before(state, dt)`` and ``after(state, dt)`` are the two halves; ``moves_particles`` says
+    whether they set positions (the integrator's cached forces are then stale).
+    """
+
+    def __init__(self, model: Any) -> None:
+        self.model = model
+        self.driver: Driver | None = model.driver
+        self._masses = np.ascontiguousarray(model.masses, dtype=np.float64)
+        self._sponge_indices = np.zeros(0, dtype=np.int64)
+        self._sponge_rates = np.zeros(0)
+        if model.boundary == "absorbing":
+            rates = sponge_rates(model).reshape(-1)
+            self._sponge_indices = np.flatnonzero(rates > 0).astype(np.int64)
+            self._sponge_rates = rates[self._sponge_indices]
+        self._factors: dict[tuple[float, type], np.ndarray] = {}
+        if self.driver is not None:
+            driver = self.driver
+            if not (driver.column < model.nx and driver.row < model.ny):
+                raise ForcingError(
+                    f"the driven particle ({driver.column}, {driver.row}) is outside the "
+                    f"{model.nx}x{model.ny} lattice"
+                )
+            self._rest = model.rest_positions[driver.row * model.nx + driver.column]
+            self._direction = np.array(driver.direction[: model.dim])
+            self._mass = float(model.masses[driver.row, driver.column])
+            parameters = model.kernel_parameters
+            self._spring_arguments = (
+                bool(model.linear), float(parameters.stiffness), float(parameters.rest_length),
+                float(parameters.tension_stiffness), float(parameters.spacing),
+                float(parameters.origin_x), float(parameters.origin_y),
+            )
+
+    @property
+    def moves_particles(self) -> bool:
+        return self.driver is not None and self.driver.kind == "displacement"
+
+    def _half_factors(self, dt: float, dtype: type) -> np.ndarray:
+        key = (dt, dtype)
+        if key not in self._factors:
+            self._factors = {key: np.exp(-0.5 * dt * self._sponge_rates).astype(dtype)}
+        return self._factors[key]
+
+    def _sponge(self, state: Any, dt: float) -> None:
+        if self._sponge_indices.size:
+            factors = self._half_factors(dt, state.velocities.dtype.type)
+            state.dissipated += forcing_kernels.damp_particles(
+                state.velocities, self._sponge_indices, factors, self._masses
+            )
+
+    def _kick(self, state: Any, time: float, dt: float) -> None:
+        driver = self.driver
+        value, _ = driver.signal(time)
+        if value == 0.0:
+            return
+        impulse = 0.5 * dt * driver.amplitude * self.model.stiffness * value / self._mass
+        dvx, dvy, dvz = (impulse * c for c in driver.direction)
+        state.driven += forcing_kernels.kick_particle(
+            state.velocities, driver.row, driver.column, dvx, dvy, dvz if self.model.dim == 3 else 0.0,
+            self._mass,
+        )
+
+    def _place(self, state: Any, time: float) -> None:
+        driver = self.driver
+        value, rate = driver.signal(time)
+        position = self._rest + driver.amplitude * value * self._direction
+        velocity = driver.amplitude * rate * self._direction
+        if self.model.dim == 2:
+            position = np.append(position, 0.0)
+            velocity = np.append(velocity, 0.0)
+        j, i = driver.row, driver.column
+        before = self._local_energy(state)
+        forcing_kernels.place_particle(state.positions, state.velocities, j, i, *position, *velocity)
+        state.driven += self._local_energy(state) - before
+
+    def _local_energy(self, state: Any) -> float:
+        """Kinetic, spring and gravity energy that involve the driven particle (J)."""
+        j, i = self.driver.row, self.driver.column
+        energy = forcing_kernels.local_energy(state.positions, state.velocities, j, i, self._mass,
+                                              *self._spring_arguments)
+        for c in range(self.model.dim):
+            energy -= self._mass * self.model.gravity[c] * float(state.positions[c, j, i])
+        return energy
+
+    def before(self, state: Any, dt: float) -> None:
+        """The first half: sponge, then the driver at the step's start time."""
+        self._sponge(state, dt)
+        if self.driver is not None:
+            if self.driver.kind == "force":
+                self._kick(state, state.time, dt)
+            else:
+                self._place(state, state.time)
+
+    def after(self, state: Any, dt: float) -> None:
+        """The second half: the driver at the step's end time, then the sponge."""
+        if self.driver is not None and self.driver.kind == "force":
+            self._kick(state, state.time, dt)
+        self._sponge(state, dt)
+
+
+def driven_response_amplitude(force_amplitude: float, mass: float, omega_0: float,
+                              damping_rate: float, omega: float) -> float:
+    """Steady-state amplitude (m) of a damped oscillator m (x'' + gamma x' + omega_0^2 x) =
+    F0 sin(omega t): F0 / (m sqrt((omega_0^2 - omega^2)^2 + (gamma omega)^2))."""
+    return force_amplitude / (mass * math.sqrt((omega_0**2 - omega**2) ** 2
+                                               + (damping_rate * omega) ** 2))
