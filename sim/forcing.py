@@ -287,28 +287,23 @@ def sponge_rates(model: Any) -> np.ndarray:
 class Forcing:
     """The driver and sponge of one model, applied to a state around each integrator step.
 
-    ``before(state, dt)`` and ``after(state, dt)`` are the two halves; ``moves_particles`` says
-    whether they set positions (the integrator's cached forces are then stale).
+    ``sponge(state, span)``, ``drive_before(state, dt)`` and ``drive_after(state, dt)`` are the
+    actions; ``Simulation`` composes them as half sponge, then per step (half drive, step, half
+    drive, full sponge), with a half sponge instead of the last full one: the symmetric
+    (Strang) splitting with the two half sponges between steps merged.  ``moves_particles``
+    says whether the driver sets positions (the integrator's cached forces are then stale).
     """
 
     def __init__(self, model: Any) -> None:
         self.model = model
         self.driver: Driver | None = model.driver
         self._masses = np.ascontiguousarray(model.masses, dtype=np.float64)
-        self._sponge_indices = np.zeros(0, dtype=np.int64)
-        self._sponge_rates = np.zeros(0)
-        if model.boundary == "absorbing":
-            rates = sponge_rates(model).reshape(-1)
-            self._sponge_indices = np.flatnonzero(rates > 0).astype(np.int64)
-            self._sponge_rates = rates[self._sponge_indices]
+        self._rates = sponge_rates(model) if model.boundary == "absorbing" else None
+        sides = model.sponge_sides if self._rates is not None else ()
+        self._layer = tuple(model.sponge_width if side in sides else 0 for side in SIDES)
         self._factors: dict[tuple[float, type], np.ndarray] = {}
         if self.driver is not None:
             driver = self.driver
-            if not (driver.column < model.nx and driver.row < model.ny):
-                raise ForcingError(
-                    f"the driven particle ({driver.column}, {driver.row}) is outside the "
-                    f"{model.nx}x{model.ny} lattice"
-                )
             self._rest = model.rest_positions[driver.row * model.nx + driver.column]
             self._direction = np.array(driver.direction[: model.dim])
             self._mass = float(model.masses[driver.row, driver.column])
@@ -323,18 +318,23 @@ class Forcing:
     def moves_particles(self) -> bool:
         return self.driver is not None and self.driver.kind == "displacement"
 
-    def _half_factors(self, dt: float, dtype: type) -> np.ndarray:
-        key = (dt, dtype)
-        if key not in self._factors:
-            self._factors = {key: np.exp(-0.5 * dt * self._sponge_rates).astype(dtype)}
-        return self._factors[key]
+    @property
+    def has_sponge(self) -> bool:
+        return self._rates is not None
 
-    def _sponge(self, state: Any, dt: float) -> None:
-        if self._sponge_indices.size:
-            factors = self._half_factors(dt, state.velocities.dtype.type)
-            state.dissipated += forcing_kernels.damp_particles(
-                state.velocities, self._sponge_indices, factors, self._masses
-            )
+    def sponge(self, state: Any, span: float) -> None:
+        """Damp the layer over ``span`` seconds (exactly: v *= exp(-rate * span))."""
+        if self._rates is None:
+            return
+        dtype = state.velocities.dtype.type
+        key = (span, dtype)
+        factors = self._factors.get(key)
+        if factors is None:
+            factors = np.exp(-span * self._rates).astype(dtype)
+            self._factors = {key: factors}
+        state.dissipated += forcing_kernels.damp_layer(
+            state.velocities, factors, self._masses, *self._layer
+        )
 
     def _kick(self, state: Any, time: float, dt: float) -> None:
         driver = self.driver
@@ -370,20 +370,20 @@ class Forcing:
             energy -= self._mass * self.model.gravity[c] * float(state.positions[c, j, i])
         return energy
 
-    def before(self, state: Any, dt: float) -> None:
-        """The first half: sponge, then the driver at the step's start time."""
-        self._sponge(state, dt)
-        if self.driver is not None:
-            if self.driver.kind == "force":
-                self._kick(state, state.time, dt)
-            else:
-                self._place(state, state.time)
+    def drive_before(self, state: Any, dt: float) -> None:
+        """The driver's first half: a half kick at the step's start time, or the prescribed
+        position and velocity at that time."""
+        if self.driver is None:
+            return
+        if self.driver.kind == "force":
+            self._kick(state, state.time, dt)
+        else:
+            self._place(state, state.time)
 
-    def after(self, state: Any, dt: float) -> None:
-        """The second half: the driver at the step's end time, then the sponge."""
+    def drive_after(self, state: Any, dt: float) -> None:
+        """The driver's second half: a half kick at the step's end time (force drivers)."""
         if self.driver is not None and self.driver.kind == "force":
             self._kick(state, state.time, dt)
-        self._sponge(state, dt)
 
 
 def driven_response_amplitude(force_amplitude: float, mass: float, omega_0: float,

@@ -16,22 +16,34 @@ _JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 
 @njit(**_JIT)
-def damp_particles(velocity, indices, factors, masses):
-    """Multiply the velocity of particle ``indices[k]`` by ``factors[k]`` (exact integration of a
-    drag over a time span); returns the kinetic energy taken out (J).  ``masses`` (ny, nx) kg."""
-    dim, ny, nx = velocity.shape
+def _damp_span(velocity, factors, masses, j, i0, i1):
+    dim = velocity.shape[0]
     taken = 0.0
-    for k in range(indices.size):
-        p = indices[k]
-        j = p // nx
-        i = p - j * nx
-        factor = factors[k]
+    for i in range(i0, i1):
+        factor = factors[j, i]
         speed_squared = 0.0
         for c in range(dim):
             v = velocity[c, j, i]
             speed_squared += float(v) * float(v)
             velocity[c, j, i] = v * factor
         taken += 0.5 * masses[j, i] * speed_squared * (1.0 - float(factor) * float(factor))
+    return taken
+
+
+@njit(**_JIT)
+def damp_layer(velocity, factors, masses, left, right, bottom, top):
+    """Multiply each velocity in the absorbing layer by its factor (exact integration of a drag
+    over a time span): the ``bottom`` and ``top`` rows whole and the ``left`` and ``right``
+    columns of the rows between (widths in particles, 0 where a wall has no layer).
+    ``factors`` and ``masses`` are (ny, nx).  Returns the kinetic energy taken out (J)."""
+    dim, ny, nx = velocity.shape
+    taken = 0.0
+    for j in range(ny):
+        if j < bottom or j >= ny - top:
+            taken += _damp_span(velocity, factors, masses, j, 0, nx)
+        else:
+            taken += _damp_span(velocity, factors, masses, j, 0, min(left, nx))
+            taken += _damp_span(velocity, factors, masses, j, max(nx - right, left), nx)
     return taken
 
 

@@ -223,6 +223,9 @@ class Model:
         sides: tuple[str, ...] = ()
         if boundary == "absorbing":
             try:
+                if sponge_sides is None or (not isinstance(sponge_sides, str)
+                                            and len(sponge_sides) == 0):
+                    sponge_sides = "auto"  # a fixed model's empty sides, when it turns absorbing
                 sides = forcing.check_sides(sponge_sides, nx, ny, sponge_width)
             except forcing.ForcingError as error:
                 raise ModelError(str(error)) from None
@@ -247,7 +250,7 @@ class Model:
             rest_length=self.rest_length, damping=self.damping, drag=self.drag,
             gravity=self.gravity, linear=self.linear, driver=self.driver, boundary=self.boundary,
             sponge_width=self.sponge_width, sponge_strength=self.sponge_strength,
-            sponge_sides=self.sponge_sides if self.boundary == "absorbing" else "auto",
+            sponge_sides=self.sponge_sides,
         )
 
     @property

@@ -167,6 +167,35 @@ def _membrane_bump(model: Model) -> tuple[np.ndarray, np.ndarray]:
     return positions, velocities
 
 
+def _two_sources(model: Model) -> list[tuple[int, tuple[float, ...]]]:
+    """The middle particles of the left and right edges displaced in opposite directions, or,
+    behind an absorbing layer, the first particles inside it."""
+    inset = model.sponge_width if model.boundary == "absorbing" else 0
+    inset = min(inset, (model.nx - 1) // 2)
+    return [
+        (_index(model, inset, model.ny // 2), (0.0, 0.5 * model.spacing)),
+        (_index(model, model.nx - 1 - inset, model.ny // 2), (0.0, -0.5 * model.spacing)),
+    ]
+
+
+def chain_mode_frequency(mode: int, particles: int, stiffness_across: float, mass: float) -> float:
+    """Frequency (Hz) of normal mode ``mode`` (1, 2, ...) of a chain of ``particles`` equal
+    masses between fixed walls, for a spring stiffness ``stiffness_across`` (N/m; k for
+    longitudinal motion, T/a for transverse): 2 sqrt(s/m) sin(n pi / (2 (N + 1))) / (2 pi)."""
+    omega = 2.0 * math.sqrt(stiffness_across / mass) * math.sin(
+        mode * math.pi / (2 * (particles + 1))
+    )
+    return omega / (2.0 * math.pi)
+
+
+# the resonance preset: a 12-particle chain driven along its length at its third mode
+_RESONANCE_FREQUENCY = chain_mode_frequency(3, 12, PAPER_STIFFNESS, 1.0)
+# the bandgap preset: the 4 kg / 1 kg ionic chain, band edges sqrt(2k/M) and sqrt(2k/m) (rad/s)
+_ACOUSTIC_TOP = math.sqrt(2 * PAPER_STIFFNESS / 4.0) / (2 * math.pi)
+_OPTICAL_BOTTOM = math.sqrt(2 * PAPER_STIFFNESS / 1.0) / (2 * math.pi)
+_OPTICAL_TOP = math.sqrt(2 * PAPER_STIFFNESS * (1 / 1.0 + 1 / 4.0)) / (2 * math.pi)
+
+
 def _ionic_masses(nx: int, ny: int, heavy: float = 4.0, light: float = 1.0) -> np.ndarray:
     rows, columns = np.indices((ny, nx))
     return np.where((rows + columns) % 2 == 0, heavy, light).astype(float)
@@ -220,13 +249,39 @@ PRESETS: dict[str, Preset] = {
             # less cost than RK4 at 0.05 s, which loses 60 % of the energy by numerical damping
             # of the short waves (README, "Speed against accuracy")
             dict(nx=682, ny=383, stiffness=PAPER_STIFFNESS, rest_length=0.8), "verlet", 0.02,
-            _displace(
-                lambda m: [
-                    (_index(m, 0, m.ny // 2), (0.0, 0.5 * m.spacing)),
-                    (_index(m, m.nx - 1, m.ny // 2), (0.0, -0.5 * m.spacing)),
-                ]
-            ),
+            _displace(_two_sources),
             duration=150.0,  # longitudinal fronts meet near t = 58 s, transverse ones near 130 s
+        ),
+        Preset(
+            "interference-open", "The interference run with absorbing walls: a 30-particle "
+            "sponge along every wall takes the waves out, so the pattern of the two sources "
+            "(displaced just inside it) is seen without wall reflections.",
+            dict(nx=682, ny=383, stiffness=PAPER_STIFFNESS, rest_length=0.8,
+                 boundary="absorbing", sponge_width=30),
+            "verlet", 0.02, _displace(_two_sources), duration=150.0,
+        ),
+        Preset(
+            "resonance", "A chain of 12 particles with light drag, its first particle pushed "
+            f"back and forth along the chain at the third mode's frequency (f3 = "
+            f"{_RESONANCE_FREQUENCY:.4f} Hz): the amplitude builds up into a standing wave with "
+            "3 loops.  Change the driver's frequency to see the response fall off the resonance.",
+            dict(nx=12, ny=1, stiffness=PAPER_STIFFNESS, drag=0.1,
+                 driver=dict(column=0, row=0, direction="x", amplitude=0.02,
+                             frequency=_RESONANCE_FREQUENCY, kind="force", ramp=5.0)),
+            "verlet", 0.01, _rest, duration=60.0,
+        ),
+        Preset(
+            "bandgap", "An ionic chain (4 kg and 1 kg alternating, 100 particles, absorbing at "
+            f"the right end) driven along its length at 0.95 Hz, inside the band gap "
+            f"({_ACOUSTIC_TOP:.3f} to {_OPTICAL_BOTTOM:.3f} Hz): no wave can travel, the "
+            "response dies out exponentially from the driven end.  Driven at 0.4 Hz "
+            f"(acoustic band) or 1.4 Hz (optical band, up to {_OPTICAL_TOP:.3f} Hz) a wave "
+            "travels to the absorbing end.",
+            dict(nx=100, ny=1, stiffness=PAPER_STIFFNESS, mass="ionic", boundary="absorbing",
+                 sponge_width=20, sponge_sides="right",
+                 driver=dict(column=0, row=0, direction="x", amplitude=0.02, frequency=0.95,
+                             kind="force", ramp=5.0)),
+            "verlet", 0.01, _rest, duration=60.0,
         ),
         Preset(
             "membrane", "A 24x24 drum skin moving out of the plane (3-D), pre-tensioned "
@@ -239,7 +294,7 @@ PRESETS: dict[str, Preset] = {
 
 OVERRIDES = (
     "nx", "ny", "spacing", "mass", "stiffness", "rest_length", "damping", "drag", "gravity",
-    "linear", "dim",
+    "linear", "dim", "driver", "boundary", "sponge_width", "sponge_strength", "sponge_sides",
 )
 """Keywords accepted by ``build`` (plus ``integrator``, ``dt`` and ``precision``)."""
 
@@ -361,7 +416,18 @@ def _scene_text(scene: Scene, array_file_name: str) -> tuple[str, dict[str, np.n
         f"drag = {_toml_value(model.drag)}",
         f"gravity = {_toml_value(list(model.gravity))}",
         f"linear = {_toml_value(model.linear)}",
+        f"boundary = {_toml_value(model.boundary)}",
     ]
+    if model.boundary == "absorbing":
+        lines += [
+            f"sponge_width = {model.sponge_width}",
+            f"sponge_strength = {_toml_value(model.sponge_strength)}",
+            f"sponge_sides = {_toml_value(list(model.sponge_sides))}",
+        ]
+    if model.driver is not None:
+        lines += ["", "# a sinusoidal driver: kind force (A k sin 2 pi f t, N) or displacement "
+                  "(A sin 2 pi f t, m)", "[model.driver]"]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in model.driver.as_table().items()]
     sparse = _sparse_displacements(displacement) if "displacements" in arrays else None
     if sparse is not None:
         del arrays["displacements"]

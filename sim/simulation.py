@@ -107,6 +107,7 @@ class Simulation:
         self._stability_cache: dict[str, observables.StabilityLimit] = {}
         self._reference_energy: float | None = None
         self._balance_reference: tuple[float, float] | None = None
+        self._driven_at_reference = 0.0
         self._energy_cache: tuple[tuple, observables.Energy] | None = None
         self._checkpoint = self.state.copy()
 
@@ -274,14 +275,18 @@ class Simulation:
     def energy_balance_error(self) -> float:
         """Relative energy-balance error since the state was last set (built, reset, moved,
         or its parameters changed): (kinetic + potential + dissipated - its value then) divided by
-        ``energy_scale()``.  Exactly 0 for the exact dynamics; its sign says whether the
+        ``energy_scale()`` (or by the work a driver did since then, when that is larger).
+        Exactly 0 for the exact dynamics; its sign says whether the
         integrator gains (+) or loses (-) energy."""
         if self._balance_reference is None:
             self._balance_reference = self._balance_now()
         reference, scale = self._balance_reference
+        energy = self.energy()
+        # a driven lattice that starts at rest: the energy in play is what the driver put in
+        scale = max(scale, abs(energy.driven - self._driven_at_reference))
         if scale <= 0.0:
             return 0.0
-        return (self.energy().balance - reference) / scale
+        return (energy.balance - reference) / scale
 
     def energy_scale(self) -> float:
         """The energy in play (J), the denominator of ``energy_balance_error``: the kinetic and
@@ -297,6 +302,7 @@ class Simulation:
         from sim.prediction import energy_in_play
 
         energy = self.energy()
+        self._driven_at_reference = energy.driven
         return energy.balance, energy_in_play(self._model, energy)
 
     def strains(self) -> np.ndarray:
@@ -346,12 +352,15 @@ class Simulation:
             return
         # forces that depend on velocities, or a moved particle, make cached forces stale
         refresh = forcing.moves_particles or self._model.is_damped
-        for _ in range(n):
-            forcing.before(self.state, self._dt)
+        dt = self._dt
+        forcing.sponge(self.state, 0.5 * dt)
+        for remaining in range(n - 1, -1, -1):
+            forcing.drive_before(self.state, dt)
             if refresh:
                 self._integrator.invalidate()
-            self._integrator.advance(self.state, 1, self._dt)
-            forcing.after(self.state, self._dt)
+            self._integrator.advance(self.state, 1, dt)
+            forcing.drive_after(self.state, dt)
+            forcing.sponge(self.state, dt if remaining else 0.5 * dt)
             if refresh:
                 self._integrator.invalidate()
 
