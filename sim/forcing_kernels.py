@@ -7,7 +7,6 @@ summed in float64.  Particles are given by flat index ``p = j * nx + i``.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from sim.kernels import _spring_energy
