@@ -8,7 +8,9 @@
     oscillators accuracy / stability        the speed/accuracy study and stability map
 
 Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
-``--set nx=40 --set gravity=9.81 --set damping=0.5``.
+``--set nx=40 --set gravity=9.81 --set damping=0.5``; a driver with
+``--set driver=column=0,frequency=0.6,kind=force`` and absorbing walls with
+``--set boundary=absorbing``.
 """
 
 from __future__ import annotations
@@ -29,10 +31,18 @@ EPILOG = """examples:
   oscillators run chain --integrator verlet --dt 0.01 --steps 2000
   oscillators run grid --set nx=40 --set ny=30 --duration 20
   oscillators run catenary --duration 30            # watch it settle under gravity
+  oscillators run resonance --probe 0,0             # driven at its 3rd mode: the probe finds it
+  oscillators run chain --set driver=column=0,frequency=0.6,amplitude=0.02,kind=force
+  oscillators run grid --set nx=120 --set ny=1 --set boundary=absorbing --set sponge_width=20
   oscillators serve grid                            # the web app on http://127.0.0.1:8080
   oscillators bench --seconds 1                     # steps per second of every integrator
 
 units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in N s/m.
+
+a driver (--set driver=...) takes column, row, direction (x, y, z), amplitude A (m), frequency
+f (Hz), kind (force: A k sin 2 pi f t; displacement: A sin 2 pi f t), start and ramp (s);
+boundary=absorbing adds a sponge sponge_width particles deep (sponge_sides=left,right,... or
+auto) that takes waves out instead of reflecting them (docs/instruments.md).
 """
 
 
@@ -145,7 +155,12 @@ def parse_overrides(pairs: Sequence[str] | None) -> dict[str, Any]:
         if "=" not in pair:
             raise ValueError(f"--set takes key=value, got {pair!r}")
         key, text = (part.strip() for part in pair.split("=", 1))
-        overrides[key] = _parse_value(text)
+        if key == "driver":  # its own key=value list, read by sim.forcing.Driver
+            overrides[key] = None if text.lower() in ("none", "off", "") else text
+        elif key in ("boundary", "sponge_sides"):
+            overrides[key] = text
+        else:
+            overrides[key] = _parse_value(text)
     return overrides
 
 
@@ -322,12 +337,18 @@ def command_run(arguments: argparse.Namespace) -> int:
         print(f"ran {simulation.step_count} steps to t = {simulation.time:.4g} s in {elapsed:.2f} s "
               f"({summary['steps_per_second'] or 0:.0f} steps/s)")
         print(f"{'energy (J)':12s} {'start':>12s} {'end':>12s}")
-        for key in ("kinetic", "spring", "gravity", "potential", "dissipated", "total"):
-            print(f"{key:12s} {start_energy[key]:12.6g} {end_energy[key]:12.6g}")
+        driven = simulation.model.driver is not None
+        terms = ("kinetic", "spring", "gravity", "potential", "dissipated")
+        for key in terms + (("driven",) if driven else ()) + ("total",):
+            label = "driver work" if key == "driven" else key
+            print(f"{label:12s} {start_energy[key]:12.6g} {end_energy[key]:12.6g}")
         balance_error = end_energy.balance - start_energy.balance
+        kept = "kinetic + potential + dissipated" + (" - driver work" if driven else "")
         print(f"energy balance error: {summary['energy_balance_error']:+.3%} of the energy in play "
-              f"({balance_error:+.3g} J of {summary['energy_scale']:.4g} J; kinetic + potential + "
-              "dissipated should stay constant)")
+              f"({balance_error:+.3g} J of {summary['energy_scale']:.4g} J; {kept} should stay "
+              "constant)")
+        if driven:
+            print(f"driver: {simulation.model.driver.describe()}")
         for probe in summary.get("probes", []):
             peaks = "; ".join(
                 f"{peak['frequency']:.4g} Hz" + (f" ({peak['nearest_mode']})"

@@ -105,8 +105,10 @@ class Driver:
         merged = {**dataclasses.asdict(cls()), **fields}
         for name in ("column", "row"):
             raw = merged[name]
-            if isinstance(raw, bool) or not float(_number(name, raw)).is_integer() or raw < 0:
+            number = _number(name, raw)
+            if isinstance(raw, bool) or not number.is_integer() or number < 0:
                 raise ForcingError(f"driver {name} must be a whole number >= 0, got {raw!r}")
+            merged[name] = int(number)
         kind = str(merged["kind"]).strip().lower()
         if kind not in DRIVER_KINDS:
             raise ForcingError(f"driver kind must be one of {', '.join(DRIVER_KINDS)}, got {kind!r}")

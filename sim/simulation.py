@@ -275,28 +275,24 @@ class Simulation:
     def energy_balance_error(self) -> float:
         """Relative energy-balance error since the state was last set (built, reset, moved,
         or its parameters changed): (kinetic + potential + dissipated - its value then) divided by
-        ``energy_scale()`` (or by the work a driver did since then, when that is larger).
-        Exactly 0 for the exact dynamics; its sign says whether the
+        ``energy_scale()``.  Exactly 0 for the exact dynamics; its sign says whether the
         integrator gains (+) or loses (-) energy."""
-        if self._balance_reference is None:
-            self._balance_reference = self._balance_now()
-        reference, scale = self._balance_reference
-        energy = self.energy()
-        # a driven lattice that starts at rest: the energy in play is what the driver put in
-        scale = max(scale, abs(energy.driven - self._driven_at_reference))
+        scale = self.energy_scale()
         if scale <= 0.0:
             return 0.0
-        return (energy.balance - reference) / scale
+        return (self.energy().balance - self._balance_reference[0]) / scale
 
     def energy_scale(self) -> float:
         """The energy in play (J), the denominator of ``energy_balance_error``: the kinetic and
         spring energy (above the rest lattice) when the state was last set, plus the energy
         gravity releases as the lattice sags from rest to its equilibrium (1/2 f.K^-1 f of the
         linearised lattice).  A scene that starts at rest under gravity (the catenary) thus
-        measures its error against the energy of its fall."""
+        measures its error against the energy of its fall, and a driven one against the work
+        the driver did since then when that is larger."""
         if self._balance_reference is None:
             self._balance_reference = self._balance_now()
-        return self._balance_reference[1]
+        driven = abs(self.energy().driven - self._driven_at_reference)
+        return max(self._balance_reference[1], driven)
 
     def _balance_now(self) -> tuple[float, float]:
         from sim.prediction import energy_in_play

@@ -113,7 +113,21 @@ def test_choose_for_me_meets_the_tolerance_it_was_given():
 # --- presets ----------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", sim.scenes.names())
+def _presets_large_ones_slow() -> list:
+    """Every preset; the paper-sized ones (over 100,000 particles) run with the slow tests."""
+    return [
+        pytest.param(name, marks=pytest.mark.slow)
+        if _particles(name) > 100_000 else name
+        for name in sim.scenes.names()
+    ]
+
+
+def _particles(name: str) -> int:
+    parameters = sim.scenes.PRESETS[name].parameters
+    return int(parameters.get("nx", 1)) * int(parameters.get("ny", 1))
+
+
+@pytest.mark.parametrize("name", _presets_large_ones_slow())
 def test_every_preset_keeps_its_energy_balance_within_one_percent(name):
     scene = sim.scenes.build(name)
     simulation = sim.Simulation(scene)

@@ -57,7 +57,7 @@ def test_float32_chain_normal_modes(integrator, mode):
     )
 
 
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.slow)])
 def test_float32_energy_conserved_nonlinear_grid(threads):
     scene = sim.scenes.build("grid").with_displacement(40, (0.05, 0.03))
     reference = sim.Simulation(scene, integrator="verlet", dt=0.01)
@@ -109,13 +109,13 @@ def _flagged_scene(flags: dict, ny: int):
 
 
 def _thread_matrix() -> list:
-    """Every (flags, ny); the default run keeps the undamped and dashpot kernels at ny = 37 (the
-    halo wavefronts): each other flag set compiles its own kernels (minutes on a fresh clone),
-    so those run with the slow tests."""
+    """Every (flags, ny); the default run keeps the undamped kernels at ny = 37 (the halo
+    wavefronts): each other flag set compiles its own kernels (minutes on a fresh clone), so
+    those run with the slow tests."""
     cases = []
     for flags in SCENE_FLAGS:
         for ny in (6, 10, 37):
-            fast = flags.id in ("undamped", "dashpots") and ny == 37
+            fast = flags.id == "undamped" and ny == 37
             cases.append(pytest.param(flags.values[0], ny, id=f"{flags.id}-ny{ny}",
                                       marks=() if fast else pytest.mark.slow))
     return cases
@@ -145,7 +145,10 @@ def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
                                                        abs=1e-300)
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "heun", "euler"])
+@pytest.mark.parametrize("integrator", [
+    pytest.param("rk4", marks=pytest.mark.slow), pytest.param("heun", marks=pytest.mark.slow),
+    "euler",
+])
 def test_threaded_float32_equals_one_thread(integrator):
     scene = sim.scenes.build("interference", nx=48, ny=37, damping=0.1)
     runs = []
@@ -305,6 +308,7 @@ def test_non_kernel_integrators_only_where_they_apply():
     assert set(integrators.names(nonlinear)) <= set(integrators.ALL_INTEGRATORS)
 
 
+@pytest.mark.slow  # compiles every kernel variant in a fresh process
 def test_bench_reports_host_vector_width_and_threads():
     result = subprocess.run(
         [sys.executable, "-m", "app.cli", "bench", "--scene", "grid", "--seconds", "0.05",

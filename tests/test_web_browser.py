@@ -150,6 +150,7 @@ def test_two_clients_share_the_lattice(web_app, browser):
     assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 10)
 
 
+@pytest.mark.slow  # the server side of the same checks runs by default (test_web_safety.py)
 def test_paths_typed_into_the_page_touch_no_file_on_the_server(browser, tmp_path):
     """Hostile input in every box and every button pressed: nothing outside the scenes and
     recordings directories is created, and no scene outside the scenes directory is opened."""
