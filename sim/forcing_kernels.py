@@ -64,10 +64,10 @@ def kick_particle(velocity, j, i, dvx, dvy, dvz, mass):
 
 @njit(**_JIT)
 def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
-                 tension_stiffness, spacing, origin_x, origin_y):
+                 tension_stiffness, spacing, origin_x, origin_y, periodic):
     """Kinetic energy of particle (i, j) plus the energy of its four springs (J), measured from
-    the rest lattice (fixed walls one spacing outside it), as ``sim.kernels.energy_terms``
-    counts them."""
+    the rest lattice (fixed walls one spacing outside it, or rows closed into rings when
+    ``periodic``), as ``sim.kernels.energy_terms`` counts them."""
     dim, ny, nx = position.shape
     x = float(position[0, j, i])
     y = float(position[1, j, i])
@@ -82,8 +82,12 @@ def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
         dj = -1 if side == 2 else (1 if side == 3 else 0)
         ni = i + di
         nj = j + dj
+        shift = 0.0
+        if periodic and (ni < 0 or ni >= nx):
+            shift = -nx * spacing if ni < 0 else nx * spacing
+            ni = ni % nx
         if 0 <= ni < nx and 0 <= nj < ny:
-            ox = float(position[0, nj, ni])
+            ox = float(position[0, nj, ni]) + shift
             oy = float(position[1, nj, ni])
             oz = float(position[2, nj, ni]) if dim == 3 else 0.0
         else:

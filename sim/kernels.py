@@ -11,6 +11,9 @@ Layout (chosen for speed, see the README's benchmark section):
 * particle ``(row j, column i)`` rests at ``(origin_x + i*spacing, origin_y + j*spacing)``; the wall
   anchors sit one spacing outside the lattice on all four sides and never move, so they are not
   stored and the inner loops have no boundary branches (walls are handled by peeled iterations);
+* ``SpringParameters.periodic`` joins the ends of every row into a ring (the left and right
+  wall springs become one spring between the last and the first particle of the row), again
+  chosen at compile time; rows stay independent sweeps, so the wavefronts are unchanged;
 * each spring is computed once per sweep: ``vertical_springs(j)`` gives the forces of the springs
   that end in row j from below (row j-1 to j; j = 0 from the bottom wall, j = ny to the top wall),
   a buffer of ``nx``; ``horizontal_springs(j)`` those of row j, a buffer of ``nx + 1``;
@@ -58,12 +61,17 @@ class SpringParameters(NamedTuple):
     inverse_sqrt_estimate: object = None
     """None: 1/sqrt computed as 1 / sqrt(x); True: from the CPU's single-precision estimate and
     two Newton steps (float64 only; which is faster depends on the host, ``sim.host_tuning``)."""
+    periodic: object = None
+    """None: walls at the left and right ends of the rows; True: each row is a ring, its last
+    particle joined to its first by one spring (the left and right edges are the same spring,
+    seen from both sides).  A compile-time choice like the optional terms."""
 
     def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
         """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
         scalar = np.dtype(dtype).type
         numbers = (scalar(value) for value in self[:7])
-        return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate)
+        return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate,
+                                periodic=self.periodic)
 
 
 @njit(**_JIT)
@@ -189,16 +197,28 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
     dvy = T(0.0)
     dvz = T(0.0)
     row_y_rest = origin_y + T(j) * spacing
-    # left wall anchor to particle 0
-    dx = x[r, 0] - (origin_x - spacing)
-    dy = y[r, 0] - row_y_rest
-    if z is not None:
-        dz = z[r, 0]
-    if dashpot is not None:
-        dvx = vx[r, 0]
-        dvy = vy[r, 0]
-        if vz is not None:
-            dvz = vz[r, 0]
+    if parameters.periodic is None:
+        # left wall anchor to particle 0
+        dx = x[r, 0] - (origin_x - spacing)
+        dy = y[r, 0] - row_y_rest
+        if z is not None:
+            dz = z[r, 0]
+        if dashpot is not None:
+            dvx = vx[r, 0]
+            dvy = vy[r, 0]
+            if vz is not None:
+                dvz = vz[r, 0]
+    else:
+        # the ring's closing spring: particle nx - 1, one period to the left, to particle 0
+        dx = x[r, 0] - (x[r, nx - 1] - T(nx) * spacing)
+        dy = y[r, 0] - y[r, nx - 1]
+        if z is not None:
+            dz = z[r, 0] - z[r, nx - 1]
+        if dashpot is not None:
+            dvx = vx[r, 0] - vx[r, nx - 1]
+            dvy = vy[r, 0] - vy[r, nx - 1]
+            if vz is not None:
+                dvz = vz[r, 0] - vz[r, nx - 1]
     f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
                               estimate_first)
     power += p
@@ -223,6 +243,12 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
         out[1, i] = f * dy
         if z is not None:
             out[2, i] = f * dz
+    if parameters.periodic is not None:  # the right edge is the closing spring again
+        out[0, nx] = out[0, 0]
+        out[1, nx] = out[1, 0]
+        if z is not None:
+            out[2, nx] = out[2, 0]
+        return power
     # particle nx - 1 to the right wall anchor
     dx = (origin_x + T(nx) * spacing) - x[r, nx - 1]
     dy = row_y_rest - y[r, nx - 1]
@@ -285,19 +311,30 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
 
 @njit(**_JIT)
 def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing, origin_x,
-                       origin_y, dashpot, out):
+                       origin_y, dashpot, out, periodic=None):
     T = type(spacing)
     r = j % x.shape[0]
     nx = x.shape[1]
     power = 0.0
     row_y_rest = origin_y + T(j) * spacing
-    out[0, 0] = stiffness * (x[r, 0] - origin_x)
-    out[1, 0] = tension_stiffness * (y[r, 0] - row_y_rest)
-    if z is not None:
-        out[2, 0] = tension_stiffness * z[r, 0]
-    if dashpot is not None:
-        out[0, 0] += dashpot * vx[r, 0]
-        power += dashpot * vx[r, 0] * vx[r, 0]
+    if periodic is not None:
+        # the ring's closing spring, from particle nx - 1 (one period to the left) to particle 0
+        out[0, 0] = stiffness * (x[r, 0] - x[r, nx - 1] + T(nx - 1) * spacing)
+        out[1, 0] = tension_stiffness * (y[r, 0] - y[r, nx - 1])
+        if z is not None:
+            out[2, 0] = tension_stiffness * (z[r, 0] - z[r, nx - 1])
+        if dashpot is not None:
+            relative = vx[r, 0] - vx[r, nx - 1]
+            out[0, 0] += dashpot * relative
+            power += dashpot * relative * relative
+    else:
+        out[0, 0] = stiffness * (x[r, 0] - origin_x)
+        out[1, 0] = tension_stiffness * (y[r, 0] - row_y_rest)
+        if z is not None:
+            out[2, 0] = tension_stiffness * z[r, 0]
+        if dashpot is not None:
+            out[0, 0] += dashpot * vx[r, 0]
+            power += dashpot * vx[r, 0] * vx[r, 0]
     for i in range(1, nx):
         out[0, i] = stiffness * (x[r, i] - x[r, i - 1] - spacing)
         out[1, i] = tension_stiffness * (y[r, i] - y[r, i - 1])
@@ -307,6 +344,12 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
             relative = vx[r, i] - vx[r, i - 1]
             out[0, i] += dashpot * relative
             power += dashpot * relative * relative
+    if periodic is not None:
+        out[0, nx] = out[0, 0]
+        out[1, nx] = out[1, 0]
+        if z is not None:
+            out[2, nx] = out[2, 0]
+        return power
     out[0, nx] = stiffness * ((origin_x + T(nx - 1) * spacing) - x[r, nx - 1])
     out[1, nx] = tension_stiffness * (row_y_rest - y[r, nx - 1])
     if z is not None:
@@ -350,7 +393,8 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, paramete
     if linear:
         power += _linear_horizontal(j, ny, x, y, z, vx, vy, parameters.stiffness,
                                     parameters.tension_stiffness, parameters.spacing,
-                                    parameters.origin_x, parameters.origin_y, dashpot, horizontal)
+                                    parameters.origin_x, parameters.origin_y, dashpot, horizontal,
+                                    parameters.periodic)
     else:
         power += _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, horizontal)
     r = j % x.shape[0]
@@ -424,8 +468,14 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
             if vz is not None:
                 speed_squared += vz[j, i] * vz[j, i]
             kinetic += 0.5 * masses[j, i] * speed_squared
-            # the spring to the left neighbour (or the left wall anchor)
-            if i == 0:
+            # the spring to the left neighbour (or the left wall anchor, or the ring's closing
+            # spring from the last particle of the row)
+            if i == 0 and parameters.periodic is not None:
+                dx = x[j, 0] - (x[j, nx - 1] - nx * spacing)
+                dy = y[j, 0] - y[j, nx - 1]
+                if z is not None:
+                    dz = z[j, 0] - z[j, nx - 1]
+            elif i == 0:
                 dx = x[j, 0] - (origin_x - spacing)
                 dy = y[j, 0] - row_y_rest
                 if z is not None:
@@ -450,13 +500,14 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
                     dz = z[j, i] - z[j - 1, i]
             spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
                                      tension_stiffness, spacing)
-        # the spring from the last particle of the row to the right wall anchor
-        dx = (origin_x + nx * spacing) - x[j, nx - 1]
-        dy = row_y_rest - y[j, nx - 1]
-        if z is not None:
-            dz = -z[j, nx - 1]
-        spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
-                                 tension_stiffness, spacing)
+        if parameters.periodic is None:
+            # the spring from the last particle of the row to the right wall anchor
+            dx = (origin_x + nx * spacing) - x[j, nx - 1]
+            dy = row_y_rest - y[j, nx - 1]
+            if z is not None:
+                dz = -z[j, nx - 1]
+            spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
+                                     tension_stiffness, spacing)
     for i in range(nx):  # the springs from the top row to the top wall anchors
         dx = (origin_x + i * spacing) - x[ny - 1, i]
         dy = (origin_y + ny * spacing) - y[ny - 1, i]

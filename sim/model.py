@@ -141,7 +141,9 @@ class Model:
         linear: use the springs linearised about the rest lattice instead of the full law.
         driver: a ``sim.forcing.Driver`` (a sinusoidal force or displacement on one particle),
             or None.
-        boundary: "fixed" (walls of anchors) or "absorbing" (the same walls behind a sponge
+        boundary: "fixed" (walls of anchors), "periodic" (each row a ring: its last particle
+            joined to its first, top and bottom walls kept; a chain becomes a ring, a lattice a
+            cylinder) or "absorbing" (the walls behind a sponge
             layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak damping rate
             ``sponge_strength`` * omega_0; see ``sim.forcing``).
     """
@@ -256,7 +258,12 @@ class Model:
     @property
     def has_forcing(self) -> bool:
         """Whether a driver or an absorbing layer acts between the steps (``sim.forcing``)."""
-        return self.driver is not None or self.boundary != "fixed"
+        return self.driver is not None or self.boundary == "absorbing"
+
+    @property
+    def periodic(self) -> bool:
+        """Whether each row is a ring (``boundary="periodic"``)."""
+        return self.boundary == "periodic"
 
     # --- derived quantities ---------------------------------------------------------------------
 
@@ -292,6 +299,7 @@ class Model:
         return SpringParameters(
             float(self.stiffness), float(self.rest_length), float(self.tension_stiffness),
             float(self.spacing), float(origin_x), float(origin_y),
+            periodic=True if self.periodic else None,
         )
 
     @property
@@ -383,6 +391,8 @@ class Model:
             extras.append("gravity (" + ", ".join(f"{g:g}" for g in self.gravity[: self.dim]) + ")")
         if self.linear:
             extras.append("linearised springs")
+        if self.periodic:
+            extras.append("rows joined into rings (periodic in x)")
         if self.boundary == "absorbing":
             extras.append(f"absorbing {'/'.join(self.sponge_sides)} walls "
                           f"({self.sponge_width}-particle sponge)")

@@ -10,7 +10,10 @@ diagonal, and f the particles' weights.  This module diagonalises it:
   j/(ny+1)), found by the orthonormal type-I discrete sine transform (``sine_transform``, numpy's
   FFT; O(N log N)); K and C are both diagonal there, so every damping is exact;
 * **unequal masses**: the eigenvectors of M^-1/2 K M^-1/2 (dense ``eigh``, up to
-  ``DENSE_PARTICLE_LIMIT`` particles); there only uniform drag (C proportional to M) is exact.
+  ``DENSE_PARTICLE_LIMIT`` particles); there only uniform drag (C proportional to M) is exact;
+* **periodic rows** (``boundary="periodic"``): the same dense decomposition with each row closed
+  into a ring (Fourier waves along the rows; the stability limit uses their separable
+  frequencies 4 sin^2(p pi / nx) at any size, ``sim.observables.modes``).
 
 ``ModalBasis`` maps displacements/velocities to modal coordinates and back; ``static_offset``
 solves K u = f for the sag under gravity (sine basis for any masses: K does not depend on them).
@@ -60,14 +63,22 @@ def polarisations(model: Model) -> list[tuple[float, float, float, float]]:
     return result
 
 
-def _stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float) -> np.ndarray:
-    """Dense (n, n) five-point matrix with fixed walls for one polarisation (row-major j*nx+i)."""
+def _stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
+                      periodic: bool = False) -> np.ndarray:
+    """Dense (n, n) five-point matrix with fixed walls for one polarisation (row-major j*nx+i);
+    with ``periodic`` each row is a ring (its last particle joined to its first)."""
     n = nx * ny
     matrix = np.zeros((n, n))
     index = np.arange(n).reshape(ny, nx)
     matrix[np.arange(n), np.arange(n)] = 2.0 * across_columns + 2.0 * across_rows
-    left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
-    matrix[left, right] = matrix[right, left] = -across_columns
+    if periodic:  # every particle i joined to i + 1 mod nx, adding up repeated pairs
+        for i in range(nx):
+            a, b = index[:, i], index[:, (i + 1) % nx]
+            matrix[a, b] -= across_columns
+            matrix[b, a] -= across_columns
+    else:
+        left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
+        matrix[left, right] = matrix[right, left] = -across_columns
     lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
     matrix[lower, upper] = matrix[upper, lower] = -across_rows
     return matrix
@@ -92,7 +103,7 @@ class ModalBasis:
     def of(cls, model: Model) -> ModalBasis:
         """The modes of ``model``; unequal masses above ``DENSE_PARTICLE_LIMIT`` raise ModelError."""
         nx, ny = model.nx, model.ny
-        if model.uniform_mass:
+        if model.uniform_mass and not model.periodic:
             mass = float(model.masses.flat[0])
             columns = second_difference_eigenvalues(nx)[None, :]
             rows = second_difference_eigenvalues(ny)[:, None]
@@ -102,16 +113,18 @@ class ModalBasis:
                 rate.append((c_columns * columns + c_rows * rows + model.drag) / mass)
             return cls(model, True, tuple(omega), tuple(rate), True)
         if model.n_particles > DENSE_PARTICLE_LIMIT:
+            what = "a periodic" if model.periodic else "an unequal-mass"
             raise ModelError(
-                f"the modes of an unequal-mass lattice are computed up to {DENSE_PARTICLE_LIMIT:,} "
+                f"the modes of {what} lattice are computed up to {DENSE_PARTICLE_LIMIT:,} "
                 f"particles (dense eigen-decomposition); this one has {model.n_particles:,}"
             )
         scale = 1.0 / np.sqrt(np.asarray(model.masses, dtype=float).ravel())
         omega, rate, vectors = [], [], []
         for k_columns, k_rows, c_columns, c_rows in polarisations(model):
-            stiffness = _stiffness_matrix(nx, ny, k_columns, k_rows) * np.outer(scale, scale)
-            values, eigenvectors = np.linalg.eigh(stiffness)
-            damping = _stiffness_matrix(nx, ny, c_columns, c_rows) * np.outer(scale, scale)
+            stiffness = _stiffness_matrix(nx, ny, k_columns, k_rows, model.periodic)
+            values, eigenvectors = np.linalg.eigh(stiffness * np.outer(scale, scale))
+            damping = _stiffness_matrix(nx, ny, c_columns, c_rows, model.periodic)
+            damping = damping * np.outer(scale, scale)
             damping += np.diag(model.drag * scale**2)
             omega.append(values)
             rate.append(np.einsum("im,ij,jm->m", eigenvectors, damping, eigenvectors))
@@ -119,6 +132,8 @@ class ModalBasis:
         # with unequal masses neither the dashpots nor a uniform drag (M^-1 drag in acceleration
         # units) is diagonal in these modes: only undamped lattices are exact
         exact = model.damping == 0.0 and model.drag == 0.0
+        if model.uniform_mass:  # a ring of equal masses: uniform drag is diagonal too
+            exact = model.damping == 0.0
         return cls(model, False, tuple(omega), tuple(rate), exact, tuple(vectors))
 
     # --- transforms: fields are (ny, nx) per polarisation --------------------------------------
@@ -152,6 +167,8 @@ def static_offset(model: Model) -> np.ndarray:
     offset = np.zeros((model.dim, model.ny, model.nx))
     if not model.has_gravity:
         return offset
+    if model.periodic:
+        return _ring_static_offset(model, offset)
     columns = second_difference_eigenvalues(model.nx)[None, :]
     rows = second_difference_eigenvalues(model.ny)[:, None]
     masses = np.asarray(model.masses, dtype=float).reshape(model.ny, model.nx)
@@ -163,6 +180,23 @@ def static_offset(model: Model) -> np.ndarray:
         offset[component] = sine_transform(
             sine_transform(force / (k_columns * columns + k_rows * rows), 0), 1
         )
+    return offset
+
+
+def _ring_static_offset(model: Model, offset: np.ndarray) -> np.ndarray:
+    """``static_offset`` of a periodic lattice by a dense least-squares solve (a pull along the
+    rings has no restoring force without tension: the smallest solution is taken)."""
+    if model.n_particles > DENSE_PARTICLE_LIMIT:
+        raise ModelError(f"the sag of a periodic lattice is solved up to {DENSE_PARTICLE_LIMIT:,} "
+                         f"particles; this one has {model.n_particles:,}")
+    masses = np.asarray(model.masses, dtype=float).ravel()
+    for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
+        g = float(model.gravity[component])
+        if g == 0.0:
+            continue
+        matrix = _stiffness_matrix(model.nx, model.ny, k_columns, k_rows, True)
+        solution = np.linalg.lstsq(matrix, masses * g, rcond=None)[0]
+        offset[component] = solution.reshape(model.ny, model.nx)
     return offset
 
 
@@ -179,7 +213,10 @@ def gravity_release_energy(model: Model) -> float:
     ):
         return float("inf")
     masses = np.asarray(model.masses, dtype=float).reshape(model.ny, model.nx)
-    offset = static_offset(model)
+    try:
+        offset = static_offset(model)
+    except ModelError:  # a large periodic lattice: no sag computed, fall back on its size
+        return float("inf")
     work = 0.0
     for component in range(model.dim):
         work += float((masses * model.gravity[component] * offset[component]).sum())
@@ -212,9 +249,17 @@ def mode_energies(model: Model, positions: np.ndarray, velocities: np.ndarray,
     return energies
 
 
+def _sine_modes_only(model: Model) -> None:
+    if model.periodic:
+        raise ModelError("the modes of a ring are Fourier waves (cos and sin of 2 pi m i / nx), "
+                         "not the sine modes (m, n) of fixed walls; use mode_energies, which "
+                         "lists them in rising frequency")
+
+
 def mode_shape(model: Model, m: int, n: int) -> np.ndarray:
     """(ny, nx) displacement pattern of the equal-mass sine mode (m, n), largest entry 1:
     sin(m pi i / (nx + 1)) sin(n pi j / (ny + 1)) for column i, row j (1-based)."""
+    _sine_modes_only(model)
     if not (1 <= m <= model.nx and 1 <= n <= model.ny):
         raise ModelError(f"mode (m, n) must have 1 <= m <= {model.nx} and 1 <= n <= {model.ny}, "
                          f"got ({m}, {n})")
@@ -226,6 +271,7 @@ def mode_shape(model: Model, m: int, n: int) -> np.ndarray:
 
 def mode_frequency(model: Model, m: int, n: int, polarisation: int) -> float:
     """Angular frequency (rad/s) of the equal-mass sine mode (m, n) of one polarisation."""
+    _sine_modes_only(model)
     k_columns, k_rows, _, _ = polarisations(model)[polarisation]
     mass = float(np.asarray(model.masses).mean())
     value = (k_columns * second_difference_eigenvalues(model.nx)[m - 1]
@@ -238,6 +284,7 @@ def excited_state(model: Model, m: int, n: int, polarisation: int,
     """(positions, velocities) as (n_particles, dim) arrays: the lattice at its equilibrium with
     the equal-mass mode (m, n) of one polarisation displaced by ``amplitude`` (m) at its largest
     point, at rest: that mode alone carries the energy (linear scenes, equal masses)."""
+    _sine_modes_only(model)
     if not model.uniform_mass:
         raise ModelError("a single sine mode is a normal mode only when all masses are equal")
     if not 0 <= polarisation < model.dim:

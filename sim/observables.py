@@ -57,10 +57,14 @@ class Energy:
 
 
 def _padded_displacements(model: Model, positions: np.ndarray) -> np.ndarray:
-    """(dim, ny + 2, nx + 2) displacements from rest with the fixed wall ring (zeros) around them."""
+    """(dim, ny + 2, nx + 2) displacements from rest with the fixed wall ring (zeros) around them;
+    for a periodic model the left and right pads are the last and first columns (the ring)."""
     rest = model.rest_positions.T.reshape(model.dim, model.ny, model.nx)
     padded = np.zeros((model.dim, model.ny + 2, model.nx + 2))
     padded[:, 1:-1, 1:-1] = positions - rest
+    if model.periodic:
+        padded[:, 1:-1, 0] = padded[:, 1:-1, -2]
+        padded[:, 1:-1, -1] = padded[:, 1:-1, 1]
     return padded
 
 
@@ -97,14 +101,20 @@ def spring_energy(model: Model, positions: np.ndarray) -> float:
     k = model.stiffness
     if model.linear:
         horizontal, vertical = spring_differences(model, positions)
+        if model.periodic:  # the ring's closing spring is listed at both edges: count it once
+            horizontal = horizontal[:, :, :-1]
         along = (horizontal[0] ** 2).sum() + (vertical[1] ** 2).sum()
         across = (horizontal[1:] ** 2).sum() + (vertical[0] ** 2).sum()
         if model.dim == 3:
             across += (vertical[2] ** 2).sum()
         return float(0.5 * k * along + 0.5 * model.tension_stiffness * across)
     stretch = spring_lengths(model, positions) - model.rest_length
+    if model.periodic:  # the ring's closing spring is listed at both edges: count it once
+        listed = np.ones(model.n_springs, dtype=bool)
+        listed[model.nx : model.ny * (model.nx + 1) : model.nx + 1] = False
+        stretch = stretch[listed]
     rest_stretch = model.spacing - model.rest_length
-    return float(0.5 * k * (np.dot(stretch, stretch) - model.n_springs * rest_stretch**2))
+    return float(0.5 * k * (np.dot(stretch, stretch) - stretch.size * rest_stretch**2))
 
 
 def kinetic_energy(model: Model, velocities: np.ndarray) -> float:
@@ -194,14 +204,19 @@ def _polarisations(model: Model) -> list[tuple[float, float, float, float]]:
     return polarisations
 
 
-def _second_difference_eigenvalues(n: int) -> np.ndarray:
-    """Eigenvalues 4 sin^2(p pi / (2 (n + 1))), p = 1..n, of the Dirichlet second difference."""
+def _second_difference_eigenvalues(n: int, periodic: bool = False) -> np.ndarray:
+    """Eigenvalues of the second difference on n points: 4 sin^2(p pi / (2 (n + 1))), p = 1..n,
+    between fixed walls (sine modes); 4 sin^2(p pi / n), p = 0..n-1, on a ring (Fourier modes)."""
+    if periodic:
+        return np.sort(4.0 * np.sin(np.arange(n) * np.pi / n) ** 2)
     p = np.arange(1, n + 1)
     return 4.0 * np.sin(p * np.pi / (2.0 * (n + 1))) ** 2
 
 
-def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float):
-    """Dense (n, n) stiffness matrix of one displacement component (5-point, Dirichlet)."""
+def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
+                             periodic: bool = False):
+    """Dense (n, n) stiffness matrix of one displacement component (5-point, Dirichlet; rows
+    closed into rings when ``periodic``)."""
     n = nx * ny
     matrix = np.zeros((n, n))
     index = np.arange(n).reshape(ny, nx)
@@ -209,14 +224,27 @@ def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_row
     matrix[np.arange(n), np.arange(n)] = diagonal
     left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
     matrix[left, right] = matrix[right, left] = -across_columns
+    if periodic and nx > 1:
+        first, last = index[:, 0], index[:, -1]
+        matrix[first, last] += -across_columns if nx > 2 else 0.0
+        matrix[last, first] += -across_columns if nx > 2 else 0.0
+        if nx == 2:  # two springs join the pair on a ring of two
+            matrix[first, last] = matrix[last, first] = -2.0 * across_columns
+    elif periodic:  # a ring of one: the spring joins the particle to itself
+        matrix[np.arange(n), np.arange(n)] -= 2.0 * across_columns
     lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
     matrix[lower, upper] = matrix[upper, lower] = -across_rows
     return matrix
 
 
-def _apply_scalar_stiffness(field: np.ndarray, across_columns: float, across_rows: float):
-    """K u for one displacement component field (ny, nx) with fixed walls, matrix-free."""
+def _apply_scalar_stiffness(field: np.ndarray, across_columns: float, across_rows: float,
+                            periodic: bool = False):
+    """K u for one displacement component field (ny, nx) with fixed walls (rows closed into
+    rings when ``periodic``), matrix-free."""
     padded = np.pad(field, 1)
+    if periodic:
+        padded[1:-1, 0] = field[:, -1]
+        padded[1:-1, -1] = field[:, 0]
     return (
         across_columns * (2 * field - padded[1:-1, :-2] - padded[1:-1, 2:])
         + across_rows * (2 * field - padded[:-2, 1:-1] - padded[2:, 1:-1])
@@ -265,7 +293,7 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     nx, ny = model.nx, model.ny
     if model.uniform_mass:
         mass = float(model.masses.flat[0])
-        columns = _second_difference_eigenvalues(nx)
+        columns = _second_difference_eigenvalues(nx, model.periodic)
         rows = _second_difference_eigenvalues(ny)
         columns = _keep_extremes(columns, sample)
         rows = _keep_extremes(rows, sample)
@@ -280,9 +308,11 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     for k_columns, k_rows, c_columns, c_rows in _polarisations(model):
         if n <= _DENSE_LIMIT:
             scale = inverse_sqrt_mass.ravel()
-            stiffness = _scalar_stiffness_matrix(nx, ny, k_columns, k_rows) * np.outer(scale, scale)
+            stiffness = _scalar_stiffness_matrix(nx, ny, k_columns, k_rows, model.periodic)
+            stiffness *= np.outer(scale, scale)
             values, vectors = np.linalg.eigh(stiffness)
-            damping = _scalar_stiffness_matrix(nx, ny, c_columns, c_rows) * np.outer(scale, scale)
+            damping = _scalar_stiffness_matrix(nx, ny, c_columns, c_rows, model.periodic)
+            damping *= np.outer(scale, scale)
             damping += np.diag(model.drag * scale**2)
             rates = np.einsum("im,ij,jm->m", vectors, damping, vectors)
             omega_squared.append(values)
@@ -292,7 +322,8 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
 
             def apply(vector, k_columns=k_columns, k_rows=k_rows):
                 field = vector.reshape(ny, nx) * inverse_sqrt_mass
-                return (_apply_scalar_stiffness(field, k_columns, k_rows) * inverse_sqrt_mass).ravel()
+                return (_apply_scalar_stiffness(field, k_columns, k_rows, model.periodic)
+                        * inverse_sqrt_mass).ravel()
 
             top = _largest_eigenvalue_lanczos(apply, n)
             omega_squared.append(np.array([top]))
