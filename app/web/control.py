@@ -8,23 +8,31 @@ callers that care) can wait for it.
 ``LatticeRunner`` is ``sim.runner.Runner`` plus *pins*: particles held at a position while a
 browser drags them.  Pins belong to an owner (a client id), so a browser that disconnects
 mid-drag is released with ``release(owner)`` and nothing stays stuck.
+
+Drive and boundary commands (``drive``, ``stop_driving``, ``set_boundary``) build the changed
+model first and refuse (raising, changing nothing) when the running integrator cannot run it, e.g.
+the exact normal-mode solver on a driven or absorbing lattice.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
+import dataclasses
 from collections.abc import Hashable, Sequence
 from typing import Any
 
 import numpy as np
 
 import sim
+from sim.forcing import Driver
 from sim.runner import Runner
 
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
 MAX_STEPS_PER_FRAME = 100
 """Most steps the loop runs between two published frames (Pause waits for at most that many)."""
+DRIVE_RAMP = 2.0
+"""Seconds over which a drive started from the page ramps up (so it does not kick the lattice)."""
 
 
 class LatticeRunner(Runner):
@@ -79,6 +87,9 @@ class SimulationControl:
 
     def __init__(self, runner: LatticeRunner) -> None:
         self.runner = runner
+        self.page_driver: Driver | None = None
+        """The last driver started by ``drive`` (only touched in commands): Reset starts it
+        again at time 0 instead of at the time it was first started."""
 
     @property
     def simulation(self) -> sim.Simulation:
@@ -100,6 +111,10 @@ class SimulationControl:
         def command(simulation: sim.Simulation) -> None:
             self.runner.let_go(everyone=True)
             self.runner.error = None
+            driver = simulation.model.driver
+            if driver is not None and driver == self.page_driver and driver.start > 0.0:
+                simulation.set_parameters(driver=dataclasses.replace(driver, start=0.0))
+                self.page_driver = simulation.model.driver
             simulation.reset()
 
         return self.runner.post(command)
@@ -195,6 +210,59 @@ class SimulationControl:
             masses = np.array(simulation.masses, dtype=float)
             masses[chosen] = float(mass)
             simulation.set_masses(masses)
+
+        return self.runner.post(command)
+
+    # --- driver and walls -------------------------------------------------------------------------
+
+    @staticmethod
+    def _change_model(simulation: sim.Simulation, **changes: Any) -> None:
+        """``simulation.set_parameters(**changes)``, refused first (nothing changes) when the
+        changed model is invalid or the running integrator cannot run it."""
+        changed = simulation.model.replace(**changes)  # ModelError on a bad value
+        reason = sim.integrators.describe(simulation.integrator).reason_not_applicable(changed)
+        if reason is not None:
+            raise sim.integrators.IntegratorError(
+                f"{simulation.integrator} cannot run this: {reason}; choose another integrator "
+                "first"
+            )
+        simulation.set_parameters(**changes)
+
+    def drive(self, column: int, row: int, direction: str | Sequence[float], amplitude: float,
+              frequency: float, kind: str,
+              ramp: float = DRIVE_RAMP) -> concurrent.futures.Future:
+        """Drive particle (``column``, ``row``) from now on (replacing any driver): amplitude A
+        (m), frequency f (Hz), kind "force" or "displacement", along ``direction`` ("x", "y",
+        "z" or a vector), starting at the current time and ramping up over ``ramp`` s.  The
+        Future holds the model's new ``Driver``; a bad value raises and changes nothing."""
+        fields = dict(column=column, row=row, direction=direction, amplitude=amplitude,
+                      frequency=frequency, kind=kind, ramp=ramp)
+
+        def command(simulation: sim.Simulation) -> Driver:
+            driver = Driver.create({**fields, "start": simulation.time})
+            self._change_model(simulation, driver=driver)
+            self.page_driver = simulation.model.driver
+            return simulation.model.driver
+
+        return self.runner.post(command)
+
+    def stop_driving(self) -> concurrent.futures.Future:
+        """No driver from now on (the work it did stays in the energy account)."""
+
+        def command(simulation: sim.Simulation) -> None:
+            if simulation.model.driver is not None:
+                self._change_model(simulation, driver=None)
+            self.page_driver = None
+
+        return self.runner.post(command)
+
+    def set_boundary(self, boundary: str, sponge_width: int) -> concurrent.futures.Future:
+        """Walls "fixed" or "absorbing" (behind a sponge layer ``sponge_width`` particles deep);
+        a lattice too small for the layer raises ``ModelError`` and changes nothing."""
+
+        def command(simulation: sim.Simulation) -> sim.Model:
+            self._change_model(simulation, boundary=boundary, sponge_width=sponge_width)
+            return simulation.model
 
         return self.runner.post(command)
 
