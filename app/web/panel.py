@@ -30,6 +30,7 @@ import viser
 import sim
 from app.web.accuracy import AccuracyFolder
 from app.web.control import MASS_PATTERNS, MAX_STEPS_PER_FRAME, LatticeRunner, SimulationControl
+from app.web.drive import DriveFolder
 from app.web.inputs import (
     InputRefused,
     amber_html,
@@ -46,6 +47,7 @@ from app.web.recording import RecordingBusy, WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.spectrum import SpectrumFolder
 from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT, LatticeView
+from sim.forcing import BOUNDARIES
 from sim.integrators import PRECISIONS
 from sim.runner import Frame
 
@@ -120,9 +122,10 @@ class ControlPanel:
         simulation = app.runner.simulation
         model = simulation.model
         self._times: collections.deque[float] = collections.deque(maxlen=ENERGY_HISTORY)
-        self._energies: collections.deque[tuple[float, float, float, float]] = (
+        self._energies: collections.deque[tuple[float, float, float, float, float]] = (
             collections.deque(maxlen=ENERGY_HISTORY)
         )
+        self._plot_shows_driver = False
         self._last_plot = 0.0
         self._last_status = 0.0
         self._status_steps = (time.perf_counter(), 0)
@@ -142,6 +145,7 @@ class ControlPanel:
         self._build_selection_folder()
         self.spectrum = SpectrumFolder(app, self.gui)
         self.probes = ProbesFolder(app, self.gui)
+        self.drive = DriveFolder(app, self.gui)
         self._build_view_folder()
         self._build_recording_folder()
         self._build_study_folder()
@@ -207,6 +211,20 @@ class ControlPanel:
                 "Build scene", icon=viser.Icon.HAMMER,
                 hint="replace the lattice by this preset (its own parameters) at this size",
             )
+            self.boundary = gui.add_dropdown(
+                "Walls", list(BOUNDARIES), initial_value=simulation.model.boundary,
+                hint="fixed: waves reflect at the walls; absorbing: a sponge layer along the "
+                "walls takes the waves out (an open lattice)",
+            )
+            self.sponge_width = gui.add_number(
+                "Sponge width (particles)", simulation.model.sponge_width, min=1, max=MAX_SIDE,
+                step=1, hint="depth of the absorbing layer; a wall gets one when the lattice is "
+                "more than three layers long across it",
+            )
+            self.boundary_button = gui.add_button(
+                "Apply walls", icon=viser.Icon.BORDER_OUTER,
+                hint="change the running lattice's walls (its state is kept)",
+            )
             with gui.add_folder("Files"):
                 self.download_button = gui.add_button(
                     "Download this scene", icon=viser.Icon.DOWNLOAD,
@@ -264,6 +282,25 @@ class ControlPanel:
                 self._say(self.scene_message, error, "could not build")
                 return
             self.scene_message.content = ok_html(f"built {name} {nx}x{ny}")
+
+        @self.boundary_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:  # thread pool: waits for the command
+            try:
+                boundary = choice(self.boundary.value, "walls", list(BOUNDARIES))
+                width = whole_number(self.sponge_width.value, "sponge width", 1, MAX_SIDE)
+                self.control.set_boundary(boundary, width).result(timeout=30)
+            except ERROR_TYPES as error:
+                self._say(self.scene_message, error, "could not change the walls")
+                self._show_boundary(self.app.runner.simulation.model)  # what runs, unchanged
+                return
+            simulation = self.app.runner.simulation
+            self._show_scene_info(simulation)
+            self._stability_key = None
+            model = simulation.model
+            walls = (f"absorbing ({'/'.join(model.sponge_sides)}, {model.sponge_width}-particle "
+                     "sponge)" if model.boundary == "absorbing" else "fixed")
+            self.scene_message.content = ok_html(f"walls now {walls}")
 
         @self.download_button.on_click
         @from_user
@@ -782,21 +819,31 @@ class ControlPanel:
             "(compilation excluded).", bold=True)
 
     def _build_energy_plot(self) -> None:
-        gui = self.gui
-        with gui.add_folder("Energy"):
-            empty = np.zeros(1)
-            self.plot = gui.add_uplot(
-                data=(empty, empty, empty, empty, empty),
-                series=(
-                    {"label": "t (s)"},
-                    {"label": "kinetic", "stroke": "#1f77b4", "width": 1.5},
-                    {"label": "potential", "stroke": "#ff7f0e", "width": 1.5},
-                    {"label": "total", "stroke": "#222222", "width": 2},
-                    {"label": "dissipated", "stroke": "#9467bd", "width": 1.5},
-                ),
-                scales={"x": {"time": False}},
-                aspect=1.6,
+        self.energy_folder = self.gui.add_folder("Energy")
+        self.plot: Any = None
+        self._make_energy_plot(with_driver=False)
+
+    def _make_energy_plot(self, with_driver: bool) -> None:
+        """(Re)build the energy plot: kinetic, potential, total, dissipated, and the driver's work
+        when the scene has (or had) a driver (a uPlot's series are fixed when it is made)."""
+        if self.plot is not None:
+            self.plot.remove()
+        series = [
+            {"label": "t (s)"},
+            {"label": "kinetic", "stroke": "#1f77b4", "width": 1.5},
+            {"label": "potential", "stroke": "#ff7f0e", "width": 1.5},
+            {"label": "total", "stroke": "#222222", "width": 2},
+            {"label": "dissipated", "stroke": "#9467bd", "width": 1.5},
+        ]
+        if with_driver:
+            series.append({"label": "driver's work", "stroke": "#2ca02c", "width": 1.5})
+        empty = np.zeros(1)
+        with self.energy_folder:
+            self.plot = self.gui.add_uplot(
+                data=(empty,) * len(series), series=tuple(series),
+                scales={"x": {"time": False}}, aspect=1.6,
             )
+        self._plot_shows_driver = with_driver
 
     # --- keeping in step -------------------------------------------------------------------------
 
@@ -835,11 +882,9 @@ class ControlPanel:
         if scene.name in sim.scenes.names():
             self.preset.value = scene.name
         self.nx.value, self.ny.value = model.nx, model.ny
-        self.scene_info.content = as_html(
-            f"{scene.name} ({self.app.scene_source}): {model.nx}x{model.ny}, "
-            f"{model.n_particles:,} particles\n{model.describe()}\n"
-            f"{scene.description}".rstrip()
-        )
+        self._show_scene_info(simulation)
+        self._show_boundary(model)
+        self.drive.show_scene(simulation)
         self.integrator.value = simulation.integrator
         self.dt.value = simulation.dt
         self.precision.value = simulation.precision
@@ -867,8 +912,22 @@ class ControlPanel:
         self.color_by.value = settings.coloring(model)
         self._say(self.physics_message, None)
 
+    def _show_scene_info(self, simulation: sim.Simulation) -> None:
+        model, scene = simulation.model, simulation.scene
+        self.scene_info.content = as_html(
+            f"{scene.name} ({self.app.scene_source}): {model.nx}x{model.ny}, "
+            f"{model.n_particles:,} particles\n{model.describe()}\n"
+            f"{scene.description}".rstrip()
+        )
+
+    def _show_boundary(self, model: sim.Model) -> None:
+        """Show the running walls (assigning the values posts nothing)."""
+        self.boundary.value = model.boundary
+        self.sponge_width.value = model.sponge_width
+
     def selection_changed(self, selection: np.ndarray) -> None:
         model = self.app.runner.simulation.model
+        self.drive.selection_changed(selection, model)
         self.selection_mass.disabled = selection.size == 0
         if selection.size == 0:
             self.selection_text.content = as_html(
@@ -891,13 +950,17 @@ class ControlPanel:
         if not self._times or frame.time > self._times[-1]:
             self._times.append(frame.time)
             self._energies.append((energy.kinetic, energy.potential, energy.total,
-                                   energy.dissipated))
+                                   energy.dissipated, energy.driven))
+        with_driver = frame.model.driver is not None or energy.driven != 0.0
+        if with_driver != self._plot_shows_driver:
+            self._make_energy_plot(with_driver)
         self._update_stability(frame)
         self._update_error(frame)
         self._update_part_failures()
         self.accuracy.update(frame, now)
         self.spectrum.update(frame, now)
         self.probes.update(frame, now)
+        self.drive.update(frame, now)
         if now - self._last_status > 0.5:
             started, steps = self._status_steps
             taken = self.app.runner.steps_taken
@@ -914,7 +977,8 @@ class ControlPanel:
         if now - self._last_plot > PLOT_INTERVAL and len(self._times) > 1:
             self._last_plot = now
             columns = np.array(self._energies).T
-            self.plot.data = (np.array(self._times), *columns)
+            shown = columns if self._plot_shows_driver else columns[:4]
+            self.plot.data = (np.array(self._times), *shown)
 
     def _update_part_failures(self) -> None:
         """Say in the page when a subscriber (a recorder, a plot) failed and was detached."""
