@@ -15,7 +15,9 @@ printed beside them and included in ``--json``):
   precision on one thread, measured in the same run;
 * specialisation, one effect at a time, each against the kernel the scene actually runs: zero
   damping, drag and gravity terms compiled in; a (ny, nx) 1/m array instead of the scalar one;
-  the 3-D kernel with z = 0 instead of the planar one.
+  the 3-D kernel with z = 0 instead of the planar one;
+* the teaching instruments: the scene with periodic rows, absorbing walls or a driver against
+  the scene as it is (``Simulation.step``, Verlet).
 
 Timing is the best of many short bursts, which keeps the numbers meaningful on a machine that is
 busy with other work; the load average is printed beside them.
@@ -245,6 +247,40 @@ def _specialisation(scene, seconds: float) -> dict | None:
     return results
 
 
+def _instruments(scene, seconds: float) -> dict:
+    """What the teaching instruments cost: ``Simulation.step`` steps/s (velocity Verlet, float64,
+    one thread) of the scene as it is, with periodic rows, with absorbing walls (the default
+    30-particle sponge where the lattice is long enough) and with a force driver on one particle;
+    each with its ratio to the scene as it is.  A scene without them runs the same compiled loop
+    as before they existed (the periodic choice is made at compile time)."""
+    import dataclasses
+
+    import sim
+
+    model = scene.model
+    variants = {"as_is": {}, "periodic": {"boundary": "periodic"},
+                "driven": {"driver": dict(column=model.nx // 2, row=model.ny // 2,
+                                          frequency=0.5, amplitude=0.01)}}
+    width = min(30, max(1, min(model.nx, model.ny) // 4))
+    try:
+        model.replace(boundary="absorbing", sponge_width=width)
+        variants["absorbing"] = {"boundary": "absorbing", "sponge_width": width}
+    except sim.ModelError:
+        pass  # too small a lattice for a layer
+    rates: dict = {}
+    for name, changes in variants.items():
+        variant = dataclasses.replace(scene, model=model.replace(**changes)) if changes else scene
+        simulation = sim.Simulation(variant, integrator="verlet")
+
+        def run(steps: int, simulation=simulation) -> None:
+            simulation.step(steps)
+
+        rates[name] = _best_rate(run, _burst("verlet"), seconds)
+    base = rates["as_is"]
+    return {"steps_per_second": rates,
+            "cost": {name: base / rate for name, rate in rates.items() if name != "as_is"}}
+
+
 def measure(scene_name: str = "interference", overrides: dict | None = None,
             seconds: float = 2.0, threads: int | None = None, c_reference: bool = True) -> dict:
     """Run the benchmark and return the numbers (steps per second, ratios, host)."""
@@ -265,6 +301,7 @@ def measure(scene_name: str = "interference", overrides: dict | None = None,
         "integrators": _integrator_table(scene, seconds),
         "configurations": _configurations(scene, seconds, thread_counts, reference),
         "specialisation": _specialisation(scene, seconds),
+        "instruments": _instruments(scene, seconds),
     }
 
 
@@ -311,6 +348,17 @@ def print_table(results: dict) -> None:
                   f"3-D kernel with z = 0 {gains['three_dimensional']:.2f}x")
 
 
+def _print_instruments(instruments: dict | None) -> None:
+    if not instruments:
+        return
+    rates, costs = instruments["steps_per_second"], instruments["cost"]
+    labels = {"periodic": "periodic rows", "absorbing": "absorbing walls",
+              "driven": "a force driver"}
+    parts = [f"{labels[name]} {rates[name]:.1f} ({costs[name]:.2f}x the time)" for name in costs]
+    print(f"\ninstruments (Verlet, Simulation.step steps/s): as is {rates['as_is']:.1f}; "
+          + "; ".join(parts))
+
+
 def main(arguments: argparse.Namespace) -> int:
     from app.cli import parse_overrides
 
@@ -323,4 +371,5 @@ def main(arguments: argparse.Namespace) -> int:
         print(json.dumps(results, indent=2))
     else:
         print_table(results)
+        _print_instruments(results.get("instruments"))
     return 0

@@ -260,16 +260,22 @@ def simulation_from_arguments(arguments: argparse.Namespace):
 
 
 def command_scenes(arguments: argparse.Namespace) -> int:
-    from sim import Simulation, scenes
+    from sim import ModelError, Simulation, scenes
     from sim.prediction import predictor_for
 
     for name in scenes.names():
         scene = scenes.build(name)
         simulation = Simulation(scene)
-        prediction = predictor_for(simulation).predict(scene.integrator, scene.dt, scene.duration)
-        accuracy = f"predicted energy-balance error {100 * prediction.energy_error:+.2g} %"
+        steps = int(round(scene.duration / scene.dt))
+        try:
+            prediction = predictor_for(simulation).predict(scene.integrator, scene.dt,
+                                                           scene.duration)
+            accuracy = f"predicted energy-balance error {100 * prediction.energy_error:+.2g} %"
+            steps = prediction.steps
+        except ModelError:  # driven or absorbing: no free-mode prediction
+            accuracy = "driven or absorbing (no prediction)"
         if arguments.measure:
-            simulation.step(prediction.steps)
+            simulation.step(steps)
             accuracy += f", measured {100 * simulation.energy_balance_error():+.2g} %"
         print(f"{name:13s} {scene.description}")
         print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s, "

@@ -394,7 +394,7 @@ class Model:
         if self.periodic:
             extras.append("rows joined into rings (periodic in x)")
         if self.boundary == "absorbing":
-            extras.append(f"absorbing {'/'.join(self.sponge_sides)} walls "
+            extras.append(f"absorbing walls: {'/'.join(self.sponge_sides)} "
                           f"({self.sponge_width}-particle sponge)")
         if self.driver is not None:
             extras.append(self.driver.describe())

@@ -30,7 +30,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sim.integrators import FORCE_EVALUATIONS, INTEGRATORS
-from sim.model import Model
+from sim.model import Model, ModelError
 from sim.modes import ModalBasis, static_offset
 from sim.observables import amplification_matrices
 
@@ -65,6 +65,9 @@ class Predictor:
 
     def __init__(self, model: Model, positions: np.ndarray, velocities: np.ndarray,
                  scale: float) -> None:
+        if model.has_forcing:
+            raise ModelError("predictions follow the free lattice's normal modes; a driver or an "
+                             "absorbing layer acts from outside them (measure the run instead)")
         self.model = model
         self.scale = float(scale)
         self.basis = ModalBasis.of(model)
