@@ -20,6 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from app.recording import instruments
 from app.recording.explain import RunInfo, command_from_arguments
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.recorder import (
@@ -45,6 +46,8 @@ EPILOG = f"""examples:
   oscillators record interference --field jpeg --positions 50 --quantity speed
   oscillators record membrane --exaggerate 20              # heights drawn 20x (default: ~8 % of the width)
   oscillators record grid --set nx=40 --set ny=30 --set damping=0.5
+  oscillators record resonance --probe 0,0 --probe 4,0     # displacement series + spectra
+  oscillators record grid --set linear=true --modes        # energy per normal mode, log colour
 
 what is logged: planar lattices of up to {DETAIL_LIMIT} particles get every particle and every
 spring (coloured by strain) each recorded frame; 3-D ones a surface through the particles coloured
@@ -55,6 +58,14 @@ short look-ahead run, so frames are comparable; the "read me" document in the fi
 scene's parameters with units, the initial displacement, the run and how to read each view.
 By default a frame is recorded every K steps so that there are at most {MAX_DEFAULT_FRAMES} frames
 and the file stays under about {SIZE_BUDGET_BYTES / 1e6:.0f} MB (sizes in MB = 10^6 bytes).
+Scenes with a driver also plot its work (`driven`); absorbing walls are outlined.
+
+instruments: --probe I,J records the displacement of the particle in column I, row J every frame
+(probes/I_J/x, y; z in 3-D) and, at the end, its spectrum with the peaks and the nearest normal
+modes named in the read-me. --modes records the energy in every normal mode (modes/x, y, z: a
+tensor in J and a log-colour heat map), thinned so that they take at most
+{instruments.MODES_BUDGET_BYTES / 1e6:.0f} MB of the budget; lattices over {instruments.MODE_IMAGE_SIDE} modes
+wide or high are summed over blocks of modes.
 
 open a recording with the viewer of the same version:
   pip install rerun-sdk==0.41.0 && rerun recordings/grid.rrd
@@ -132,6 +143,17 @@ def register(subparsers: Any) -> None:
         help="record the same initial state under several integrators, e.g. euler,verlet,rk4 "
         "(one entity tree per integrator, shared timelines)",
     )
+    parser.add_argument(
+        "--probe", action="append", type=_probe_choice, metavar="I,J",
+        help="record the displacement of the particle in column I, row J (from 0) every frame, "
+        "and its spectrum at the end; repeatable",
+    )
+    parser.add_argument(
+        "--modes", action="store_true",
+        help="record the energy in each normal mode (one heat map per polarisation, log colour; "
+        f"at most {instruments.MODES_BUDGET_BYTES / 1e6:.0f} MB of the file, thinned in time); "
+        "refused for unequal-mass lattices too large for their modes to be computed",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_record, command_parser=parser)
 
@@ -186,6 +208,16 @@ def _positions_choice(text: str) -> str:
     raise argparse.ArgumentTypeError(f"must be auto, all, none or a whole number >= 1, got {text!r}")
 
 
+def _probe_choice(text: str) -> str:
+    """argparse type of --probe: "I,J" with whole numbers >= 0 (checked against the lattice once
+    the scene is built); kept as text so the read-me's command line shows it as typed."""
+    try:
+        instruments.parse_probe(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text
+
+
 def _check_output(output: Path, force: bool) -> None:
     """Refuse a directory, and an existing file unless ``force`` (before anything runs)."""
     if output.is_dir():
@@ -227,10 +259,13 @@ def _integrators(text: str | None) -> list[str]:
 
 def default_every(steps: int, runs: int, options: RecordingOptions, model: Any) -> int:
     """Steps between recorded frames: at most MAX_DEFAULT_FRAMES frames, and an estimated file
-    of at most SIZE_BUDGET_BYTES for ``runs`` trees together."""
-    per_frame = options.plan(model).estimated_bytes_per_frame(model, options.jpeg_quality)
+    of at most SIZE_BUDGET_BYTES for ``runs`` trees together (mode energies included)."""
+    per_frame = options.plan(model).estimated_bytes_per_frame(model, options.jpeg_quality,
+                                                              modes=False)
+    # mode energies are thinned to their own share of the budget (instruments.modes_every)
+    budget = SIZE_BUDGET_BYTES - (instruments.MODES_BUDGET_BYTES * runs if options.modes else 0)
     by_count = math.ceil(steps / MAX_DEFAULT_FRAMES)
-    by_size = math.ceil(steps * runs * per_frame / SIZE_BUDGET_BYTES)
+    by_size = math.ceil(steps * runs * per_frame / budget)
     return max(1, by_count, by_size)
 
 
@@ -247,6 +282,16 @@ def command_record(arguments: argparse.Namespace) -> int:
     if arguments.output is not None:
         _check_output(arguments.output, arguments.force)
     scene = scene_from_arguments(arguments)
+    probes = [instruments.parse_probe(text) for text in arguments.probe or []]
+    try:
+        instruments.check_probes(probes, scene.model)
+    except ValueError as error:
+        raise ValueError(f"--probe: {error}") from None
+    if arguments.modes:
+        try:
+            instruments.check_modes(scene.model)
+        except ValueError as error:
+            raise ValueError(f"--modes: {error}") from None
     command = (command_from_arguments(arguments.command_parser, arguments)
                if getattr(arguments, "command_parser", None) else None)
     names = compare or [arguments.integrator or scene.integrator]
@@ -263,6 +308,7 @@ def command_record(arguments: argparse.Namespace) -> int:
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
         positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,
         raw_dtype=arguments.raw_dtype, exaggeration=arguments.exaggerate, frame_interval=0.0,
+        probes=tuple(probes), modes=arguments.modes,
     )
     if arguments.every is None:
         arguments.every = default_every(steps, len(simulations), options, scene.model)

@@ -31,6 +31,12 @@ PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     "drag": ("b", "N s/m", "drag on every particle's absolute velocity"),
     "gravity": ("g", "m/s²", "acceleration of gravity (x, y, z)"),
     "linear": ("-", "true/false (no unit)", "springs linearised about the rest lattice"),
+    "driver": ("-", "see its fields (m, Hz)", "sinusoidal drive on one particle, or none"),
+    "boundary": ("-", "fixed/absorbing (no unit)", "walls: fixed anchors, or a sponge layer "
+                 "inside them that absorbs waves"),
+    "sponge_width": ("w", "particles", "depth of the sponge layer (absorbing walls only)"),
+    "sponge_strength": ("-", "ω0 = √(k/m)", "damping rate at the wall (absorbing walls only)"),
+    "sponge_sides": ("-", "walls (no unit)", "walls that have a sponge layer"),
 }
 PROJECT = "coupled-oscillators"
 
@@ -143,6 +149,31 @@ def describe_initial(scene: Any) -> list[str]:
     return lines
 
 
+def describe_forcing(model: Any) -> list[str]:
+    """Markdown section on the driver and an absorbing boundary (none if the scene has neither)."""
+    from app.recording.instruments import describe_sponge
+
+    driver = getattr(model, "driver", None)
+    sponge = describe_sponge(model)
+    if driver is None and not sponge:
+        return []
+    lines = ["## Driver and walls", ""]
+    if driver is not None:
+        force = (f"a force A k sin(2π f t) of amplitude {driver.amplitude * model.stiffness:.3g} N"
+                 if driver.kind == "force" else
+                 "a prescribed displacement A sin(2π f t) from its rest position")
+        lines.append(
+            f"* **Driver**: {driver.describe()}: {force}, starting at t = {driver.start:g} s and "
+            f"ramped up smoothly over {driver.ramp:g} s (period {1 / driver.frequency:.4g} s). "
+            "The work it does on the lattice is plotted as `driven` (J) with the energies and "
+            "taken out of the energy balance. Its particle is ringed in the lattice view."
+        )
+    if sponge:
+        lines.append(f"* **Absorbing walls**: {sponge} The layer's inner edge is drawn as a "
+                     "faint grey outline (lattice view and field image).")
+    return lines + [""]
+
+
 def scene_document(
     scene: Any, model: Any, *, integrator: str, dt: float, plan: Any, scales: ColourScales,
     run: RunInfo, trees: tuple[str | None, ...], exaggeration: float = 1.0,
@@ -156,6 +187,10 @@ def scene_document(
         symbol, unit, meaning = PARAMETER_UNITS.get(key, ("", "see docs/api.md", ""))
         if key == "gravity":
             value = "(" + ", ".join(f"{g + 0.0:g}" for g in value) + ")"
+        elif key == "driver":
+            value = value.describe() if value is not None else "none"
+        elif key == "sponge_sides":
+            value = ", ".join(value) if value else "none"
         elif isinstance(value, float):
             value = f"{value:g}"
         lines.append(f"| {key} | {symbol} | {value} | {unit} | {meaning} |")
@@ -173,6 +208,7 @@ def scene_document(
         speed = a * (model.stiffness / float(masses.flat[0])) ** 0.5
         lines.append(f"| wave speed | a √(k/m) | {speed:.4g} | m/s | long waves along the springs |")
     lines += ["", "## Initial condition", "", *describe_initial(scene), ""]
+    lines += describe_forcing(model)
     several = "," in integrator
     lines += ["## Run", "", "| | value | unit |", "| --- | --- | --- |",
               f"| integrator{'s' if several else ''} | {integrator} | |",
@@ -238,17 +274,64 @@ def _view_notes(
             "recording, so frames are comparable."
         )
     names = [name for name in trees if name]
+    driven = getattr(model, "driver", None) is not None
     notes.append(
         "* **energy (J)**: kinetic (orange), potential (blue: springs + gravity), total "
-        "(purple) and dissipated by damping (olive)"
+        "(purple) and dissipated by damping (olive"
+        + (", the sponge layer's included" if getattr(model, "boundary", "fixed") == "absorbing"
+           else "") + ")"
+        + ("; driven (teal): the work the driver has done" if driven else "")
         + (f"; one tab per integrator ({', '.join(names)})." if names else ".")
     )
     notes.append(
-        "* **energy-balance error (%)**: (kinetic + potential + dissipated - its starting value) "
-        "divided by the energy in play, in percent. The exact motion keeps it at 0; an "
+        "* **energy-balance error (%)**: (kinetic + potential + dissipated"
+        + (" - driven" if driven else "") + " - its starting value) "
+        "divided by the energy in play"
+        + (" (or by the driver's work, when larger)" if driven else "")
+        + ", in percent. The exact motion keeps it at 0; an "
         "integrator that gains energy drifts up, one that loses it drifts down. Verlet "
         "oscillates about 0, explicit Euler grows"
         + (" (one line per integrator, coloured as in the energy tabs)." if names else ".")
     )
+    notes += _instrument_notes(model, plan)
     notes.append("* **events**: integrator and dt changes, blow-ups, interruptions.")
+    return notes
+
+
+def _instrument_notes(model: Any, plan: Any) -> list[str]:
+    """How to read the probe and mode-energy views (if the recording has them)."""
+    from app.recording import instruments
+
+    notes = []
+    probes = getattr(plan, "probes", ())
+    if probes:
+        where = ", ".join(f"({i}, {j})" for i, j in probes)
+        components = ", ".join(f"u_{c}" for c in "xyz"[: model.dim])
+        notes.append(
+            f"* **probe displacement (m)**: the displacement from rest ({components}) of the "
+            f"particle(s) at column, row {where}, every recorded frame "
+            "(`probes/<column>_<row>/<component>`). **probe spectra**, logged when the "
+            "recording ends: the amplitude of each series against frequency (Hz; Hann window, "
+            "a sine of amplitude A reads A); the strongest peaks are listed at the end of this "
+            "document with the nearest normal modes."
+        )
+    modes_every = getattr(plan, "modes_every", 0)
+    if modes_every:
+        rows, columns = instruments.mode_blocks(model)
+        every = "every recorded frame" if modes_every == 1 else f"every {modes_every} recorded frames"
+        layout = ("column m, row n (from the bottom) is mode (m, n): m half-waves along x, n "
+                  "along y, the longest waves at the bottom left" if model.uniform_mass else
+                  "unequal masses: the modes in rising frequency, row by row from the bottom")
+        blocks = ("" if rows == columns == 1 else
+                  f" Each cell sums a block of {columns} x {rows} modes (the image is at most "
+                  f"{instruments.MODE_IMAGE_SIDE} modes wide and high).")
+        notes.append(
+            f"* **energy per mode** (one view per polarisation: {', '.join('xyz'[: model.dim])}): "
+            f"the energy (J) of each normal mode of the lattice linearised about its "
+            f"equilibrium, {every}; {layout}. Log colour: black 10^-{instruments.MODE_DECADES} "
+            "of the look-ahead's largest energy or less, yellow that energy (legend: "
+            "`legend/modes`). The values are in `modes/<polarisation>/energy` (tensor, J); "
+            "for a linear scene they add up to kinetic + spring energy, and without damping or "
+            "driver each stays constant." + blocks
+        )
     return notes

@@ -17,6 +17,19 @@ LEGEND_ENTITY = "/legend"
 DEFAULT_TIMELINE = "sim_time"
 """The timeline the viewer opens on: simulated time in seconds (``step`` is the other one)."""
 ENERGY_TERMS = ("kinetic", "potential", "total", "dissipated")
+DRIVEN_TERM = "driven"
+"""The driver's work (J), plotted with the energy terms when the scene has a driver."""
+COMPONENT_NAMES = ("x", "y", "z")
+
+
+def energy_terms(driven: bool) -> tuple[str, ...]:
+    """The energy plot's lines: ``ENERGY_TERMS``, plus the driver's work when there is one."""
+    return (*ENERGY_TERMS, DRIVEN_TERM) if driven else ENERGY_TERMS
+
+
+def probe_label(column: int, row: int) -> str:
+    """The entity name of the probe on particle (column, row): ``<column>_<row>``."""
+    return f"{column}_{row}"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,6 +82,49 @@ class TreePaths:
         return self._path("drift/log10_abs_error")
 
     @property
+    def sponge(self) -> str:
+        """The absorbing layer's inner edge, drawn in the lattice view."""
+        return self._path("lattice/sponge")
+
+    @property
+    def field_sponge(self) -> str:
+        """The absorbing layer's inner edge over the field image (pixel coordinates)."""
+        return self._path("field/sponge")
+
+    @property
+    def driver(self) -> str:
+        """The driven particle's rest position, marked in the lattice view."""
+        return self._path("lattice/driver")
+
+    @property
+    def probes(self) -> str:
+        return self._path("probes")
+
+    def probe(self, label: str, component: str) -> str:
+        """Displacement component (x, y or z) of the probe ``label`` (``<column>_<row>``)."""
+        return self._path(f"probes/{label}/{component}")
+
+    @property
+    def spectra(self) -> str:
+        return self._path("spectra")
+
+    def spectrum(self, label: str, component: str) -> str:
+        """Amplitude spectrum of one probe's displacement component (logged at the end)."""
+        return self._path(f"spectra/{label}/{component}")
+
+    @property
+    def modes(self) -> str:
+        return self._path("modes")
+
+    def mode_energy(self, polarisation: str) -> str:
+        """Energy per normal mode of one polarisation, a tensor (J)."""
+        return self._path(f"modes/{polarisation}/energy")
+
+    def mode_image(self, polarisation: str) -> str:
+        """The same energies as a log-colour heat map."""
+        return self._path(f"modes/{polarisation}/image")
+
+    @property
     def energy(self) -> str:
         return self._path("energy")
 
@@ -104,12 +160,37 @@ def tree_paths(name: str | None) -> TreePaths:
     return TreePaths("" if not name else f"/{name}")
 
 
+def instrument_views(
+    trees: Sequence[str | None], *, probes: bool, modes: Sequence[str],
+) -> list[rrb.View | rrb.Container]:
+    """Views of the probes (displacement time series; their spectra, logged at the end) and of
+    the mode energies (one log-colour heat map per polarisation), per tree."""
+    views: list[rrb.View | rrb.Container] = []
+    for name in trees:
+        paths = tree_paths(name)
+        label = f"{name} " if name else ""
+        if probes:
+            views.append(rrb.Tabs(
+                rrb.TimeSeriesView(origin=paths.probes, name=f"{label}probe displacement (m)"),
+                rrb.BarChartView(origin=paths.spectra,
+                                 name=f"{label}probe spectra (m against Hz, at the end)"),
+            ))
+        for polarisation in modes:
+            views.append(rrb.Spatial2DView(
+                origin=paths.mode_image(polarisation),
+                name=f"{label}energy per mode, {polarisation} (log colour)",
+            ))
+    return views
+
+
 def blueprint(
     trees: Sequence[str | None], *, dim: int, show_lattice: bool, show_field: bool,
-    legends: int = 1,
+    legends: int = 1, probes: bool = False, modes: Sequence[str] = (),
 ) -> rrb.Blueprint:
     """Lattice (or field image) views beside the energy and energy-balance-error plots, the scene
-    document, colour legend and event log; the time panel on ``DEFAULT_TIMELINE`` (seconds)."""
+    document, colour legend and event log; the time panel on ``DEFAULT_TIMELINE`` (seconds).
+    With ``probes`` or ``modes`` (polarisation names) a row of instrument views goes under the
+    lattice."""
     spatial = rrb.Spatial3DView if dim == 3 else rrb.Spatial2DView
     pictures: list[rrb.View] = []
     for name in trees:
@@ -127,6 +208,9 @@ def blueprint(
         main: rrb.Container | rrb.View = pictures[0]
     else:
         main = rrb.Grid(*pictures)
+    instruments = instrument_views(trees, probes=probes, modes=modes)
+    if instruments:
+        main = rrb.Vertical(main, rrb.Horizontal(*instruments), row_shares=[3, 2])
 
     if len(trees) == 1:
         paths = tree_paths(trees[0])

@@ -31,7 +31,9 @@ planar lattices (at most ``DETAIL_LIMIT`` particles) get every particle and spri
 small 3-D ones a surface mesh through the particles coloured by height (no springs); large ones a
 colour-mapped field image, positions only on request, no springs.  Colour scales are fixed before
 the first frame from a look-ahead run (``app.recording.scales``); the document at ``/scene``
-(``app.recording.explain``) says what every view shows.
+(``app.recording.explain``) says what every view shows.  On request, probes (displacement series
+of chosen particles, their spectra at the end) and mode energies (``app.recording.instruments``);
+a driver's work joins the energy plot, a sponge layer is outlined.
 """
 
 from __future__ import annotations
@@ -53,9 +55,16 @@ import numpy as np
 import rerun as rr
 
 from app.recording import field as fields
-from app.recording import layout, style
+from app.recording import instruments, layout, style
 from app.recording.explain import RunInfo, scene_document
-from app.recording.layout import ENERGY_TERMS, LEGEND_ENTITY, SCENE_ENTITY, TreePaths
+from app.recording.layout import (
+    COMPONENT_NAMES,
+    DRIVEN_TERM,
+    LEGEND_ENTITY,
+    SCENE_ENTITY,
+    TreePaths,
+    energy_terms,
+)
 from app.recording.scales import AXIS_NAMES, QUANTITIES, UNITS, ColourScales, look_ahead
 from sim.model import Model
 from sim.runner import Frame, Runner
@@ -99,6 +108,11 @@ class RecordingOptions:
     background: log in a worker thread fed by a bounded queue (default) instead of in the
         runner's thread (see the measurements in docs/recording.md).
     queue_frames: frames that may wait for the worker before the simulation is held back.
+    probes: (column, row) of particles whose displacement is recorded every frame, with their
+        spectra at the end (``app.recording.instruments``).
+    modes: record the energy per normal mode (``sim.modes.mode_energies``).
+    modes_every: recorded frames between two mode-energy frames; None: as often as
+        ``instruments.MODES_BUDGET_BYTES`` allows for the expected number of frames.
     """
 
     field: str = "auto"
@@ -113,9 +127,13 @@ class RecordingOptions:
     flush_every: int = 50
     background: bool = True
     queue_frames: int = 4
+    probes: tuple[tuple[int, int], ...] = ()
+    modes: bool = False
+    modes_every: int | None = None
 
-    def plan(self, model: Model) -> LoggingPlan:
-        """Resolve the "auto" choices for this lattice; raises ValueError on bad options."""
+    def plan(self, model: Model, expected_frames: int | None = None) -> LoggingPlan:
+        """Resolve the "auto" choices for this lattice (and, for mode energies, the expected
+        number of frames); raises ValueError on bad options."""
         if self.field not in ("auto", "none", *fields.FIELD_MODES):
             raise ValueError(f"field must be auto, none, jpeg, video or raw, got {self.field!r}")
         if self.quantity not in QUANTITIES:
@@ -132,6 +150,13 @@ class RecordingOptions:
             field_mode = self.field
         positions_every = _positions_every(self.positions, detailed)
         surface = detailed and model.dim == 3 and positions_every > 0
+        probes = instruments.check_probes(self.probes, model)
+        if self.modes_every is not None and not (
+                isinstance(self.modes_every, int) and self.modes_every >= 1):
+            raise ValueError(f"modes_every must be a whole number >= 1, got {self.modes_every!r}")
+        modes_every = 0
+        if self.modes:
+            modes_every = self.modes_every or instruments.modes_every(model, expected_frames)
         return LoggingPlan(
             detailed=detailed,
             field=field_mode,
@@ -139,6 +164,8 @@ class RecordingOptions:
             positions_every=positions_every,
             springs=detailed and positions_every == 1 and not surface,
             surface=surface,
+            probes=probes,
+            modes_every=modes_every,
         )
 
 
@@ -160,7 +187,8 @@ def _positions_every(positions: str | int, detailed: bool) -> int:
 class LoggingPlan:
     """What one tree logs: detailed (per particle) or not, field mode or None, positions every
     N-th recorded frame (0: never), spring strips or not (planar lattices), a surface mesh through
-    the particles coloured by height instead of points and springs (3-D lattices)."""
+    the particles coloured by height instead of points and springs (3-D lattices); probes as
+    (column, row); mode energies every N-th recorded frame (0: never)."""
 
     detailed: bool
     field: str | None
@@ -168,6 +196,8 @@ class LoggingPlan:
     positions_every: int
     springs: bool
     surface: bool = False
+    probes: tuple[tuple[int, int], ...] = ()
+    modes_every: int = 0
 
     def describe(self) -> str:
         parts = []
@@ -184,12 +214,23 @@ class LoggingPlan:
             parts.append("springs coloured by strain")
         if self.field:
             parts.append(f"{self.quantity} field as {self.field} image")
+        if self.probes:
+            parts.append("probes at " + ", ".join(f"({i}, {j})" for i, j in self.probes))
+        if self.modes_every == 1:
+            parts.append("mode energies every frame")
+        elif self.modes_every:
+            parts.append(f"mode energies every {self.modes_every} frames")
         return ", ".join(parts) or "energies only"
 
-    def estimated_bytes_per_frame(self, model: Model, jpeg_quality: int = 80) -> float:
+    def estimated_bytes_per_frame(self, model: Model, jpeg_quality: int = 80,
+                                  modes: bool = True) -> float:
         """A size estimate a frame on disk (the measured sizes are in docs/recording.md); used for
-        the disk-space check and to choose the default frame interval of ``record``."""
+        the disk-space check and to choose the default frame interval of ``record``.  ``modes``:
+        include the mode energies (thinned to their own budget)."""
         total = 400.0  # energies, drift, dt, timestamps
+        total += 60.0 * len(self.probes) * model.dim
+        if modes and self.modes_every:
+            total += instruments.mode_frame_bytes(model) / self.modes_every
         if self.positions_every:
             per_vertex = model.dim * 4 + (4 if self.surface else 0)
             total += model.n_particles * per_vertex / self.positions_every
@@ -229,6 +270,14 @@ class _Track:
             if plan.field
             else None
         )
+        self.terms = energy_terms(model.driver is not None)
+        self.probes = (instruments.ProbeLog(self.paths, model, plan.probes)
+                       if plan.probes else None)
+        self.modes = (instruments.ModeLog(self.paths, model, recorder.scales.energy,
+                                          basis=recorder.modal_basis)
+                      if plan.modes_every else None)
+        self.probe_notes: list[str] = []
+        """Markdown lines about the probes' spectra, filled by ``finish``."""
         self.finished = False
 
     # --- static ---------------------------------------------------------------------------------
@@ -278,12 +327,14 @@ class _Track:
                 rr.AnyValues(height_colour_scale=self.scales.height),
                 static=True,
             )
-        for term in ENERGY_TERMS:
-            label = f"{self.name} {term}" if self.name else term
-            stream.log(
-                paths.energy_term(term),
-                rr.SeriesLines(names=label, colors=style.TERM_COLOURS[term]), static=True,
-            )
+        for term in self.terms:
+            self._log_energy_line(term)
+        if self.probes is not None:
+            self.probes.log_static(stream)
+        instruments.log_sponge(stream, paths, model, lattice=self.plan.positions_every > 0,
+                               field=self.plan.field is not None)
+        if self.plan.positions_every:
+            instruments.log_driver(stream, paths, model)
         drift_colour = (style.INTEGRATOR_COLOURS.get(self.name, style.DRIFT_COLOUR)
                         if self.name else style.DRIFT_COLOUR)
         stream.log(
@@ -301,6 +352,13 @@ class _Track:
                                             colors=drift_colour if self.name
                                             else style.NEUTRAL_COLOUR),
                    static=True)
+
+    def _log_energy_line(self, term: str) -> None:
+        label = f"{self.name} {term}" if self.name else term
+        self.recorder.stream.log(
+            self.paths.energy_term(term),
+            rr.SeriesLines(names=label, colors=style.TERM_COLOURS[term]), static=True,
+        )
 
     def _log_masses(self) -> None:
         """Static radii/colours (detailed lattices) and per-particle masses (kg)."""
@@ -351,8 +409,13 @@ class _Track:
             self._integrator, self._dt = frame.integrator, frame.dt
         stream.log(paths.dt, rr.Scalars(frame.dt))
         energy = frame.energy
-        for term in ENERGY_TERMS:
+        for term in self.terms:
             stream.log(paths.energy_term(term), rr.Scalars(float(getattr(energy, term))))
+        if self.probes is not None:
+            self.probes.log_frame(stream, frame.time, frame.positions)
+        if (self.modes is not None and frame.velocities is not None
+                and self.frames_logged % plan.modes_every == 0):
+            self.modes.log_frame(stream, frame.positions, frame.velocities)
         percent = 100.0 * float(frame.energy_balance_error)
         stream.log(paths.balance_error, rr.Scalars(percent))
         if self.name:  # comparisons: also on a log scale (orders of magnitude apart)
@@ -421,9 +484,25 @@ class _Track:
         self.event(f"parameters changed: {model.describe()}", "INFO")
         self.recorder.stream.log(self.paths.model, rr.TextDocument(model.describe()))
         masses_changed = not np.array_equal(model.masses, self.model.masses)
+        same_lattice = (model.nx, model.ny, model.dim) == (
+            self.model.nx, self.model.ny, self.model.dim) and np.array_equal(
+            model.rest_positions, self.model.rest_positions)
         self.model = model
         if masses_changed:
             self._log_masses()
+        if model.driver is not None and DRIVEN_TERM not in self.terms:
+            self.terms = energy_terms(True)
+            self._log_energy_line(DRIVEN_TERM)
+        if self.probes is not None and not same_lattice:
+            self.probe_notes = self.probes.finish(self.recorder.stream, model.driver)
+            self.probes = None
+            self.event("probes stop here: the lattice changed shape or spacing", "WARN")
+        if self.modes is not None:
+            warning = (self.modes.model_changed(model) if same_lattice
+                       else "mode energies stop here: the lattice changed shape or spacing")
+            if warning:
+                self.modes = None
+                self.event(warning, "WARN")
 
     def event(self, text: str, level: str = "INFO") -> None:
         """A text-log entry in this tree (call in the thread that logs frames, or at the end)."""
@@ -433,6 +512,8 @@ class _Track:
         self.set_last_time()
         if self._encoder is not None and not self.finished:
             self._encoder.finish(self.recorder.stream, self.paths.field)
+        if self.probes is not None and not self.finished:
+            self.probe_notes = self.probes.finish(self.recorder.stream, self.model.driver)
         self.finished = True
 
 
@@ -483,9 +564,16 @@ class Recorder:
         self.options = options or RecordingOptions()
         self.scene = scene
         self.model: Model = scene.model
-        self.plan = self.options.plan(self.model)
+        self.plan = self.options.plan(self.model, expected_frames)
         if self.plan.field == "video" and not fields.video_available():
             raise RecordingError("--field video needs PyAV: pip install av (or use --field jpeg)")
+        self.modal_basis: Any = None
+        """The normal modes of the scene's lattice (mode energies only)."""
+        if self.plan.modes_every:
+            try:
+                self.modal_basis = instruments.modal_basis(self.model)
+            except ValueError as error:
+                raise RecordingError(str(error)) from None
         self.trees = tuple(trees)
         self.path = Path(path)
         self.partial_path = self.path.with_name(self.path.name + ".partial")
@@ -496,7 +584,7 @@ class Recorder:
         try:
             self.scales = scales or look_ahead(
                 scene, integrator=integrator, dt=dt, quantity=self.plan.quantity,
-                strains=self.plan.springs,
+                strains=self.plan.springs, energies=self.plan.modes_every > 0,
             )
         except BaseException:
             self.partial_path.unlink(missing_ok=True)
@@ -517,21 +605,20 @@ class Recorder:
         bp = layout.blueprint(
             self.trees, dim=self.model.dim,
             show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
-            legends=len(legends),
+            legends=len(legends), probes=bool(self.plan.probes),
+            modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
         )
         self.stream.save(self.partial_path, default_blueprint=bp)
         self.stream.send_blueprint(bp, make_active=True, make_default=True)
         self.stream.send_recording_name(f"{scene.name}")
+        self.document = scene_document(
+            scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
+            scales=self.scales, run=self.run, trees=self.trees,
+            exaggeration=self.exaggeration,
+        ) + f"\n\nLogged: {self.plan.describe()}."
+        """The read-me logged at ``/scene`` (logged again at the end with the probes' spectra)."""
         self.stream.log(
-            SCENE_ENTITY,
-            rr.TextDocument(
-                scene_document(
-                    scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
-                    scales=self.scales, run=self.run, trees=self.trees,
-                    exaggeration=self.exaggeration,
-                ) + f"\n\nLogged: {self.plan.describe()}.",
-                media_type=rr.MediaType.MARKDOWN,
-            ),
+            SCENE_ENTITY, rr.TextDocument(self.document, media_type=rr.MediaType.MARKDOWN),
             static=True,
         )
         offset = 0.0
@@ -577,6 +664,8 @@ class Recorder:
             legends["field"] = (style.legend_png(
                 style.SIGNED_FIELD if signed else style.MAGNITUDE,
                 -self.field_scale if signed else 0.0, self.field_scale, label), 96)
+        if plan.modes_every:
+            legends["modes"] = (instruments.mode_legend_png(scales.energy), 96)
         return legends
 
     # --- checks -----------------------------------------------------------------------------------
@@ -620,7 +709,8 @@ class Recorder:
         track = _Track(self, tree, runner.simulation.model, self.plan)
         track.log_static()
         self.tracks[tree] = track
-        wants_velocities = self.plan.field is not None and self.plan.quantity == "speed"
+        wants_velocities = (self.plan.field is not None and self.plan.quantity == "speed"
+                            or self.plan.modes_every > 0)
         self._unsubscribers.append(
             runner.subscribe(
                 functools.partial(self._enqueue, track),
@@ -750,6 +840,8 @@ class Recorder:
                 unsubscribe()
             for track in self.tracks.values():
                 self._submit(track.finish)
+            if self.plan.probes:
+                self._submit(self._log_probe_notes)
             self._closed = True
         if self._worker is not None and self._worker is not threading.current_thread():
             self._queue.put(_STOP)
@@ -769,6 +861,20 @@ class Recorder:
                 f"recording failed: {self._failure}; what was recorded is in {self.path}"
             ) from self._failure
         return self.path
+
+    def _log_probe_notes(self) -> None:
+        """The read-me again, now with the probes' spectral peaks (static: it replaces the
+        first)."""
+        lines: list[str] = []
+        for name, track in self.tracks.items():
+            if track.probe_notes:
+                lines += ([f"### {name}", ""] if name else []) + track.probe_notes + [""]
+        if not lines:
+            return
+        text = self.document + "\n\n## Probes: spectra (computed at the end)\n\n" + "\n".join(lines)
+        self.stream.log(SCENE_ENTITY, rr.TextDocument(text.rstrip(),
+                                                      media_type=rr.MediaType.MARKDOWN),
+                        static=True)
 
     def _log_failure(self) -> None:
         """An ERROR entry in every tree saying why the recording stopped, if it can be written."""

@@ -10,7 +10,9 @@ quantity's absolute value pooled over all sampled states:
 * ``strain``: |strain - rest strain| of the springs (dimensionless; rest strain (a - L)/L), the
   half-width of the diverging spring colour map centred on the rest lattice;
 * ``field``: |u_axis| (m) for the signed displacement, |u| (m) or |v| (m/s) for magnitudes;
-* ``height``: |z| (m) of 3-D lattices (out-of-plane displacement).
+* ``height``: |z| (m) of 3-D lattices (out-of-plane displacement);
+* ``energy`` (only when asked): the largest kinetic + spring energy (J) over the sampled states,
+  the top of the log colour scale of mode energies (a driven lattice gains energy as it runs).
 
 The signed displacement shows one component, ``axis``: the direction the scene's initial
 displacement (or velocity) is largest in (y for ``interference``, whose two sources are pushed
@@ -50,6 +52,7 @@ class ColourScales:
     seconds: simulated seconds the look-ahead covered (0 if it was not run).
     bounds: ((x_min, y_min), (x_max, y_max)) m of the particles over the sampled states, or None
         (movies frame the lattice with it: the catenary sags below its rest box).
+    energy: the largest kinetic + spring energy (J) over the sampled states (0 if not asked).
     """
 
     strain: float
@@ -59,6 +62,7 @@ class ColourScales:
     rest_strain: float
     seconds: float
     bounds: tuple[tuple[float, float], tuple[float, float]] | None = None
+    energy: float = 0.0
 
     def describe(self, quantity: str) -> str:
         text = (f"colour scales fixed from a {self.seconds:g} s look-ahead run (99.9th percentile "
@@ -149,12 +153,14 @@ def look_ahead(
     scene: Any, *, integrator: str | None = None, dt: float | None = None,
     quantity: str = "displacement", strains: bool = True,
     budget_seconds: float = LOOK_AHEAD_BUDGET_SECONDS, samples: int = PERCENTILE_SAMPLES,
+    energies: bool = False,
 ) -> ColourScales:
     """Run a copy of ``scene`` and return fixed colour scales (see the module docstring).
 
     integrator: one name, or a comma-separated comparison (RK4 or Verlet is then used, as the
     accurate ones); dt: the step (s), default the scene's.  A blow-up ends the look-ahead early
-    (the scales use what was sampled)."""
+    (the scales use what was sampled).  ``energies``: also find the largest kinetic + spring
+    energy (``ColourScales.energy``)."""
     from sim import BlowUpError, Simulation
 
     model = scene.model
@@ -171,6 +177,7 @@ def look_ahead(
     strain_pool: list[np.ndarray] = []
     field_pool: list[np.ndarray] = []
     height_pool: list[np.ndarray] = []
+    top_energy = 0.0
     low = np.full(2, np.inf)
     high = np.full(2, -np.inf)
     marks = np.unique(np.linspace(0, steps, samples).round().astype(int))
@@ -189,6 +196,9 @@ def look_ahead(
             height_pool.append(np.abs(positions[::stride, 2] - rest[::stride, 2]))
         if strains:
             strain_pool.append(np.abs(simulation.strains() - rest_strain))
+        if energies:
+            energy = simulation.energy()
+            top_energy = max(top_energy, energy.kinetic + energy.spring)
     floor = 1e-6 * model.spacing
 
     def scale(pool: list[np.ndarray], smallest: float) -> float:
@@ -202,4 +212,5 @@ def look_ahead(
         height=scale(height_pool, floor) if model.dim == 3 else 0.0,
         axis=axis, rest_strain=rest_strain, seconds=simulation.time,
         bounds=(tuple(low), tuple(high)) if np.isfinite(low).all() else None,
+        energy=top_energy,
     )

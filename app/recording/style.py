@@ -32,6 +32,7 @@ TERM_COLOURS: dict[str, Colour] = {  # RGB of each energy term's line
     "potential": (40, 110, 235),
     "total": (150, 70, 200),
     "dissipated": (150, 120, 30),
+    "driven": (0, 140, 140),
 }
 INTEGRATOR_COLOURS: dict[str, Colour] = {  # RGB of each integrator's lines in a comparison
     "euler": (220, 50, 50),
