@@ -17,6 +17,7 @@ import sim
 from app.cli import build_parser, main
 from app.recording import Recorder, RecordingError, RecordingOptions
 from app.recording.field import video_available
+from app.recording.layout import ENERGY_TERMS
 from sim.runner import Runner
 from tests.helpers import wait_for
 
@@ -406,7 +407,11 @@ def static_value(chunks: list, entity: str, column: str) -> object:
 
 
 def document(chunks: list) -> str:
-    return static_value(chunks, "/scene", "TextDocument:text").as_py()[0]
+    """The read-me as the viewer shows it: the last static ``/scene`` text (a recording with
+    probes logs it again at the end, with their spectra)."""
+    texts = [chunk.to_record_batch().column("TextDocument:text")[0].as_py()[0]
+             for chunk in chunks if chunk.entity_path == "/scene" and chunk.is_static]
+    return texts[-1]
 
 
 def table_rows(text: str) -> dict[str, list[str]]:
@@ -507,7 +512,8 @@ def test_line_colours_are_readable_on_light_and_dark_themes(grid_file):
         assert style.contrast_ratio(colour, style.DARK_BACKGROUND) >= 3.0, colour
     path, _ = grid_file
     chunks = read_chunks(path)
-    for term, colour in style.TERM_COLOURS.items():
+    for term in ENERGY_TERMS:  # the grid has no driver: no `driven` line
+        colour = style.TERM_COLOURS[term]
         packed = static_value(chunks, f"/energy/{term}", "SeriesLines:colors").as_py()[0]
         assert packed >> 8 == (colour[0] << 16) | (colour[1] << 8) | colour[2], term
     assert static_rows(chunks, "/legend/strain") == 1
