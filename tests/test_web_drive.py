@@ -198,6 +198,20 @@ def test_absorbing_walls_on_a_too_small_lattice_are_refused_and_keep_the_scene(w
     assert web_app.runner.simulation.model.boundary == "fixed"
 
 
+def test_a_scene_with_periodic_rows_opens_and_shows_its_walls(web_app):
+    panel = web_app.panel
+    web_app.replace_scene(sim.scenes.build("chain", boundary="periodic"), source="test")
+    assert panel.boundary.value == "periodic" and "periodic" in panel.boundary.options
+    assert "periodic rows" in panel.spectrum.frequency.content
+    assert panel.spectrum.excite_button.disabled
+    lowest, _ = mode_frequencies(web_app.runner.simulation.model, 0)
+    assert f"{lowest[0]:.4g}" in panel.drive.modes.content  # the ring's lowest wave
+    send(panel.boundary, "fixed")
+    press(panel.boundary_button)
+    assert web_app.runner.simulation.model.boundary == "fixed"
+    assert panel.boundary.options == ("fixed", "absorbing")
+
+
 def test_the_exact_solver_refuses_a_driver_and_keeps_the_model():
     simulation = sim.Simulation(sim.scenes.build("chain", linear=True), integrator="exact")
     runner = LatticeRunner(simulation)
@@ -238,6 +252,15 @@ def test_mode_frequencies_are_the_lattice_normal_modes():
         lowest, highest = mode_frequencies(tensioned, polarisation, count=4)
         np.testing.assert_allclose(lowest, expected[:4], rtol=1e-9)
         assert highest == pytest.approx(expected[-1])
+    ring = sim.Model.create(9, 3, stiffness=35.0, rest_length=0.9, boundary="periodic")
+    for polarisation in (0, 1):
+        lowest, highest = mode_frequencies(ring, polarisation, count=4)
+        omega_squared = np.sort(ModalBasis.of(ring).omega_squared[polarisation])
+        frequencies = np.sqrt(omega_squared[omega_squared > 1e-9]) / (2 * math.pi)
+        distinct = [f for k, f in enumerate(frequencies)
+                    if k == 0 or not math.isclose(f, frequencies[k - 1], rel_tol=1e-6)]
+        np.testing.assert_allclose(lowest, distinct[:4], rtol=1e-9)
+        assert highest == pytest.approx(frequencies[-1])
     ionic = sim.scenes.build("bandgap", nx=40).model
     lowest, highest = mode_frequencies(ionic, 0, count=3)
     omega = np.sqrt(np.sort(ModalBasis.of(ionic).omega_squared[0]))

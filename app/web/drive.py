@@ -57,6 +57,12 @@ ERRORS = (InputRefused, sim.ModelError, ValueError, TimeoutError)
 """What a refused drive raises; shown in the folder, never a traceback."""
 
 
+def ring_eigenvalues(n: int) -> np.ndarray:
+    """Eigenvalues 4 sin^2(p pi / n), p = 0..n-1, of the second difference on a ring of n
+    particles (a periodic row), rising."""
+    return np.sort(4.0 * np.sin(np.arange(n) * np.pi / n) ** 2)
+
+
 def mode_frequencies(model: sim.Model, polarisation: int,
                      count: int = LISTED_MODES) -> tuple[list[float], float]:
     """(the ``count`` lowest distinct normal-mode frequencies, the highest one), in Hz, of the
@@ -65,15 +71,17 @@ def mode_frequencies(model: sim.Model, polarisation: int,
     ``DENSE_MODES_LIMIT`` particles raise ``ModelError`` (a dense eigen-solve)."""
     if model.uniform_mass:
         across_columns, across_rows, _, _ = polarisations(model)[polarisation]
-        columns = second_difference_eigenvalues(model.nx)
+        columns = (ring_eigenvalues(model.nx) if model.boundary == "periodic"
+                   else second_difference_eigenvalues(model.nx))
         rows = second_difference_eigenvalues(model.ny)
         mass = float(model.masses.flat[0])
         top = np.zeros(0)
         if across_columns >= 0.0 and across_rows >= 0.0:
-            # omega^2 rises with p and q: the lowest lie among the first `count` of each and
-            # the highest is the last (no need for all nx * ny of them)
+            # omega^2 rises with p and q: the `count` lowest distinct values lie among the first
+            # `count` distinct eigenvalues of each axis (at most 2 * count entries: a ring's come
+            # in pairs) and the highest is the last (no need for all nx * ny of them)
             top = np.array([across_columns * columns[-1] + across_rows * rows[-1]])
-            columns, rows = columns[:count], rows[:count]
+            columns, rows = columns[: 2 * count], rows[: 2 * count]
         squared = np.concatenate(
             [(across_columns * columns[None, :] + across_rows * rows[:, None]).ravel(), top]
         ) / mass

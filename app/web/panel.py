@@ -47,7 +47,6 @@ from app.web.recording import RecordingBusy, WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.spectrum import SpectrumFolder
 from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT, LatticeView
-from sim.forcing import BOUNDARIES
 from sim.integrators import PRECISIONS
 from sim.runner import Frame
 
@@ -69,6 +68,9 @@ MAX_THREADS = max(1, os.cpu_count() or 1)
 """Most threads the page lets the compiled steps use: the machine's cores."""
 AS_LOADED = "as loaded"
 """Mass-pattern entry shown for masses that are neither uniform nor the ionic checkerboard."""
+
+WALLS = ("fixed", "absorbing")
+"""Walls the page offers (a loaded scene's other boundary, e.g. periodic rows, is shown too)."""
 
 ERROR_TYPES = (InputRefused, sim.ModelError, sim.SceneError, ValueError, RecordingBusy)
 """What a refused user action raises; shown in the page, never a traceback."""
@@ -212,7 +214,7 @@ class ControlPanel:
                 hint="replace the lattice by this preset (its own parameters) at this size",
             )
             self.boundary = gui.add_dropdown(
-                "Walls", list(BOUNDARIES), initial_value=simulation.model.boundary,
+                "Walls", list(WALLS), initial_value=WALLS[0],
                 hint="fixed: waves reflect at the walls; absorbing: a sponge layer along the "
                 "walls takes the waves out (an open lattice)",
             )
@@ -287,7 +289,8 @@ class ControlPanel:
         @from_user
         def _(_: viser.GuiEvent) -> None:  # thread pool: waits for the command
             try:
-                boundary = choice(self.boundary.value, "walls", list(BOUNDARIES))
+                boundary = choice(self.boundary.value, "walls", self._walls(
+                    self.app.runner.simulation.model))
                 width = whole_number(self.sponge_width.value, "sponge width", 1, MAX_SIDE)
                 self.control.set_boundary(boundary, width).result(timeout=30)
             except ERROR_TYPES as error:
@@ -298,8 +301,9 @@ class ControlPanel:
             self._show_scene_info(simulation)
             self._stability_key = None
             model = simulation.model
+            self._show_boundary(model)
             walls = (f"absorbing ({'/'.join(model.sponge_sides)}, {model.sponge_width}-particle "
-                     "sponge)" if model.boundary == "absorbing" else "fixed")
+                     "sponge)" if model.boundary == "absorbing" else model.boundary)
             self.scene_message.content = ok_html(f"walls now {walls}")
 
         @self.download_button.on_click
@@ -920,8 +924,13 @@ class ControlPanel:
             f"{scene.description}".rstrip()
         )
 
+    @staticmethod
+    def _walls(model: sim.Model) -> list[str]:
+        return [*WALLS, model.boundary] if model.boundary not in WALLS else list(WALLS)
+
     def _show_boundary(self, model: sim.Model) -> None:
         """Show the running walls (assigning the values posts nothing)."""
+        self.boundary.options = self._walls(model)
         self.boundary.value = model.boundary
         self.sponge_width.value = model.sponge_width
 

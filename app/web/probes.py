@@ -161,7 +161,10 @@ class ProbesFolder:
             peaks = series.dominant(k, component, count=2)
             described = []
             for frequency, _ in peaks:
-                near = nearest_modes(series.model, frequency)
+                try:
+                    near = nearest_modes(series.model, frequency)
+                except sim.ModelError:  # periodic rows: their modes are not sine modes (m, n)
+                    near = []
                 described.append(f"{frequency:.4g} Hz" + (f" ≈ {near[0].describe()}" if near
                                                            else ""))
             lines.append(f"probe {k + 1}: " + ("; ".join(described) or "no motion"))

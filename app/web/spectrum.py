@@ -146,6 +146,11 @@ class SpectrumFolder:
         if not model.uniform_mass:
             self.frequency.content = as_html("unequal masses: the modes are not sine waves")
             return
+        if model.boundary == "periodic":
+            self.frequency.content = as_html("periodic rows: the modes are waves around the "
+                                             "rings, not sine modes (m, n); the picture shows "
+                                             "their energy against frequency")
+            return
         try:
             m, n, polarisation = self._mode()
         except InputRefused as error:
@@ -182,7 +187,7 @@ class SpectrumFolder:
         names = list(POLARISATION_NAMES[: model.dim])
         self.polarisation.options = names
         self.m.max, self.n.max = model.nx, model.ny
-        self.excite_button.disabled = not model.uniform_mass
+        self.excite_button.disabled = not model.uniform_mass or model.boundary == "periodic"
         self._last = 0.0
         self._show_frequency()
 
