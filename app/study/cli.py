@@ -1,10 +1,12 @@
-"""Subcommands of the study: ``oscillators accuracy``, ``stability`` and ``dispersion``.
+"""Subcommands of the study: ``oscillators accuracy``, ``stability`` and ``dispersion``, and the
+instruments ``oscillators response`` (resonance curve of a driven scene) and ``reflection``
+(what the absorbing walls send back, against wavelength).
 
 ``app.cli`` imports this module and calls ``register(subparsers)``.  Each command prints a table
-(or JSON with ``--json``), can save a picture (``--plot PATH.png``) and shows a progress bar on
-stderr while it runs.  Every option is checked before anything runs (argparse types, then the
-planned number of steps against ``app.cli.MAX_STEPS`` / ``MAX_ESTIMATED_SECONDS``): bad values exit
-with code 2 and one line.
+(or JSON with ``--json``), can save a picture (``--plot PATH.png``; accuracy, response and
+reflection save one by default) and shows a progress bar on stderr while it runs.  Every option
+is checked before anything runs (argparse types, then the planned number of steps against
+``app.cli.MAX_STEPS`` / ``MAX_ESTIMATED_SECONDS``): bad values exit with code 2 and one line.
 """
 
 from __future__ import annotations
@@ -100,8 +102,75 @@ examples:
 """
 
 
+RESPONSE_DESCRIPTION = """\
+Resonance curve of a driven scene.  For each drive frequency the scene is run from rest with its
+driver's frequency replaced, through the driver's start and ramp and a settle time in which the
+transient dies out; then the probed particle's displacement along the drive is fitted over a few
+drive periods by least squares with a cos(wt) + b sin(wt) + c.  The table gives the steady
+amplitude sqrt(a^2 + b^2), the lag behind the drive (90 degrees at an isolated resonance) and
+the settle time used; the picture shows the amplitude against frequency with the lattice's
+normal modes as labelled vertical lines.
+
+Settle time: by default estimated for each frequency from the damping of the normal modes the
+driver excites (drag, dashpots and the sponge), long enough for their transient to fall to
+1/1000 of the steady amplitude.  An undamped lattice never settles and is refused: add drag
+(--set drag=0.1) or absorbing walls.  A point whose amplitude differs by more than 1 % between
+the two halves of its fit window is marked "not settled".
+
+Default frequencies: 40 evenly spaced from half the lowest mode's frequency to the highest, plus
+each mode's frequency and its two half-power points, so that narrow peaks are not missed.
+
+The scene must have a driver: presets resonance and bandgap have one; any other scene gets one
+with --set driver=column=0,row=0,direction=x,amplitude=0.02,kind=force,ramp=5 (its frequency is
+replaced).  The resonance preset has full springs: at its amplitudes (about 0.1 m) the springs to
+the walls above and below stiffen the longitudinal motion (a hardening, cubic force), so its peaks
+lean to higher frequencies than the modes; --set linear=true gives the linearised lattice, whose
+peaks sit on the lines.
+"""
+
+RESPONSE_EPILOG = """\
+examples:
+  oscillators response                                  # the resonance preset, 76 frequencies
+  oscillators response resonance --set linear=true --plot docs/images/response_resonance.png
+  oscillators response resonance --frequencies 0.6:0.75:30 --probe 6,0
+  oscillators response single --set drag=0.5 --set linear=true \\
+      --set driver=column=0,row=0,amplitude=0.01,kind=force --frequencies 0.3:2:40
+  oscillators response bandgap --probe 10,0 --frequencies 0.2:1.6:40 --settle 300
+
+Python: from app.study.response import response_curve  (returns the data; .as_dict() for JSON)
+"""
+
+REFLECTION_DESCRIPTION = """\
+How much of a wave the absorbing walls (boundary=absorbing) send back, against wavelength.  A
+long linearised chain (k = 35 N/m, m = 1 kg, a = 1 m) of 2 (distance + width) particles has a
+sponge `width` particles deep at each end.  A Gaussian wave packet (envelope width = one
+wavelength, at rest) in the middle splits into two halves that run into the layers at the group
+velocity c_g = a sqrt(k/m) cos(q a / 2).  At t = 2 distance / c_g whatever the layers sent back has
+returned to the middle: the reflected fraction is the energy (kinetic + springs) left between
+the layers then, divided by the starting energy.  RK4, dt = 0.05 s.
+
+The fixed-wall column is the control: the same chain without a sponge reflects everything, less
+what RK4 damps numerically (mostly the shortest waves).
+
+The sponge damps each particle at the rate strength sqrt(k/m) d^2 (d: depth into the layer, 0 at
+its inner edge, 1 at the wall), integrated exactly.  The damping must grow slowly over a
+wavelength not to reflect, so long waves need wider layers.
+"""
+
+REFLECTION_EPILOG = """\
+examples:
+  oscillators reflection                                  # widths 20,30,40; 6 wavelengths
+  oscillators reflection --plot docs/images/reflection.png
+  oscillators reflection --widths 30 --wavelengths 10,40,80 --distance 300 --json
+  oscillators reflection --widths 30 --strength 1.0      # a steeper sponge
+
+Python: from app.study.reflection import reflection_study
+"""
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the accuracy, stability and dispersion subcommands to the ``oscillators`` parser."""
+    """Add the accuracy, stability, dispersion, response and reflection subcommands to the
+    ``oscillators`` parser."""
     from app.cli import add_scene_arguments, bounded_int, positive_float
 
     formatter = argparse.RawDescriptionHelpFormatter
@@ -183,6 +252,64 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _add_output_arguments(dispersion)
     dispersion.set_defaults(handler=command_dispersion)
 
+    response = subparsers.add_parser(
+        "response", help="resonance curve of a driven scene: steady amplitude against frequency",
+        description=RESPONSE_DESCRIPTION, epilog=RESPONSE_EPILOG, formatter_class=formatter,
+    )
+    add_scene_arguments(response, default_scene="resonance")
+    response.add_argument(
+        "--frequencies", type=_frequencies, metavar="F0:F1:N",
+        help="N evenly spaced drive frequencies from F0 to F1 Hz, or a list F,F,F (default: "
+        "around the normal modes, with each mode's peak resolved)",
+    )
+    response.add_argument(
+        "--probe", type=_column_row, metavar="I,J",
+        help="measure at the particle in column I, row J, from 0 (default: the driven one)",
+    )
+    response.add_argument(
+        "--settle", type=_seconds, metavar="SECONDS",
+        help="seconds run after the driver's ramp before measuring (default: estimated for "
+        "each frequency from the damping)",
+    )
+    response.add_argument(
+        "--periods", type=bounded_int(2, 1000), default=4,
+        help="drive periods in the fit window (default 4)",
+    )
+    _add_output_arguments(response)
+    response.add_argument("--no-plot", action="store_true",
+                          help="do not save the picture (by default it goes to "
+                          "SCENE-response.png here, or to --plot)")
+    response.set_defaults(handler=command_response)
+
+    reflection = subparsers.add_parser(
+        "reflection", help="reflection of the absorbing walls against wavelength",
+        description=REFLECTION_DESCRIPTION, epilog=REFLECTION_EPILOG, formatter_class=formatter,
+    )
+    reflection.add_argument(
+        "--widths", type=_whole_numbers, default=None, metavar="W,W,...",
+        help="layer widths in particles (default 20,30,40)",
+    )
+    reflection.add_argument(
+        "--wavelengths", type=_numbers, default=None, metavar="L,L,...",
+        help="wavelengths in spacings a, from 2.5 (default 5,10,20,30,40,60)",
+    )
+    reflection.add_argument(
+        "--strength", type=positive_float, default=None, metavar="S",
+        help="sponge_strength: peak damping rate in units of sqrt(k/m) (default 0.5)",
+    )
+    reflection.add_argument(
+        "--distance", type=bounded_int(10, 20_000), default=300,
+        help="particles from the packet's centre to each layer (default 300; at least 3 "
+        "wavelengths)",
+    )
+    reflection.add_argument("--no-control", action="store_true",
+                            help="skip the fixed-wall control runs")
+    _add_output_arguments(reflection)
+    reflection.add_argument("--no-plot", action="store_true",
+                            help="do not save the picture (by default it goes to "
+                            "reflection.png here, or to --plot)")
+    reflection.set_defaults(handler=command_reflection)
+
 
 def _fraction(text: str) -> float:
     """argparse type of --tolerance: a number in (0, 1]."""
@@ -203,6 +330,72 @@ def _precision(text: str) -> float:
     if not low <= value <= high:
         raise argparse.ArgumentTypeError(f"must be from {low:g} to {high:g}, got {text!r}")
     return value
+
+
+def _frequencies(text: str):
+    """argparse type of --frequencies: F0:F1:N or F,F,F (Hz)."""
+    from app.study.response import parse_frequencies
+
+    try:
+        return parse_frequencies(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _column_row(text: str) -> tuple[int, int]:
+    """argparse type of --probe: two whole numbers I,J >= 0."""
+    try:
+        column, row = (int(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"takes column,row (two whole numbers from 0), got {text!r}") from None
+    if column < 0 or row < 0:
+        raise argparse.ArgumentTypeError(f"column and row count from 0, got {text!r}")
+    return column, row
+
+
+def _seconds(text: str) -> float:
+    """argparse type of --settle: a finite number of seconds >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds >= 0, got {text!r}")
+    return value
+
+
+def _numbers(text: str) -> list[float]:
+    """argparse type: positive numbers separated by commas."""
+    try:
+        values = [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"takes numbers separated by commas, e.g. 5,10,20, got {text!r}") from None
+    if not values or not all(math.isfinite(value) and value > 0 for value in values):
+        raise argparse.ArgumentTypeError(f"takes positive numbers, got {text!r}")
+    return values
+
+
+def _whole_numbers(text: str) -> list[int]:
+    """argparse type: whole numbers >= 1 separated by commas."""
+    try:
+        values = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"takes whole numbers separated by commas, e.g. 20,30,40, got {text!r}") from None
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(f"takes whole numbers >= 1, got {text!r}")
+    return values
+
+
+def _default_plot(arguments: argparse.Namespace, name: str) -> None:
+    """The picture goes to --plot, or to ``name`` here unless --no-plot; checked."""
+    if arguments.no_plot:
+        arguments.plot = None
+    elif not arguments.plot:
+        arguments.plot = name
+    _check_plot_path(arguments)
 
 
 def _check_plot_path(arguments: argparse.Namespace) -> None:
@@ -351,4 +544,55 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
     if arguments.plot:
         dispersion.plot_dispersion(study, arguments.plot)
     _emit(arguments, study.as_dict(), dispersion.format_report(study))
+    return 0
+
+
+def command_response(arguments: argparse.Namespace) -> int:
+    from app.cli import scene_from_arguments
+    from app.study import response
+
+    scene = scene_from_arguments(arguments)
+    _default_plot(arguments, f"{Path(scene.name).stem or 'scene'}-response.png")
+    dt = arguments.dt or scene.dt
+    index, _, frequencies, settles = response.plan(
+        scene, arguments.frequencies, arguments.probe, arguments.settle, dt)
+    steps = response.planned_steps(scene.model.driver, frequencies, settles, arguments.periods,
+                                   dt)
+    integrator = arguments.integrator or scene.integrator
+    _check_plan([(count, scene.model.n_particles, integrator) for count in steps], "response")
+    with _progress_bar(len(frequencies), arguments.quiet) as bar:
+        curve = response.response_curve(
+            scene, frequencies, arguments.probe, arguments.settle, arguments.periods,
+            integrator=arguments.integrator, dt=arguments.dt, precision=arguments.precision,
+            threads=arguments.threads, progress=_advance(bar),
+        )
+    data = curve.as_dict()
+    if arguments.plot:
+        response.plot_response(curve, arguments.plot)
+        data["picture"] = str(Path(arguments.plot).resolve())
+    _emit(arguments, data, response.format_report(curve))
+    return 0
+
+
+def command_reflection(arguments: argparse.Namespace) -> int:
+    from app.study import reflection
+    from sim.forcing import DEFAULT_SPONGE_STRENGTH
+
+    _default_plot(arguments, "reflection.png")
+    widths = arguments.widths or list(reflection.DEFAULT_WIDTHS)
+    wavelengths = arguments.wavelengths or list(reflection.DEFAULT_WAVELENGTHS)
+    strength = arguments.strength or DEFAULT_SPONGE_STRENGTH
+    control = not arguments.no_control
+    reflection.check_plan(widths, wavelengths, arguments.distance)
+    _check_plan(reflection.planned_runs(widths, wavelengths, arguments.distance, control),
+                "reflection")
+    runs = len(wavelengths) * (len(widths) + int(control))
+    with _progress_bar(runs, arguments.quiet) as bar:
+        study = reflection.reflection_study(
+            widths, wavelengths, strength, arguments.distance, control, progress=_advance(bar))
+    data = study.as_dict()
+    if arguments.plot:
+        reflection.plot_reflection(study, arguments.plot)
+        data["picture"] = str(Path(arguments.plot).resolve())
+    _emit(arguments, data, reflection.format_report(study))
     return 0
