@@ -45,7 +45,7 @@ from app.web.inputs import (
 from app.web.probes import ProbesFolder
 from app.web.recording import RecordingBusy, WebRecordings
 from app.web.scene_files import SceneDirectory
-from app.web.spectrum import SpectrumFolder
+from app.web.spectrum import MATPLOTLIB_LOCK, SpectrumFolder
 from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT, LatticeView
 from sim.integrators import PRECISIONS
 from sim.runner import Frame
@@ -804,7 +804,8 @@ class ControlPanel:
                                precisions=tuple(dict.fromkeys(("float64", scene.precision))))
         with tempfile.TemporaryDirectory() as folder:
             picture = Path(folder) / "work_precision.png"
-            plot_work_precision(study, str(picture))
+            with MATPLOTLIB_LOCK:  # the Modes folder draws in another thread
+                plot_work_precision(study, str(picture))
             image = imageio.imread(picture)
         self._study_picture = np.ascontiguousarray(image[..., :3])
         self.study_image.image = self._study_picture

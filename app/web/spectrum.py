@@ -49,12 +49,22 @@ REFRESH_SECONDS = 1.0
 """Seconds between two pictures of the spectrum (more on large lattices, see ``_interval``)."""
 DYNAMIC_RANGE = 1e-10
 """The colour scale spans this fraction of the largest mode energy up to the largest."""
+MATPLOTLIB_LOCK = threading.Lock()
+"""Held while the page draws a matplotlib picture (this folder's, the speed-vs-accuracy study's):
+matplotlib is not thread-safe (its text layout shares one mathtext parser), and the pictures are
+drawn in different background threads."""
 
 
 def render_spectrum(energies: np.ndarray, model: sim.Model, polarisation: int,
                     frequencies: np.ndarray | None = None) -> np.ndarray:
     """An RGB picture (height, width, 3) uint8 of one polarisation's mode energies: a heat map
     over (m, n) with a log colour bar (equal masses), or energy against frequency."""
+    with MATPLOTLIB_LOCK:
+        return _render_spectrum(energies, model, polarisation, frequencies)
+
+
+def _render_spectrum(energies: np.ndarray, model: sim.Model, polarisation: int,
+                     frequencies: np.ndarray | None) -> np.ndarray:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import LogNorm
     from matplotlib.figure import Figure
