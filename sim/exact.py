@@ -32,8 +32,8 @@ def reason_not_applicable(model: Model) -> str | None:
     if model.has_forcing:
         return ("the exact solver follows the free normal modes; a driver or an absorbing "
                 "layer acts from outside them")
-    if model.periodic and model.n_particles > DENSE_PARTICLE_LIMIT:
-        return (f"a periodic lattice is decomposed up to {DENSE_PARTICLE_LIMIT:,} particles; "
+    if model.row_ends != "walls" and model.n_particles > DENSE_PARTICLE_LIMIT:
+        return (f"a {model.boundary} lattice is decomposed up to {DENSE_PARTICLE_LIMIT:,} particles; "
                 f"this one has {model.n_particles:,}")
     if not model.linear:
         return ("the exact solver needs linearised springs (linear=true; "

@@ -38,7 +38,7 @@ import numpy as np
 from sim import forcing_kernels
 
 DRIVER_KINDS = ("force", "displacement")
-BOUNDARIES = ("fixed", "periodic", "absorbing")
+BOUNDARIES = ("fixed", "periodic", "free", "absorbing")
 SPONGE_POWER = 2
 DEFAULT_SPONGE_STRENGTH = 0.5
 """Peak damping rate of the sponge in units of omega_0 = sqrt(k / m) (designed with the
@@ -313,7 +313,8 @@ class Forcing:
             self._spring_arguments = (
                 bool(model.linear), float(parameters.stiffness), float(parameters.rest_length),
                 float(parameters.tension_stiffness), float(parameters.spacing),
-                float(parameters.origin_x), float(parameters.origin_y), bool(model.periodic),
+                float(parameters.origin_x), float(parameters.origin_y),
+                {"walls": 0, "ring": 1, "free": 2}[model.row_ends],
             )
 
     @property

@@ -64,10 +64,10 @@ def kick_particle(velocity, j, i, dvx, dvy, dvz, mass):
 
 @njit(**_JIT)
 def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
-                 tension_stiffness, spacing, origin_x, origin_y, periodic):
+                 tension_stiffness, spacing, origin_x, origin_y, row_ends):
     """Kinetic energy of particle (i, j) plus the energy of its four springs (J), measured from
-    the rest lattice (fixed walls one spacing outside it, or rows closed into rings when
-    ``periodic``), as ``sim.kernels.energy_terms`` counts them."""
+    the rest lattice, as ``sim.kernels.energy_terms`` counts them.  ``row_ends``: 0 fixed walls
+    one spacing outside the lattice, 1 rows closed into rings, 2 free row ends."""
     dim, ny, nx = position.shape
     x = float(position[0, j, i])
     y = float(position[1, j, i])
@@ -83,7 +83,9 @@ def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
         ni = i + di
         nj = j + dj
         shift = 0.0
-        if periodic and (ni < 0 or ni >= nx):
+        if row_ends == 2 and (ni < 0 or ni >= nx):
+            continue  # a free end has no spring there
+        if row_ends == 1 and (ni < 0 or ni >= nx):
             shift = -nx * spacing if ni < 0 else nx * spacing
             ni = ni % nx
         if 0 <= ni < nx and 0 <= nj < ny:

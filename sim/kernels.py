@@ -14,6 +14,7 @@ Layout (chosen for speed, see the README's benchmark section):
 * ``SpringParameters.periodic`` joins the ends of every row into a ring (the left and right
   wall springs become one spring between the last and the first particle of the row), again
   chosen at compile time; rows stay independent sweeps, so the wavefronts are unchanged;
+  ``SpringParameters.free_ends`` removes the left and right wall springs (free ends), likewise;
 * each spring is computed once per sweep: ``vertical_springs(j)`` gives the forces of the springs
   that end in row j from below (row j-1 to j; j = 0 from the bottom wall, j = ny to the top wall),
   a buffer of ``nx``; ``horizontal_springs(j)`` those of row j, a buffer of ``nx + 1``;
@@ -65,13 +66,16 @@ class SpringParameters(NamedTuple):
     """None: walls at the left and right ends of the rows; True: each row is a ring, its last
     particle joined to its first by one spring (the left and right edges are the same spring,
     seen from both sides).  A compile-time choice like the optional terms."""
+    free_ends: object = None
+    """True: the rows' end particles have no spring to the left and right walls (free ends);
+    None: they do.  A compile-time choice."""
 
     def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
         """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
         scalar = np.dtype(dtype).type
         numbers = (scalar(value) for value in self[:7])
         return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate,
-                                periodic=self.periodic)
+                                periodic=self.periodic, free_ends=self.free_ends)
 
 
 @njit(**_JIT)
@@ -221,6 +225,9 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
                 dvz = vz[r, 0] - vz[r, nx - 1]
     f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
                               estimate_first)
+    if parameters.free_ends is not None:  # no wall spring at a free end
+        f = T(0.0) * f
+        p = 0.0
     power += p
     out[0, 0] = f * dx
     out[1, 0] = f * dy
@@ -248,6 +255,12 @@ def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
         out[1, nx] = out[1, 0]
         if z is not None:
             out[2, nx] = out[2, 0]
+        return power
+    if parameters.free_ends is not None:
+        out[0, nx] = T(0.0)
+        out[1, nx] = T(0.0)
+        if z is not None:
+            out[2, nx] = T(0.0)
         return power
     # particle nx - 1 to the right wall anchor
     dx = (origin_x + T(nx) * spacing) - x[r, nx - 1]
@@ -311,7 +324,7 @@ def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spaci
 
 @njit(**_JIT)
 def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing, origin_x,
-                       origin_y, dashpot, out, periodic=None):
+                       origin_y, dashpot, out, periodic=None, free_ends=None):
     T = type(spacing)
     r = j % x.shape[0]
     nx = x.shape[1]
@@ -327,6 +340,11 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
             relative = vx[r, 0] - vx[r, nx - 1]
             out[0, 0] += dashpot * relative
             power += dashpot * relative * relative
+    elif free_ends is not None:
+        out[0, 0] = T(0.0)
+        out[1, 0] = T(0.0)
+        if z is not None:
+            out[2, 0] = T(0.0)
     else:
         out[0, 0] = stiffness * (x[r, 0] - origin_x)
         out[1, 0] = tension_stiffness * (y[r, 0] - row_y_rest)
@@ -349,6 +367,12 @@ def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spa
         out[1, nx] = out[1, 0]
         if z is not None:
             out[2, nx] = out[2, 0]
+        return power
+    if free_ends is not None:
+        out[0, nx] = T(0.0)
+        out[1, nx] = T(0.0)
+        if z is not None:
+            out[2, nx] = T(0.0)
         return power
     out[0, nx] = stiffness * ((origin_x + T(nx - 1) * spacing) - x[r, nx - 1])
     out[1, nx] = tension_stiffness * (row_y_rest - y[r, nx - 1])
@@ -394,7 +418,7 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, paramete
         power += _linear_horizontal(j, ny, x, y, z, vx, vy, parameters.stiffness,
                                     parameters.tension_stiffness, parameters.spacing,
                                     parameters.origin_x, parameters.origin_y, dashpot, horizontal,
-                                    parameters.periodic)
+                                    parameters.periodic, parameters.free_ends)
     else:
         power += _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, horizontal)
     r = j % x.shape[0]
@@ -485,8 +509,9 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
                 dy = y[j, i] - y[j, i - 1]
                 if z is not None:
                     dz = z[j, i] - z[j, i - 1]
-            spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
-                                     tension_stiffness, spacing)
+            if i > 0 or parameters.free_ends is None:
+                spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
+                                         tension_stiffness, spacing)
             # the spring to the neighbour below (or the bottom wall anchor)
             if j == 0:
                 dx = x[0, i] - (origin_x + i * spacing)
@@ -500,7 +525,7 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
                     dz = z[j, i] - z[j - 1, i]
             spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
                                      tension_stiffness, spacing)
-        if parameters.periodic is None:
+        if parameters.periodic is None and parameters.free_ends is None:
             # the spring from the last particle of the row to the right wall anchor
             dx = (origin_x + nx * spacing) - x[j, nx - 1]
             dy = row_y_rest - y[j, nx - 1]

@@ -143,7 +143,8 @@ class Model:
             or None.
         boundary: "fixed" (walls of anchors), "periodic" (each row a ring: its last particle
             joined to its first, top and bottom walls kept; a chain becomes a ring, a lattice a
-            cylinder) or "absorbing" (the walls behind a sponge
+            cylinder), "free" (no springs to the left and right walls: the rows' ends are free;
+            top and bottom walls kept) or "absorbing" (the walls behind a sponge
             layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak damping rate
             ``sponge_strength`` * omega_0; see ``sim.forcing``).
     """
@@ -265,6 +266,11 @@ class Model:
         """Whether each row is a ring (``boundary="periodic"``)."""
         return self.boundary == "periodic"
 
+    @property
+    def row_ends(self) -> str:
+        """How the rows end at the left and right: "walls", "ring" or "free"."""
+        return {"periodic": "ring", "free": "free"}.get(self.boundary, "walls")
+
     # --- derived quantities ---------------------------------------------------------------------
 
     @property
@@ -300,6 +306,7 @@ class Model:
             float(self.stiffness), float(self.rest_length), float(self.tension_stiffness),
             float(self.spacing), float(origin_x), float(origin_y),
             periodic=True if self.periodic else None,
+            free_ends=True if self.boundary == "free" else None,
         )
 
     @property
@@ -393,6 +400,8 @@ class Model:
             extras.append("linearised springs")
         if self.periodic:
             extras.append("rows joined into rings (periodic in x)")
+        if self.boundary == "free":
+            extras.append("free left and right ends")
         if self.boundary == "absorbing":
             extras.append(f"absorbing walls: {'/'.join(self.sponge_sides)} "
                           f"({self.sponge_width}-particle sponge)")

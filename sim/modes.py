@@ -11,8 +11,8 @@ diagonal, and f the particles' weights.  This module diagonalises it:
   FFT; O(N log N)); K and C are both diagonal there, so every damping is exact;
 * **unequal masses**: the eigenvectors of M^-1/2 K M^-1/2 (dense ``eigh``, up to
   ``DENSE_PARTICLE_LIMIT`` particles); there only uniform drag (C proportional to M) is exact;
-* **periodic rows** (``boundary="periodic"``): the same dense decomposition with each row closed
-  into a ring (Fourier waves along the rows; the stability limit uses their separable
+* **periodic rows or free row ends** (``boundary="periodic"`` / ``"free"``): the same dense
+  decomposition with each row closed into a ring or its ends freed (Fourier waves along the rows; the stability limit uses their separable
   frequencies 4 sin^2(p pi / nx) at any size, ``sim.observables.modes``).
 
 ``ModalBasis`` maps displacements/velocities to modal coordinates and back; ``static_offset``
@@ -64,9 +64,11 @@ def polarisations(model: Model) -> list[tuple[float, float, float, float]]:
 
 
 def _stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
-                      periodic: bool = False) -> np.ndarray:
+                      ends: str = "walls") -> np.ndarray:
     """Dense (n, n) five-point matrix with fixed walls for one polarisation (row-major j*nx+i);
-    with ``periodic`` each row is a ring (its last particle joined to its first)."""
+    with ``ends="ring"`` each row is a ring (its last particle joined to its first), with
+    ``"free"`` the rows' end particles have no wall spring."""
+    periodic = ends == "ring"
     n = nx * ny
     matrix = np.zeros((n, n))
     index = np.arange(n).reshape(ny, nx)
@@ -79,6 +81,9 @@ def _stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: floa
     else:
         left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
         matrix[left, right] = matrix[right, left] = -across_columns
+    if ends == "free":
+        matrix[index[:, 0], index[:, 0]] -= across_columns
+        matrix[index[:, -1], index[:, -1]] -= across_columns
     lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
     matrix[lower, upper] = matrix[upper, lower] = -across_rows
     return matrix
@@ -103,7 +108,7 @@ class ModalBasis:
     def of(cls, model: Model) -> ModalBasis:
         """The modes of ``model``; unequal masses above ``DENSE_PARTICLE_LIMIT`` raise ModelError."""
         nx, ny = model.nx, model.ny
-        if model.uniform_mass and not model.periodic:
+        if model.uniform_mass and model.row_ends == "walls":
             mass = float(model.masses.flat[0])
             columns = second_difference_eigenvalues(nx)[None, :]
             rows = second_difference_eigenvalues(ny)[:, None]
@@ -113,7 +118,7 @@ class ModalBasis:
                 rate.append((c_columns * columns + c_rows * rows + model.drag) / mass)
             return cls(model, True, tuple(omega), tuple(rate), True)
         if model.n_particles > DENSE_PARTICLE_LIMIT:
-            what = "a periodic" if model.periodic else "an unequal-mass"
+            what = "an unequal-mass" if model.row_ends == "walls" else f"a {model.boundary}-ended"
             raise ModelError(
                 f"the modes of {what} lattice are computed up to {DENSE_PARTICLE_LIMIT:,} "
                 f"particles (dense eigen-decomposition); this one has {model.n_particles:,}"
@@ -121,9 +126,9 @@ class ModalBasis:
         scale = 1.0 / np.sqrt(np.asarray(model.masses, dtype=float).ravel())
         omega, rate, vectors = [], [], []
         for k_columns, k_rows, c_columns, c_rows in polarisations(model):
-            stiffness = _stiffness_matrix(nx, ny, k_columns, k_rows, model.periodic)
+            stiffness = _stiffness_matrix(nx, ny, k_columns, k_rows, model.row_ends)
             values, eigenvectors = np.linalg.eigh(stiffness * np.outer(scale, scale))
-            damping = _stiffness_matrix(nx, ny, c_columns, c_rows, model.periodic)
+            damping = _stiffness_matrix(nx, ny, c_columns, c_rows, model.row_ends)
             damping = damping * np.outer(scale, scale)
             damping += np.diag(model.drag * scale**2)
             omega.append(values)
@@ -132,7 +137,7 @@ class ModalBasis:
         # with unequal masses neither the dashpots nor a uniform drag (M^-1 drag in acceleration
         # units) is diagonal in these modes: only undamped lattices are exact
         exact = model.damping == 0.0 and model.drag == 0.0
-        if model.uniform_mass:  # a ring of equal masses: uniform drag is diagonal too
+        if model.uniform_mass:  # rings or free ends, equal masses: uniform drag is diagonal too
             exact = model.damping == 0.0
         return cls(model, False, tuple(omega), tuple(rate), exact, tuple(vectors))
 
@@ -167,7 +172,7 @@ def static_offset(model: Model) -> np.ndarray:
     offset = np.zeros((model.dim, model.ny, model.nx))
     if not model.has_gravity:
         return offset
-    if model.periodic:
+    if model.row_ends != "walls":
         return _ring_static_offset(model, offset)
     columns = second_difference_eigenvalues(model.nx)[None, :]
     rows = second_difference_eigenvalues(model.ny)[:, None]
@@ -184,17 +189,17 @@ def static_offset(model: Model) -> np.ndarray:
 
 
 def _ring_static_offset(model: Model, offset: np.ndarray) -> np.ndarray:
-    """``static_offset`` of a periodic lattice by a dense least-squares solve (a pull along the
-    rings has no restoring force without tension: the smallest solution is taken)."""
+    """``static_offset`` of a periodic or free-ended lattice by a dense least-squares solve (a
+    pull along the rows may have no restoring force there: the smallest solution is taken)."""
     if model.n_particles > DENSE_PARTICLE_LIMIT:
-        raise ModelError(f"the sag of a periodic lattice is solved up to {DENSE_PARTICLE_LIMIT:,} "
+        raise ModelError(f"the sag of a {model.boundary} lattice is solved up to {DENSE_PARTICLE_LIMIT:,} "
                          f"particles; this one has {model.n_particles:,}")
     masses = np.asarray(model.masses, dtype=float).ravel()
     for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
         g = float(model.gravity[component])
         if g == 0.0:
             continue
-        matrix = _stiffness_matrix(model.nx, model.ny, k_columns, k_rows, True)
+        matrix = _stiffness_matrix(model.nx, model.ny, k_columns, k_rows, model.row_ends)
         solution = np.linalg.lstsq(matrix, masses * g, rcond=None)[0]
         offset[component] = solution.reshape(model.ny, model.nx)
     return offset
@@ -250,6 +255,10 @@ def mode_energies(model: Model, positions: np.ndarray, velocities: np.ndarray,
 
 
 def _sine_modes_only(model: Model) -> None:
+    if model.row_ends == "free":
+        raise ModelError("the modes of free-ended rows are cosine waves, not the sine modes "
+                         "(m, n) of fixed walls; use mode_energies, which lists them in rising "
+                         "frequency")
     if model.periodic:
         raise ModelError("the modes of a ring are Fourier waves (cos and sin of 2 pi m i / nx), "
                          "not the sine modes (m, n) of fixed walls; use mode_energies, which "

@@ -65,6 +65,9 @@ def _padded_displacements(model: Model, positions: np.ndarray) -> np.ndarray:
     if model.periodic:
         padded[:, 1:-1, 0] = padded[:, 1:-1, -2]
         padded[:, 1:-1, -1] = padded[:, 1:-1, 1]
+    elif model.row_ends == "free":  # no wall spring: listed at rest length-a stretch, not counted
+        padded[:, 1:-1, 0] = padded[:, 1:-1, 1]
+        padded[:, 1:-1, -1] = padded[:, 1:-1, -2]
     return padded
 
 
@@ -103,15 +106,19 @@ def spring_energy(model: Model, positions: np.ndarray) -> float:
         horizontal, vertical = spring_differences(model, positions)
         if model.periodic:  # the ring's closing spring is listed at both edges: count it once
             horizontal = horizontal[:, :, :-1]
+        elif model.row_ends == "free":  # the end springs do not exist
+            horizontal = horizontal[:, :, 1:-1]
         along = (horizontal[0] ** 2).sum() + (vertical[1] ** 2).sum()
         across = (horizontal[1:] ** 2).sum() + (vertical[0] ** 2).sum()
         if model.dim == 3:
             across += (vertical[2] ** 2).sum()
         return float(0.5 * k * along + 0.5 * model.tension_stiffness * across)
     stretch = spring_lengths(model, positions) - model.rest_length
-    if model.periodic:  # the ring's closing spring is listed at both edges: count it once
+    if model.row_ends != "walls":  # the closing spring once, or no end springs at all
         listed = np.ones(model.n_springs, dtype=bool)
         listed[model.nx : model.ny * (model.nx + 1) : model.nx + 1] = False
+        if model.row_ends == "free":
+            listed[0 : model.ny * (model.nx + 1) : model.nx + 1] = False
         stretch = stretch[listed]
     rest_stretch = model.spacing - model.rest_length
     return float(0.5 * k * (np.dot(stretch, stretch) - stretch.size * rest_stretch**2))
@@ -204,19 +211,23 @@ def _polarisations(model: Model) -> list[tuple[float, float, float, float]]:
     return polarisations
 
 
-def _second_difference_eigenvalues(n: int, periodic: bool = False) -> np.ndarray:
+def _second_difference_eigenvalues(n: int, ends: str = "walls") -> np.ndarray:
     """Eigenvalues of the second difference on n points: 4 sin^2(p pi / (2 (n + 1))), p = 1..n,
-    between fixed walls (sine modes); 4 sin^2(p pi / n), p = 0..n-1, on a ring (Fourier modes)."""
-    if periodic:
+    between fixed walls (sine modes); 4 sin^2(p pi / n), p = 0..n-1, on a ring (Fourier modes);
+    4 sin^2(p pi / (2 n)), p = 0..n-1, with free ends (cosine modes)."""
+    if ends == "ring":
         return np.sort(4.0 * np.sin(np.arange(n) * np.pi / n) ** 2)
+    if ends == "free":
+        return 4.0 * np.sin(np.arange(n) * np.pi / (2.0 * n)) ** 2
     p = np.arange(1, n + 1)
     return 4.0 * np.sin(p * np.pi / (2.0 * (n + 1))) ** 2
 
 
 def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
-                             periodic: bool = False):
+                             ends: str = "walls"):
     """Dense (n, n) stiffness matrix of one displacement component (5-point, Dirichlet; rows
-    closed into rings when ``periodic``)."""
+    closed into rings (``ends="ring"``) or with free ends (``"free"``))."""
+    periodic = ends == "ring"
     n = nx * ny
     matrix = np.zeros((n, n))
     index = np.arange(n).reshape(ny, nx)
@@ -232,19 +243,25 @@ def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_row
             matrix[first, last] = matrix[last, first] = -2.0 * across_columns
     elif periodic:  # a ring of one: the spring joins the particle to itself
         matrix[np.arange(n), np.arange(n)] -= 2.0 * across_columns
+    if ends == "free":  # the end particles lose their wall spring
+        matrix[index[:, 0], index[:, 0]] -= across_columns
+        matrix[index[:, -1], index[:, -1]] -= across_columns
     lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
     matrix[lower, upper] = matrix[upper, lower] = -across_rows
     return matrix
 
 
 def _apply_scalar_stiffness(field: np.ndarray, across_columns: float, across_rows: float,
-                            periodic: bool = False):
+                            ends: str = "walls"):
     """K u for one displacement component field (ny, nx) with fixed walls (rows closed into
-    rings when ``periodic``), matrix-free."""
+    rings, or with free ends, by ``ends``), matrix-free."""
     padded = np.pad(field, 1)
-    if periodic:
+    if ends == "ring":
         padded[1:-1, 0] = field[:, -1]
         padded[1:-1, -1] = field[:, 0]
+    elif ends == "free":
+        padded[1:-1, 0] = field[:, 0]
+        padded[1:-1, -1] = field[:, -1]
     return (
         across_columns * (2 * field - padded[1:-1, :-2] - padded[1:-1, 2:])
         + across_rows * (2 * field - padded[:-2, 1:-1] - padded[2:, 1:-1])
@@ -293,7 +310,7 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     nx, ny = model.nx, model.ny
     if model.uniform_mass:
         mass = float(model.masses.flat[0])
-        columns = _second_difference_eigenvalues(nx, model.periodic)
+        columns = np.sort(_second_difference_eigenvalues(nx, model.row_ends))
         rows = _second_difference_eigenvalues(ny)
         columns = _keep_extremes(columns, sample)
         rows = _keep_extremes(rows, sample)
@@ -308,10 +325,10 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     for k_columns, k_rows, c_columns, c_rows in _polarisations(model):
         if n <= _DENSE_LIMIT:
             scale = inverse_sqrt_mass.ravel()
-            stiffness = _scalar_stiffness_matrix(nx, ny, k_columns, k_rows, model.periodic)
+            stiffness = _scalar_stiffness_matrix(nx, ny, k_columns, k_rows, model.row_ends)
             stiffness *= np.outer(scale, scale)
             values, vectors = np.linalg.eigh(stiffness)
-            damping = _scalar_stiffness_matrix(nx, ny, c_columns, c_rows, model.periodic)
+            damping = _scalar_stiffness_matrix(nx, ny, c_columns, c_rows, model.row_ends)
             damping *= np.outer(scale, scale)
             damping += np.diag(model.drag * scale**2)
             rates = np.einsum("im,ij,jm->m", vectors, damping, vectors)
@@ -322,7 +339,7 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
 
             def apply(vector, k_columns=k_columns, k_rows=k_rows):
                 field = vector.reshape(ny, nx) * inverse_sqrt_mass
-                return (_apply_scalar_stiffness(field, k_columns, k_rows, model.periodic)
+                return (_apply_scalar_stiffness(field, k_columns, k_rows, model.row_ends)
                         * inverse_sqrt_mass).ravel()
 
             top = _largest_eigenvalue_lanczos(apply, n)
