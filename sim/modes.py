@@ -12,8 +12,9 @@ diagonal, and f the particles' weights.  This module diagonalises it:
 * **unequal masses**: the eigenvectors of M^-1/2 K M^-1/2 (dense ``eigh``, up to
   ``DENSE_PARTICLE_LIMIT`` particles); there only uniform drag (C proportional to M) is exact;
 * **periodic rows or free row ends** (``boundary="periodic"`` / ``"free"``): the same dense
-  decomposition with each row closed into a ring or its ends freed (Fourier waves along the rows; the stability limit uses their separable
-  frequencies 4 sin^2(p pi / nx) at any size, ``sim.observables.modes``).
+  decomposition with each row closed into a ring or its ends freed (Fourier or cosine waves
+  along the rows; the stability limit uses their separable frequencies at any size,
+  ``sim.observables.modes``).
 
 ``ModalBasis`` maps displacements/velocities to modal coordinates and back; ``static_offset``
 solves K u = f for the sag under gravity (sine basis for any masses: K does not depend on them).

@@ -238,6 +238,8 @@ class Simulation:
         return Forcing(self._model) if self._model.has_forcing else None
 
     def _set_model(self, model: Model) -> None:
+        # check first: a model the current integrator cannot run changes nothing
+        check_integrator_name(self._integrator_name, model)
         self._model = model
         self._integrator = self._make_integrator()
         self._forcing = self._make_forcing()
