@@ -209,7 +209,7 @@ def test_a_scene_with_periodic_rows_opens_and_shows_its_walls(web_app):
     send(panel.boundary, "fixed")
     press(panel.boundary_button)
     assert web_app.runner.simulation.model.boundary == "fixed"
-    assert panel.boundary.options == ("fixed", "absorbing")
+    assert panel.boundary.options == ("fixed", "absorbing", "periodic", "free")
 
 
 def test_the_exact_solver_refuses_a_driver_and_keeps_the_model():
@@ -266,3 +266,14 @@ def test_mode_frequencies_are_the_lattice_normal_modes():
     omega = np.sqrt(np.sort(ModalBasis.of(ionic).omega_squared[0]))
     np.testing.assert_allclose(lowest, omega[:3] / (2 * math.pi))
     assert highest == pytest.approx(omega[-1] / (2 * math.pi))
+
+
+@pytest.mark.parametrize("walls", ["periodic", "free"])
+def test_periodic_and_free_walls_from_the_page_change_the_running_lattice(web_app, walls):
+    panel = web_app.panel
+    panel.boundary.value = walls
+    web_app.control.set_boundary(walls, 3).result(timeout=30)
+    model = web_app.runner.simulation.model
+    assert model.boundary == walls
+    web_app.control.set_boundary("fixed", 3).result(timeout=30)
+    assert web_app.runner.simulation.model.boundary == "fixed"

@@ -257,8 +257,9 @@ class SimulationControl:
         return self.runner.post(command)
 
     def set_boundary(self, boundary: str, sponge_width: int) -> concurrent.futures.Future:
-        """Walls "fixed" or "absorbing" (behind a sponge layer ``sponge_width`` particles deep);
-        a lattice too small for the layer raises ``ModelError`` and changes nothing."""
+        """Walls "fixed", "absorbing" (behind a sponge layer ``sponge_width`` particles deep),
+        "periodic" (rows closed into rings) or "free" (no wall springs at the rows' ends); a
+        lattice too small for the layer raises ``ModelError`` and changes nothing."""
 
         def command(simulation: sim.Simulation) -> sim.Model:
             self._change_model(simulation, boundary=boundary, sponge_width=sponge_width)

@@ -69,7 +69,7 @@ MAX_THREADS = max(1, os.cpu_count() or 1)
 AS_LOADED = "as loaded"
 """Mass-pattern entry shown for masses that are neither uniform nor the ionic checkerboard."""
 
-WALLS = ("fixed", "absorbing")
+WALLS = ("fixed", "absorbing", "periodic", "free")
 """Walls the page offers (a loaded scene's other boundary, e.g. periodic rows, is shown too)."""
 
 ERROR_TYPES = (InputRefused, sim.ModelError, sim.SceneError, ValueError, RecordingBusy)
@@ -216,7 +216,9 @@ class ControlPanel:
             self.boundary = gui.add_dropdown(
                 "Walls", list(WALLS), initial_value=WALLS[0],
                 hint="fixed: waves reflect at the walls; absorbing: a sponge layer along the "
-                "walls takes the waves out (an open lattice)",
+                "walls takes the waves out (an open lattice); periodic: each row is a ring "
+                "(what leaves on the right comes back on the left); free: the rows' ends have no "
+                "wall spring (a pulse comes back upright)",
             )
             self.sponge_width = gui.add_number(
                 "Sponge width (particles)", simulation.model.sponge_width, min=1, max=MAX_SIDE,
