@@ -46,6 +46,8 @@ def test_response_of_one_damped_particle_is_the_analytic_curve(tmp_path, capsys)
         expected = analytic_amplitude(amplitude * STIFFNESS, mass, omega_0, drag / mass, omega)
         assert point["amplitude"] == pytest.approx(expected, rel=0.01), point
         assert point["analytic"] == pytest.approx(expected, rel=1e-9)
+        # the normal-mode prediction of one particle is the same formula
+        assert point["predicted"] == pytest.approx(expected, rel=1e-9)
         assert point["settled"]
         # the phase lag of the driven oscillator: atan2(gamma omega, omega_0^2 - omega^2)
         lag = math.degrees(math.atan2(drag / mass * omega, omega_0**2 - omega**2))
@@ -135,3 +137,17 @@ def test_impossible_requests_exit_with_code_2_and_say_why(arguments, words, caps
     assert error.startswith("error: ") and "Traceback" not in error
     for word in words:
         assert word in error
+
+
+def test_a_linearised_chain_responds_as_its_normal_modes_predict():
+    """The resonance preset with linearised springs: equal masses, drag only, so the modal sum
+    is exact; at the third mode (lag near 90 degrees) and halfway to the fourth."""
+    scene = sim.scenes.build("resonance", linear=True)
+    third = sim.scenes.chain_mode_frequency(3, 12, STIFFNESS, 1.0)
+    fourth = sim.scenes.chain_mode_frequency(4, 12, STIFFNESS, 1.0)
+    curve = response.response_curve(scene, frequencies=[third, 0.5 * (third + fourth)])
+    at_mode, between = curve.points
+    for point in curve.points:
+        assert point.amplitude == pytest.approx(point.predicted, rel=0.01)
+    assert at_mode.amplitude > 5 * between.amplitude
+    assert 60 < at_mode.lag < 100

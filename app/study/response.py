@@ -33,8 +33,12 @@ node at either particle) are drawn.  With a displacement driver the driven parti
 the prescribed motion, so the resonances are those of the lattice with that particle held, near
 but not on the lines drawn.
 
-For one particle the analytic amplitude F0 / (m sqrt((omega_0^2 - omega^2)^2 + (beta omega)^2)),
-F0 = A k, is computed alongside (``damped_oscillator_amplitude``).
+For a force driver the normal modes also predict the steady response of the linearised lattice
+(``modal_response``): u = F0 sum_j c_j / (sqrt(m_d m_p) (omega_j^2 - omega^2 + i beta_j omega)),
+exact for equal masses without a sponge, an estimate with one (the sponge's damping is not
+diagonal in the modes).  It is drawn as a curve under the measured points and listed in the table;
+for one particle it is the analytic amplitude F0 / (m sqrt((omega_0^2 - omega^2)^2 +
+(beta omega)^2)), F0 = A k (``damped_oscillator_amplitude``).
 """
 
 from __future__ import annotations
@@ -108,14 +112,16 @@ class ModeLine:
 class ResponsePoint:
     """The steady response at one drive frequency: ``amplitude`` (m), ``lag`` (degrees behind the
     drive), ``half_change`` (relative change of the amplitude between the window's halves),
-    ``settle`` (s run after the ramp before the fit) and ``analytic`` (m, one-particle lattices
-    driven by a force only)."""
+    ``settle`` (s run after the ramp before the fit), ``predicted`` (m, the normal modes'
+    prediction for a force driver, ``modal_response``) and ``analytic`` (m, one-particle
+    lattices driven by a force only)."""
 
     frequency: float
     amplitude: float
     lag: float
     half_change: float
     settle: float
+    predicted: float | None = None
     analytic: float | None = None
 
     @property
@@ -125,7 +131,7 @@ class ResponsePoint:
     def as_dict(self) -> dict[str, Any]:
         return dict(frequency=self.frequency, amplitude=self.amplitude, lag_degrees=self.lag,
                     settle_seconds=self.settle, half_change=self.half_change,
-                    settled=self.settled, analytic=self.analytic)
+                    settled=self.settled, predicted=self.predicted, analytic=self.analytic)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -285,6 +291,32 @@ def _undamped_message(line: ModeLine) -> str:
         "(--set drag=0.1) or absorbing walls (--set boundary=absorbing), or give --settle "
         "SECONDS to measure anyway"
     )
+
+
+def modal_response(model: sim.Model, driver: sim.forcing.Driver, probe: int,
+                   frequencies: Sequence[float] | np.ndarray) -> np.ndarray | None:
+    """Complex steady amplitude (m) of the probe's displacement along the drive predicted by the
+    normal modes of the linearised lattice, at each frequency (Hz): the displacement is
+    Im(amplitude exp(i omega (t - start))), so its size is |amplitude| and its lag behind the
+    drive -arg(amplitude).  None for a displacement driver or when the modes are unavailable."""
+    if driver.kind != "force":
+        return None
+    try:
+        lines = all_modes(model, driver, probe)
+    except sim.ModelError:
+        return None
+    masses = np.asarray(model.masses, dtype=float).ravel()
+    driver_index = driver.row * model.nx + driver.column
+    force = driver.amplitude * model.stiffness / math.sqrt(masses[driver_index] * masses[probe])
+    along = np.array([driver.direction[POLARISATION_NAMES.index(line.polarisation)] ** 2
+                      for line in lines])
+    coupling = np.array([line.at_driver * line.at_probe for line in lines]) * along
+    omega_j = np.array([2 * math.pi * line.frequency for line in lines])
+    beta = np.array([line.beta for line in lines])
+    omega = 2 * math.pi * np.asarray(frequencies, dtype=float)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = coupling / (omega_j**2 - omega**2 + 1j * beta * omega)
+    return force * np.where(coupling == 0, 0.0, terms).sum(axis=1)
 
 
 def settle_time(model: sim.Model, driver: sim.forcing.Driver, frequency: float,
@@ -448,7 +480,10 @@ def measure_point(
     change = abs(second - first) / amplitude if amplitude > 0 else 0.0
     parameters = one_particle_parameters(model, driver)
     analytic = damped_oscillator_amplitude(*parameters, omega) if parameters else None
-    return ResponsePoint(float(frequency), amplitude, lag, change, float(settle), analytic)
+    prediction = modal_response(model, driver, probe, [frequency])
+    predicted = None if prediction is None else float(abs(prediction[0]))
+    return ResponsePoint(float(frequency), amplitude, lag, change, float(settle), predicted,
+                         analytic)
 
 
 def probe_index(model: sim.Model, probe: tuple[int, int] | None,
@@ -548,15 +583,20 @@ def format_report(curve: ResponseCurve) -> str:
         "",
     ]
     with_analytic = any(point.analytic is not None for point in curve.points)
+    with_prediction = not with_analytic and any(point.predicted for point in curve.points)
     header = f"{'f (Hz)':>9s} {'amplitude (m)':>14s} {'lag (deg)':>9s} {'settle (s)':>10s}"
     if with_analytic:
         header += f" {'analytic (m)':>13s} {'error':>8s}"
+    if with_prediction:
+        header += f" {'modes (m)':>11s} {'error':>8s}"
     lines.append(header + "  nearest mode")
     for point in curve.points:
         row = (f"{point.frequency:9.4f} {point.amplitude:14.4e} {point.lag:9.1f} "
                f"{point.settle:10.4g}")
         if with_analytic and point.analytic is not None:
             row += f" {point.analytic:13.4e} {point.amplitude / point.analytic - 1:+8.2%}"
+        if with_prediction and point.predicted:
+            row += f" {point.predicted:11.4e} {point.amplitude / point.predicted - 1:+8.2%}"
         near = curve.nearest_mode(point.frequency)
         if near is not None:
             row += f"  {near.label} ({near.frequency:.4f} Hz)"
@@ -570,6 +610,8 @@ def format_report(curve: ResponseCurve) -> str:
     unsettled = sum(not point.settled for point in curve.points)
     if unsettled:
         lines.append(f"{unsettled} point(s) not settled: give a longer --settle SECONDS")
+    if with_prediction:
+        lines.append(_prediction_caption(curve.model) + " in the column 'modes'")
     if driver.kind == "displacement":
         lines.append("displacement driver: the resonances are those of the lattice with the "
                      "driven particle held, near the free lattice's modes listed")
@@ -579,9 +621,19 @@ def format_report(curve: ResponseCurve) -> str:
     return "\n".join(lines)
 
 
+def _prediction_caption(model: sim.Model) -> str:
+    what = "normal-mode prediction"
+    notes = []
+    if not model.linear:
+        notes.append("linearised springs")
+    if model.boundary == "absorbing":
+        notes.append("sponge as modal damping: an estimate")
+    return what + (f" ({'; '.join(notes)})" if notes else "")
+
+
 def plot_response(curve: ResponseCurve, path: str) -> None:
-    """Amplitude (log scale) and lag against frequency, the normal modes as labelled vertical
-    lines (and the analytic curve for one particle); PNG."""
+    """Amplitude (log scale) and lag against frequency, measured points on the normal modes'
+    prediction (force drivers), the modes as labelled vertical lines; PNG."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -601,32 +653,39 @@ def plot_response(curve: ResponseCurve, path: str) -> None:
         if len(shown) <= 30:
             axis.text(line.frequency, 1.01, line.label, rotation=90, fontsize=7,
                       ha="center", va="bottom", transform=axis.get_xaxis_transform())
+    probe = curve.probe[1] * curve.model.nx + curve.probe[0]
+    dense = np.unique(np.concatenate([np.linspace(low, high, 3000),
+                                      [line.frequency for line in shown]]))
+    prediction = modal_response(curve.model, curve.driver, probe, dense)
+    if prediction is not None:
+        label = (_prediction_caption(curve.model) if curve.model.n_particles > 1 else
+                 "analytic F0 / (m sqrt((w0^2 - w^2)^2 + (beta w)^2))")
+        axis.plot(dense, np.abs(prediction), "-", color="black", linewidth=0.8, alpha=0.7,
+                  label=label)
+        lag_axis.plot(dense, -np.degrees(np.angle(prediction)), "-", color="black",
+                      linewidth=0.6, alpha=0.6)
+    else:
+        axis.plot(frequencies, curve.amplitudes, "-", color="tab:blue", linewidth=1.0)
     settled = np.array([point.settled for point in curve.points])
-    axis.plot(frequencies, curve.amplitudes, "-", color="tab:blue", linewidth=1.2)
     axis.plot(frequencies[settled], curve.amplitudes[settled], "o", color="tab:blue",
-              markersize=3, label="measured (steady amplitude)")
+              markersize=3.5, label="measured (steady amplitude)")
     if not settled.all():
         axis.plot(frequencies[~settled], curve.amplitudes[~settled], "x", color="tab:red",
                   label="not settled")
-    parameters = one_particle_parameters(curve.model, curve.driver)
-    if parameters is not None:
-        dense = np.linspace(low, high, 600)
-        axis.plot(dense, [damped_oscillator_amplitude(*parameters, 2 * math.pi * f)
-                          for f in dense],
-                  "k:", linewidth=1, label="analytic F0 / (m sqrt((w0^2 - w^2)^2 + (beta w)^2))")
     axis.set_yscale("log")
     axis.set_ylabel("steady amplitude (m)")
     axis.legend(fontsize=8, loc="lower left")
     axis.grid(True, which="major", alpha=0.25)
-    lag_axis.plot(frequencies, np.array([point.lag for point in curve.points]), ".-",
-                  color="tab:purple", markersize=3, linewidth=0.8)
+    lag_axis.plot(frequencies, np.array([point.lag for point in curve.points]), "o",
+                  color="tab:blue", markersize=2.5)
     lag_axis.set_ylabel("lag (deg)")
     lag_axis.set_yticks([-180, -90, 0, 90, 180])
     lag_axis.set_xlabel("drive frequency (Hz)")
     lag_axis.grid(True, alpha=0.25)
     driver = curve.driver
     figure.suptitle(
-        f"response of {curve.scene}: {driver.kind} drive A = {driver.amplitude:g} m at (column "
+        f"response of {curve.scene}{' (linearised springs)' if curve.model.linear else ''}: "
+        f"{driver.kind} drive A = {driver.amplitude:g} m at (column "
         f"{driver.column}, row {driver.row}), probe (column {curve.probe[0]}, row "
         f"{curve.probe[1]}); {curve.integrator} dt = {curve.dt:g} s",
         fontsize=9,
