@@ -109,7 +109,11 @@ transient dies out; then the probed particle's displacement along the drive is f
 drive periods by least squares with a cos(wt) + b sin(wt) + c.  The table gives the steady
 amplitude sqrt(a^2 + b^2), the lag behind the drive (90 degrees at an isolated resonance) and
 the settle time used; the picture shows the amplitude against frequency with the lattice's
-normal modes as labelled vertical lines.
+normal modes as labelled vertical lines.  For a force driver the modes also predict the steady
+response of the linearised lattice (sum over modes of F0 c_j / (omega_j^2 - omega^2 + i beta_j
+omega)): it is drawn as a curve under the measured points and listed in the column "modes" (not
+with absorbing walls, whose damping the modes do not diagonalise).  For one particle it is the
+analytic F0 / (m sqrt((omega_0^2 - omega^2)^2 + (beta omega)^2)).
 
 Settle time: by default estimated for each frequency from the damping of the normal modes the
 driver excites (drag, dashpots and the sponge), long enough for their transient to fall to
@@ -135,7 +139,7 @@ examples:
   oscillators response resonance --frequencies 0.6:0.75:30 --probe 6,0
   oscillators response single --set drag=0.5 --set linear=true \\
       --set driver=column=0,row=0,amplitude=0.01,kind=force --frequencies 0.3:2:40
-  oscillators response bandgap --probe 10,0 --frequencies 0.2:1.6:40 --settle 300
+  oscillators response bandgap --frequencies 0.2:1.6:57 --settle 300 --periods 20
 
 Python: from app.study.response import response_curve  (returns the data; .as_dict() for JSON)
 """
