@@ -175,6 +175,17 @@ def test_mode_energies_are_thinned_and_refused_where_they_cannot_run(tmp_path, c
     assert not refused.exists()
 
 
+def test_nearest_mode_is_the_one_sim_probes_names():
+    from sim.probes import nearest_modes
+
+    for model in (sim.scenes.build("resonance").model,
+                  sim.scenes.build("membrane", nx=6, ny=5).model):
+        for frequency in np.linspace(0.05, 2.0, 25):
+            mine, listed = instruments.nearest_mode(model, frequency), nearest_modes(model, frequency)[0]
+            assert abs(mine.frequency - frequency) == pytest.approx(abs(listed.frequency - frequency))
+    assert instruments.nearest_mode(sim.scenes.build("ionic").model, 1.0) is None
+
+
 def test_block_sums_keep_the_energy():
     values = np.random.default_rng(1).random((383, 682))
     summed = instruments.block_sum(values, 3, 6)

@@ -263,7 +263,8 @@ def default_every(steps: int, runs: int, options: RecordingOptions, model: Any) 
     per_frame = options.plan(model).estimated_bytes_per_frame(model, options.jpeg_quality,
                                                               modes=False)
     # mode energies are thinned to their own share of the budget (instruments.modes_every)
-    budget = SIZE_BUDGET_BYTES - (instruments.MODES_BUDGET_BYTES * runs if options.modes else 0)
+    reserve = instruments.modes_reserve_bytes(model) * runs if options.modes else 0.0
+    budget = SIZE_BUDGET_BYTES - reserve
     by_count = math.ceil(steps / MAX_DEFAULT_FRAMES)
     by_size = math.ceil(steps * runs * per_frame / budget)
     return max(1, by_count, by_size)

@@ -6,7 +6,7 @@
   spectrum of each series (``sim.probes.spectrum``: Hann window, a sine of amplitude A reads A)
   is logged statically as a bar chart (m against Hz) at ``T/spectra/<I>_<J>/<component>``, and
   its strongest peaks, with the lattice's nearest normal-mode frequencies for equal masses
-  (``sim.probes.nearest_modes``), go into the read-me.
+  (as ``sim.probes.nearest_modes``, vectorised for large lattices), go into the read-me.
 * **Mode energies** (``--modes``): ``sim.modes.mode_energies`` of a recorded frame, per
   polarisation, as a float32 tensor (J) at ``T/modes/<polarisation>/energy`` and as a heat map
   in log colour at ``T/modes/<polarisation>/image``.  They cost 7 bytes a mode and polarisation
@@ -125,7 +125,7 @@ class ProbeLog:
     def finish(self, stream: rr.RecordingStream, driver: Any = None) -> list[str]:
         """Log each series' spectrum (static bar charts, m against Hz) and return markdown lines
         naming the peaks and the normal modes nearest to them."""
-        from sim.probes import dominant_frequencies, nearest_modes, spectrum, uniform_series
+        from sim.probes import dominant_frequencies, spectrum, uniform_series
 
         times = self.series.times
         if times.size < 3:
@@ -154,13 +154,13 @@ class ProbeLog:
                     continue  # this component hardly moves: its peaks would be noise
                 peaks = []
                 for frequency, amplitude in dominant_frequencies(values, interval, SPECTRUM_PEAKS):
-                    near = nearest_modes(self.model, frequency)
+                    near = nearest_mode(self.model, frequency)
                     note = ""
-                    if near and abs(near[0].frequency - frequency) <= NEAR_BINS / span:
-                        note = f", normal mode {near[0].describe().removeprefix('mode ')}"
+                    if near and abs(near.frequency - frequency) <= NEAR_BINS / span:
+                        note = f", normal mode {near.describe().removeprefix('mode ')}"
                     elif near:
                         note = (f"; no normal mode within {NEAR_BINS / span:.2g} Hz, the nearest "
-                                f"is {near[0].describe()}: a harmonic or a combination?")
+                                f"is {near.describe()}: a harmonic or a combination?")
                     peaks.append(f"{frequency:.4g} Hz ({amplitude:.3g} m{note})")
                 if peaks:
                     lines.append(f"* Probe ({column}, {row}), u_{name}: " + "; ".join(peaks) + ".")
@@ -168,6 +168,31 @@ class ProbeLog:
             lines.append("* Unequal masses: the normal modes are not sine waves, so no mode is "
                          "named beside the peaks.")
         return lines
+
+
+def nearest_mode(model: Model, frequency: float) -> Any:
+    """The normal mode (``sim.probes.ModeMatch``) whose frequency is closest to ``frequency``
+    (Hz), for equal masses (None otherwise); vectorised, so that it is quick on any lattice
+    (``sim.probes.nearest_modes`` lists every mode one by one)."""
+    from sim.modes import POLARISATION_NAMES, polarisations, second_difference_eigenvalues
+    from sim.probes import ModeMatch
+
+    if not model.uniform_mass:
+        return None
+    mass = float(np.asarray(model.masses).mean())
+    columns = second_difference_eigenvalues(model.nx)[None, :]
+    rows = second_difference_eigenvalues(model.ny)[:, None]
+    best: Any = None
+    for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
+        omega_squared = np.maximum((k_columns * columns + k_rows * rows) / mass, 0.0)
+        frequencies = np.sqrt(omega_squared) / (2 * np.pi)
+        row, column = np.unravel_index(np.argmin(np.abs(frequencies - frequency)),
+                                       frequencies.shape)
+        found = ModeMatch(int(column) + 1, int(row) + 1, POLARISATION_NAMES[component],
+                          float(frequencies[row, column]))
+        if best is None or abs(found.frequency - frequency) < abs(best.frequency - frequency):
+            best = found
+    return best
 
 
 # --- mode energies ---------------------------------------------------------------------------------
@@ -219,6 +244,12 @@ def modes_every(model: Model, expected_frames: int | None) -> int:
     frames = expected_frames or MODES_ASSUMED_FRAMES
     return max(1, math.ceil(frames / MODES_MAX_FRAMES),
                math.ceil(frames * mode_frame_bytes(model) / MODES_BUDGET_BYTES))
+
+
+def modes_reserve_bytes(model: Model) -> float:
+    """What a recording's mode energies take at most (bytes): their budget, or less when even
+    ``MODES_MAX_FRAMES`` of them are smaller (``record`` keeps this out of its size budget)."""
+    return min(MODES_BUDGET_BYTES, MODES_MAX_FRAMES * mode_frame_bytes(model))
 
 
 def block_sum(values: np.ndarray, rows: int, columns: int) -> np.ndarray:
