@@ -228,7 +228,7 @@ class LoggingPlan:
         the disk-space check and to choose the default frame interval of ``record``.  ``modes``:
         include the mode energies (thinned to their own budget)."""
         total = 400.0  # energies, drift, dt, timestamps
-        total += 60.0 * len(self.probes) * model.dim
+        total += 150.0 * len(self.probes) * model.dim  # measured on resonance
         if modes and self.modes_every:
             total += instruments.mode_frame_bytes(model) / self.modes_every
         if self.positions_every:
