@@ -123,6 +123,17 @@ def test_probe_outside_the_lattice_is_refused(tmp_path, capsys):
         main(["record", "chain", "--probe", "2", "-o", str(path)])
 
 
+@pytest.mark.slow
+def test_resonance_default_recording(tmp_path):
+    """The driven preset's default recording is what every preset's must be (small, explained,
+    colour scales neither saturated nor faint)."""
+    from tests.test_recording import check_default_recording
+
+    path = tmp_path / "resonance.rrd"
+    assert main(["record", "resonance", "-o", str(path), "--quiet"]) == 0
+    check_default_recording(path, "resonance")
+
+
 # --- mode energies --------------------------------------------------------------------------------
 
 
