@@ -558,17 +558,16 @@ def command_response(arguments: argparse.Namespace) -> int:
     scene = scene_from_arguments(arguments)
     _default_plot(arguments, f"{Path(scene.name).stem or 'scene'}-response.png")
     dt = arguments.dt or scene.dt
-    index, _, frequencies, settles = response.plan(
-        scene, arguments.frequencies, arguments.probe, arguments.settle, dt)
-    steps = response.planned_steps(scene.model.driver, frequencies, settles, arguments.periods,
-                                   dt)
+    checked = response.plan(scene, arguments.frequencies, arguments.probe, arguments.settle, dt)
+    steps = response.planned_steps(scene.model.driver, checked.frequencies, checked.settles,
+                                   arguments.periods, dt)
     integrator = arguments.integrator or scene.integrator
     _check_plan([(count, scene.model.n_particles, integrator) for count in steps], "response")
-    with _progress_bar(len(frequencies), arguments.quiet) as bar:
+    with _progress_bar(len(checked.frequencies), arguments.quiet) as bar:
         curve = response.response_curve(
-            scene, frequencies, arguments.probe, arguments.settle, arguments.periods,
+            scene, checked.frequencies, arguments.probe, arguments.settle, arguments.periods,
             integrator=arguments.integrator, dt=arguments.dt, precision=arguments.precision,
-            threads=arguments.threads, progress=_advance(bar),
+            threads=arguments.threads, progress=_advance(bar), prepared=checked,
         )
     data = curve.as_dict()
     if arguments.plot:

@@ -269,10 +269,12 @@ def _not_at_a_node(values: Sequence[float]) -> np.ndarray:
     return magnitudes > 1e-9 * magnitudes.max()
 
 
-def mode_lines(model: sim.Model, driver: sim.forcing.Driver, probe: int) -> list[ModeLine]:
+def mode_lines(model: sim.Model, driver: sim.forcing.Driver, probe: int,
+               lines: Sequence[ModeLine] | None = None) -> list[ModeLine]:
     """The normal modes that can show in the response at ``probe``: no node at the driven
-    particle nor at the probe, lowest frequency first (zero-frequency modes left out)."""
-    lines = all_modes(model, driver, probe)
+    particle nor at the probe, lowest frequency first (zero-frequency modes left out).
+    ``lines``: ``all_modes(model, driver, probe)`` when already computed."""
+    lines = all_modes(model, driver, probe) if lines is None else lines
     keep = (_not_at_a_node([line.at_driver for line in lines])
             & _not_at_a_node([line.at_probe for line in lines]))
     shown = [line for line, kept in zip(lines, keep, strict=True) if kept and line.frequency > 0]
@@ -298,19 +300,22 @@ def _undamped_message(line: ModeLine) -> str:
 
 
 def modal_response(model: sim.Model, driver: sim.forcing.Driver, probe: int,
-                   frequencies: Sequence[float] | np.ndarray) -> np.ndarray | None:
+                   frequencies: Sequence[float] | np.ndarray,
+                   lines: Sequence[ModeLine] | None = None) -> np.ndarray | None:
     """Complex steady amplitude (m) of the probe's displacement along the drive predicted by the
     normal modes of the linearised lattice, at each frequency (Hz): the displacement is
     Im(amplitude exp(i omega (t - start))), so its size is |amplitude| and its lag behind the
     drive -arg(amplitude).  None for a displacement driver, with absorbing walls (the sponge's
     damping is far from diagonal in the modes: the sum misses by tens of per cent, measured on
-    the bandgap preset) or when the modes are unavailable."""
+    the bandgap preset) or when the modes are unavailable.  ``lines``: ``all_modes(model,
+    driver, probe)`` when already computed."""
     if driver.kind != "force" or model.boundary == "absorbing":
         return None
-    try:
-        lines = all_modes(model, driver, probe)
-    except sim.ModelError:
-        return None
+    if lines is None:
+        try:
+            lines = all_modes(model, driver, probe)
+        except sim.ModelError:
+            return None
     masses = np.asarray(model.masses, dtype=float).ravel()
     driver_index = driver.row * model.nx + driver.column
     force = driver.amplitude * model.stiffness / math.sqrt(masses[driver_index] * masses[probe])
@@ -326,26 +331,31 @@ def modal_response(model: sim.Model, driver: sim.forcing.Driver, probe: int,
 
 
 def settle_time(model: sim.Model, driver: sim.forcing.Driver, frequency: float,
-                probe: int | None = None, factor: float = SETTLE_FACTOR) -> float:
+                probe: int | None = None, factor: float = SETTLE_FACTOR,
+                lines: Sequence[ModeLine] | None = None) -> float:
     """Seconds after the ramp for the transient the driver at ``frequency`` (Hz) starts to fall
-    to 1/``factor`` of the steady amplitude at ``probe`` (see the module docstring).  ValueError
-    when an undamped mode would keep it from settling."""
+    to 1/``factor`` of the steady amplitude at ``probe`` (see the module docstring): the time
+    at which the sum of the modes' estimated transients, each decaying at its own rate, is
+    1/``factor`` (a bound: they may partly cancel).  ``lines``: ``all_modes(model, driver,
+    probe)`` when already computed.  ValueError when undamped modes would keep it from
+    settling."""
     driver_index = driver.row * model.nx + driver.column
     probe = driver_index if probe is None else probe
-    try:
-        lines = all_modes(model, driver, probe)
-    except sim.ModelError as error:
-        raise ValueError(f"{error}; give the settle time with --settle SECONDS") from None
+    if lines is None:
+        try:
+            lines = all_modes(model, driver, probe)
+        except sim.ModelError as error:
+            raise ValueError(f"{error}; give the settle time with --settle SECONDS") from None
     excited = [line for line, kept in zip(
         lines, _not_at_a_node([line.at_driver for line in lines]), strict=True) if kept]
     if not excited:
         return 0.0
     decay = np.array([line.decay_rate for line in excited])
-    slowest = excited[int(np.argmin(decay))]
-    if driver.kind != "force":
-        if slowest.decay_rate <= 1e-12:
-            raise ValueError(_undamped_message(slowest))
-        return math.log(factor) / slowest.decay_rate
+    undamped = decay <= 1e-12
+    if driver.kind != "force":  # the lattice is held at the driver: the slowest mode decides
+        if undamped.any():
+            raise ValueError(_undamped_message(excited[int(np.argmax(undamped))]))
+        return math.log(factor) / float(decay.min())
     omega = 2 * math.pi * frequency
     omega_j = np.array([2 * math.pi * line.frequency for line in excited])
     coupling = np.array([line.at_driver * line.at_probe for line in excited])
@@ -357,12 +367,22 @@ def settle_time(model: sim.Model, driver: sim.forcing.Driver, frequency: float,
                          "driver excites, or an undamped resonance); give --settle SECONDS")
     ramp = ramp_spectrum(omega_j - omega, driver.ramp) if driver.ramp > 0 else 1.0
     transient = ramp * np.abs(response) / steady
-    matters = transient * factor > 1.0
-    if not matters.any():
+    target = 1.0 / factor
+    if transient[undamped].sum() >= target:
+        lasting = np.where(undamped, transient, 0.0)
+        raise ValueError(_undamped_message(excited[int(np.argmax(lasting))]))
+    damped = ~undamped
+    transient, decay = transient[damped], decay[damped]
+    if transient.sum() <= target:
         return 0.0
-    if np.any(decay[matters] <= 1e-12):
-        raise ValueError(_undamped_message(excited[int(np.argmax(matters & (decay <= 1e-12)))]))
-    return float(np.max(np.log(transient[matters] * factor) / decay[matters]))
+    low, high = 0.0, float(np.max(np.log(transient * factor * transient.size) / decay))
+    for _ in range(60):  # bisection on the decreasing sum of exponentials
+        middle = 0.5 * (low + high)
+        if (transient * np.exp(-decay * middle)).sum() > target:
+            low = middle
+        else:
+            high = middle
+    return high
 
 
 def one_particle_parameters(model: sim.Model, driver: sim.forcing.Driver
@@ -460,10 +480,11 @@ def fit_oscillation(times: np.ndarray, values: np.ndarray, omega: float
 def measure_point(
     scene: sim.Scene, frequency: float, probe: int, settle: float,
     periods: int = DEFAULT_PERIODS, integrator: str | None = None, dt: float | None = None,
-    precision: str | None = None, threads: int = 1,
+    precision: str | None = None, threads: int = 1, lines: Sequence[ModeLine] | None = None,
 ) -> ResponsePoint:
     """Run ``scene`` from rest with its driver at ``frequency`` (Hz) and fit the steady
-    response at particle ``probe`` (see the module docstring)."""
+    response at particle ``probe`` (see the module docstring).  ``lines``: ``all_modes(model,
+    driver, probe)`` when already computed (for the prediction)."""
     driver = dataclasses.replace(driver_of(scene), frequency=float(frequency))
     model = scene.model.replace(driver=driver)
     at_rest = dataclasses.replace(scene, model=model,
@@ -493,7 +514,7 @@ def measure_point(
     change = abs(second - first) / amplitude if amplitude > 0 else 0.0
     parameters = one_particle_parameters(model, driver)
     analytic = damped_oscillator_amplitude(*parameters, omega) if parameters else None
-    prediction = modal_response(model, driver, probe, [frequency])
+    prediction = modal_response(model, driver, probe, [frequency], lines)
     predicted = None if prediction is None else float(abs(prediction[0]))
     return ResponsePoint(float(frequency), amplitude, lag, change, float(settle), predicted,
                          analytic)
@@ -529,29 +550,46 @@ def planned_steps(driver: sim.forcing.Driver, frequencies: Sequence[float],
             for frequency, settle in zip(frequencies, settles, strict=True)]
 
 
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """A checked response curve: the ``probe`` index, the lattice's modes (``modes``: all of
+    the driven polarisations, None when unavailable; ``shown``: those drawn), the
+    ``frequencies`` (Hz) and the ``settles`` (s) of each."""
+
+    probe: int
+    modes: list[ModeLine] | None
+    shown: list[ModeLine]
+    frequencies: np.ndarray
+    settles: list[float]
+
+
 def plan(
     scene: sim.Scene, frequencies: Sequence[float] | None = None,
     probe: tuple[int, int] | None = None, settle: float | None = None,
     dt: float | None = None,
-) -> tuple[int, list[ModeLine], np.ndarray, list[float]]:
-    """(probe index, mode lines, frequencies, settle time of each) of a response curve, all
-    checked: ValueError with the reason for a scene without driver, a probe outside the
-    lattice, frequencies too fast for the step or an undamped lattice."""
+) -> Plan:
+    """Everything a response curve needs before it runs, checked: ValueError with the reason
+    for a scene without driver, a probe outside the lattice, frequencies too fast for the step
+    or an undamped lattice."""
     model = scene.model
     driver = driver_of(scene)
     index = probe_index(model, probe, driver)
     try:
-        lines = mode_lines(model, driver, index)
+        modes: list[ModeLine] | None = all_modes(model, driver, index)
     except sim.ModelError:
-        lines = []
-    chosen = np.asarray(default_frequencies(lines) if frequencies is None else frequencies,
+        modes = None
+    shown = mode_lines(model, driver, index, modes) if modes is not None else []
+    chosen = np.asarray(default_frequencies(shown) if frequencies is None else frequencies,
                         dtype=float)
     check_frequencies(chosen, float(dt if dt is not None else scene.dt))
     if settle is not None:
         settles = [float(settle)] * chosen.size
     else:
-        settles = [settle_time(model, driver, frequency, index) for frequency in chosen]
-    return index, lines, chosen, settles
+        if modes is None:
+            settle_time(model, driver, float(chosen[0]), index)  # raises with the reason
+        settles = [settle_time(model, driver, frequency, index, lines=modes)
+                   for frequency in chosen]
+    return Plan(index, modes, shown, chosen, settles)
 
 
 def response_curve(
@@ -559,15 +597,18 @@ def response_curve(
     probe: tuple[int, int] | None = None, settle: float | None = None,
     periods: int = DEFAULT_PERIODS, integrator: str | None = None, dt: float | None = None,
     precision: str | None = None, threads: int = 1, progress: ProgressCallback | None = None,
+    prepared: Plan | None = None,
 ) -> ResponseCurve:
     """The steady response of ``scene`` at each frequency (Hz; default ``default_frequencies``)
     at the particle (column, row) ``probe`` (default the driven one) after ``settle`` seconds
-    (default ``settle_time`` of each frequency), fitted over ``periods`` periods."""
-    index, lines, chosen, settles = plan(scene, frequencies, probe, settle, dt)
+    (default ``settle_time`` of each frequency), fitted over ``periods`` periods.
+    ``prepared``: the ``plan`` of these same arguments when already made."""
+    checked = prepared or plan(scene, frequencies, probe, settle, dt)
+    index = checked.probe
     points = []
-    for frequency, settle_seconds in zip(chosen, settles, strict=True):
+    for frequency, settle_seconds in zip(checked.frequencies, checked.settles, strict=True):
         points.append(measure_point(scene, float(frequency), index, settle_seconds, periods,
-                                    integrator, dt, precision, threads))
+                                    integrator, dt, precision, threads, checked.modes))
         if progress:
             progress(f"f = {frequency:.4g} Hz")
     row, column = divmod(index, scene.model.nx)
@@ -575,7 +616,7 @@ def response_curve(
         scene=scene.name, model=scene.model, driver=driver_of(scene), probe=(column, row),
         integrator=integrator or scene.integrator,
         dt=float(dt if dt is not None else scene.dt), settle=settle, periods=int(periods),
-        points=tuple(points), modes=tuple(lines),
+        points=tuple(points), modes=tuple(checked.shown),
     )
 
 
