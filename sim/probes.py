@@ -16,7 +16,12 @@ import dataclasses
 import numpy as np
 
 from sim.model import Model
-from sim.modes import POLARISATION_NAMES, mode_frequency
+from sim.modes import (
+    POLARISATION_NAMES,
+    mode_frequency,
+    polarisations,
+    second_difference_eigenvalues,
+)
 
 
 def uniform_series(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float]:
@@ -95,11 +100,23 @@ def mode_table(model: Model) -> list[ModeMatch]:
 
 def nearest_modes(model: Model, frequency: float, count: int = 1) -> list[ModeMatch]:
     """The ``count`` normal modes whose frequencies are closest to ``frequency`` (Hz); none for
-    unequal masses (their modes are not sine waves: see ``sim.modes.ModalBasis``)."""
-    if not model.uniform_mass:
+    unequal masses, rings or free ends (their modes are not the sine modes (m, n): see
+    ``sim.modes.ModalBasis``).  Vectorised: quick on the largest lattices."""
+    if not model.uniform_mass or model.row_ends != "walls":
         return []
-    table = mode_table(model)
-    return sorted(table, key=lambda mode: abs(mode.frequency - frequency))[:count]
+    mass = float(np.asarray(model.masses).mean())
+    columns = second_difference_eigenvalues(model.nx)[None, :]
+    rows = second_difference_eigenvalues(model.ny)[:, None]
+    candidates: list[ModeMatch] = []
+    for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
+        frequencies = np.sqrt(np.maximum((k_columns * columns + k_rows * rows) / mass, 0.0))
+        frequencies = (frequencies / (2 * np.pi)).ravel()
+        nearest = np.argsort(np.abs(frequencies - frequency), kind="stable")[:count]
+        for index in nearest:
+            row, column = divmod(int(index), model.nx)
+            candidates.append(ModeMatch(column + 1, row + 1, POLARISATION_NAMES[component],
+                                        float(frequencies[index])))
+    return sorted(candidates, key=lambda mode: abs(mode.frequency - frequency))[:count]
 
 
 class ProbeSeries:

@@ -6,7 +6,7 @@
   spectrum of each series (``sim.probes.spectrum``: Hann window, a sine of amplitude A reads A)
   is logged statically as a bar chart (m against Hz) at ``T/spectra/<I>_<J>/<component>``, and
   its strongest peaks, with the lattice's nearest normal-mode frequencies for equal masses
-  (as ``sim.probes.nearest_modes``, vectorised for large lattices), go into the read-me.
+  (``sim.probes.nearest_modes``), go into the read-me.
 * **Mode energies** (``--modes``): ``sim.modes.mode_energies`` of a recorded frame, per
   polarisation, as a float32 tensor (J) at ``T/modes/<polarisation>/energy`` and as a heat map
   in log colour at ``T/modes/<polarisation>/image``.  They cost 7 bytes a mode and polarisation
@@ -172,27 +172,11 @@ class ProbeLog:
 
 def nearest_mode(model: Model, frequency: float) -> Any:
     """The normal mode (``sim.probes.ModeMatch``) whose frequency is closest to ``frequency``
-    (Hz), for equal masses (None otherwise); vectorised, so that it is quick on any lattice
-    (``sim.probes.nearest_modes`` lists every mode one by one)."""
-    from sim.modes import POLARISATION_NAMES, polarisations, second_difference_eigenvalues
-    from sim.probes import ModeMatch
+    (Hz), for equal masses between walls (None otherwise)."""
+    from sim.probes import nearest_modes
 
-    if not model.uniform_mass:
-        return None
-    mass = float(np.asarray(model.masses).mean())
-    columns = second_difference_eigenvalues(model.nx)[None, :]
-    rows = second_difference_eigenvalues(model.ny)[:, None]
-    best: Any = None
-    for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
-        omega_squared = np.maximum((k_columns * columns + k_rows * rows) / mass, 0.0)
-        frequencies = np.sqrt(omega_squared) / (2 * np.pi)
-        row, column = np.unravel_index(np.argmin(np.abs(frequencies - frequency)),
-                                       frequencies.shape)
-        found = ModeMatch(int(column) + 1, int(row) + 1, POLARISATION_NAMES[component],
-                          float(frequencies[row, column]))
-        if best is None or abs(found.frequency - frequency) < abs(best.frequency - frequency):
-            best = found
-    return best
+    found = nearest_modes(model, frequency)
+    return found[0] if found else None
 
 
 # --- mode energies ---------------------------------------------------------------------------------
