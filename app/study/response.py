@@ -23,10 +23,11 @@ transient a smooth ramp of T seconds leaves in mode j, relative to the steady am
 probe, is estimated as g(|omega_j - omega| T) |c_j / D_j| / |sum_k c_k / D_k|, with
 D_j = omega_j^2 - omega^2 + i beta_j omega, c_j the mode's shape at the driver times its shape at
 the probe, and g(x) = |cos(x / 2)| / |1 - (x / pi)^2| the spectrum of the ramp's rate (1 at
-x = 0; 1 for every mode without a ramp).  The settle time brings the largest of them down to
-1/1000 of the steady amplitude: max_j ln(1000 transient_j) / r_j.  Modes far from the drive
-frequency are excited little by a smooth ramp and need less time; an undamped mode the driver
-excites never settles: it is refused with a message.  With a displacement driver (the lattice
+x = 0; 1 for every mode without a ramp).  The settle time brings their sum down to 1/1000 of
+the steady amplitude: sum_j transient_j exp(-r_j t) = 1/1000 (a bound: on a large lattice many
+small transients add up).  Modes far from the drive frequency are excited little by a smooth
+ramp and need less time; undamped modes the driver excites never settle: they are refused with a
+message.  With a displacement driver (the lattice
 is then held at the driven particle) the slowest excited mode sets the time alone.
 
 The normal modes (``mode_lines``) are drawn as vertical lines on the curve, labelled: equal
@@ -683,6 +684,17 @@ def _prediction_caption(model: sim.Model) -> str:
     return what + (f" ({'; '.join(notes)})" if notes else "")
 
 
+def _same_frequency(lines: Sequence[ModeLine]) -> list[tuple[float, list[str]]]:
+    """(frequency, labels) of the lines, degenerate modes (equal frequencies to 1e-9) merged."""
+    groups: list[tuple[float, list[str]]] = []
+    for line in sorted(lines, key=lambda line: line.frequency):
+        if groups and abs(line.frequency - groups[-1][0]) <= 1e-9 * max(line.frequency, 1e-300):
+            groups[-1][1].append(line.label)
+        else:
+            groups.append((line.frequency, [line.label]))
+    return groups
+
+
 def plot_response(curve: ResponseCurve, path: str) -> None:
     """Amplitude (log scale) and lag against frequency, measured points on the normal modes'
     prediction (force drivers), the modes as labelled vertical lines; PNG."""
@@ -697,13 +709,15 @@ def plot_response(curve: ResponseCurve, path: str) -> None:
     low, high = float(frequencies.min()), float(frequencies.max())
     margin = 0.02 * (high - low or high)
     shown = [line for line in curve.modes if low - margin <= line.frequency <= high + margin]
-    for index, line in enumerate(shown):
+    groups = _same_frequency(shown)
+    for index, (frequency, labels) in enumerate(groups):
         for target in (axis, lag_axis):
-            target.axvline(line.frequency, color="tab:grey", linewidth=0.8, alpha=0.6,
+            target.axvline(frequency, color="tab:grey", linewidth=0.8, alpha=0.6,
                            linestyle="--", label="normal modes" if index == 0 and
                            target is axis else None)
-        if len(shown) <= 30:
-            axis.text(line.frequency, 1.01, line.label, rotation=90, fontsize=7,
+        if len(groups) <= 30:
+            text = " / ".join(labels[:2]) + (" ..." if len(labels) > 2 else "")
+            axis.text(frequency, 1.01, text, rotation=90, fontsize=7,
                       ha="center", va="bottom", transform=axis.get_xaxis_transform())
     probe = curve.probe[1] * curve.model.nx + curve.probe[0]
     dense = np.unique(np.concatenate([np.linspace(low, high, 3000),
