@@ -201,10 +201,14 @@ def driven_components(model: sim.Model, driver: sim.forcing.Driver) -> list[int]
 
 def _transient_decay(beta: np.ndarray, omega_squared: np.ndarray) -> np.ndarray:
     """Amplitude decay rate (1/s) of q'' + beta q' + omega^2 q = 0: beta / 2, or the slow root
-    beta / 2 - sqrt(beta^2 / 4 - omega^2) when overdamped."""
+    beta / 2 - sqrt(beta^2 / 4 - omega^2) when overdamped.  A mode without stiffness (a ring or
+    a free chain sliding as a whole) drifts to a standstill at the rate beta: its offset is
+    the fit's constant c, so only its motion has to die out."""
     beta = np.asarray(beta, dtype=float)
-    excess = np.maximum(beta**2 / 4 - np.maximum(omega_squared, 0.0), 0.0)
-    return beta / 2 - np.sqrt(excess)
+    omega_squared = np.maximum(np.asarray(omega_squared, dtype=float), 0.0)
+    excess = np.maximum(beta**2 / 4 - omega_squared, 0.0)
+    floating = omega_squared <= 1e-12 * max(float(omega_squared.max(initial=0.0)), 1e-300)
+    return np.where(floating, beta, beta / 2 - np.sqrt(excess))
 
 
 def _chain_label(model: sim.Model, m: int, n: int) -> str:
