@@ -8,7 +8,9 @@ the numbers quoted there:
   60 s run (what ``oscillators run resonance --probe 0,0`` prints), with the chain's normal-mode
   frequencies marked;
 * ``bandgap.png``: the steady amplitude along the ``bandgap`` preset's ionic chain driven inside
-  the gap and in each band, with the decay predicted by the dispersion relation.
+  the gap and in each band, with the decay predicted by the dispersion relation;
+* ``walls.png``: one pulse on a chain with fixed walls, free ends and periodic rows, as
+  space-time pictures.
 
 Run from the repository root (deterministic, about half a minute)::
 
@@ -186,10 +188,52 @@ def draw_bandgap(path: Path) -> None:
     plt.close(figure)
 
 
+def pulse_history(boundary: str, particles: int = 120, seconds: float = 30.0,
+                  samples: int = 240) -> np.ndarray:
+    """(samples, particles) longitudinal displacement of a linear chain carrying a Gaussian
+    pulse that starts in the middle and runs left (u(x + c t)), c = sqrt(k/m) spacings/s."""
+    stiffness = 35.0
+    model = sim.Model.create(particles, 1, stiffness=stiffness, linear=True, boundary=boundary)
+    columns = np.arange(particles)
+    pulse = 0.01 * np.exp(-0.5 * ((columns - particles / 2) / 4.0) ** 2)
+    positions = model.rest_positions.copy()
+    velocities = np.zeros_like(positions)
+    positions[:, 0] += pulse
+    velocities[:, 0] = math.sqrt(stiffness) * np.gradient(pulse)
+    simulation = sim.Simulation(sim.Scene(name="pulse", model=model, initial_positions=positions,
+                                          initial_velocities=velocities),
+                                integrator="rk4", dt=0.02)
+    every = max(1, int(round(seconds / samples / simulation.dt)))
+    history = []
+    for _ in range(samples):
+        history.append(simulation.positions[:, 0] - model.rest_positions[:, 0])
+        simulation.step(every)
+    return np.array(history)
+
+
+def draw_walls(path: Path) -> None:
+    """Space-time pictures of one pulse on a fixed, a free and a periodic chain."""
+    figure, axes = plt.subplots(1, 3, figsize=(11, 3.6), sharey=True)
+    seconds = 30.0
+    for axis, boundary in zip(axes, ("fixed", "free", "periodic")):
+        history = pulse_history(boundary, seconds=seconds)
+        image = axis.imshow(history, aspect="auto", origin="lower", cmap="RdBu_r",
+                            vmin=-0.01, vmax=0.01, extent=(0, history.shape[1], 0, seconds))
+        axis.set_title({"fixed": "fixed walls: comes back inverted",
+                        "free": "free ends: comes back upright",
+                        "periodic": "periodic: leaves left, enters right"}[boundary], fontsize=9)
+        axis.set_xlabel("particle (column)")
+    axes[0].set_ylabel("time (s)")
+    figure.colorbar(image, ax=axes, label="displacement u_x (m)", shrink=0.9)
+    figure.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(figure)
+
+
 def main() -> None:
     draw_mode_energies(HERE / "mode_energies.png")
     draw_probe_spectrum(HERE / "probe_spectrum.png")
     draw_bandgap(HERE / "bandgap.png")
+    draw_walls(HERE / "walls.png")
     print(f"pictures written to {HERE}")
 
 
