@@ -215,7 +215,7 @@ def draw_walls(path: Path) -> None:
     """Space-time pictures of one pulse on a fixed, a free and a periodic chain."""
     figure, axes = plt.subplots(1, 3, figsize=(11, 3.6), sharey=True)
     seconds = 30.0
-    for axis, boundary in zip(axes, ("fixed", "free", "periodic")):
+    for axis, boundary in zip(axes, ("fixed", "free", "periodic"), strict=True):
         history = pulse_history(boundary, seconds=seconds)
         image = axis.imshow(history, aspect="auto", origin="lower", cmap="RdBu_r",
                             vmin=-0.01, vmax=0.01, extent=(0, history.shape[1], 0, seconds))
