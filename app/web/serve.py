@@ -113,21 +113,23 @@ def command_serve(arguments: argparse.Namespace) -> int:
     app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play,
                  scenes_dir=scenes_dir, recordings_dir=arguments.recordings_dir,
                  allow_origins=arguments.allow_origin)
-    app.start()
-    print(f"{simulation.scene.summary()}")
-    print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
-    print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
-          f"recordings go to {arguments.recordings_dir}/", flush=True)
-    if not _loopback(arguments.host):
-        print(network_warning(arguments.host, app.server.get_port(), str(scenes_dir),
-                              str(arguments.recordings_dir)), file=sys.stderr, flush=True)
-        print("others open http://<this machine's address>:"
-              f"{app.server.get_port()}", flush=True)
+
     def terminate(number: int, frame: object) -> None:  # SIGTERM: stop as Ctrl+C does
         raise KeyboardInterrupt
 
+    # installed before anything is printed, so a SIGTERM right after the first line stops cleanly
     previous = signal.signal(signal.SIGTERM, terminate)
     try:
+        app.start()
+        print(f"{simulation.scene.summary()}")
+        print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
+        print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
+              f"recordings go to {arguments.recordings_dir}/", flush=True)
+        if not _loopback(arguments.host):
+            print(network_warning(arguments.host, app.server.get_port(), str(scenes_dir),
+                                  str(arguments.recordings_dir)), file=sys.stderr, flush=True)
+            print("others open http://<this machine's address>:"
+                  f"{app.server.get_port()}", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
