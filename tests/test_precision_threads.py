@@ -76,7 +76,7 @@ def test_float32_energy_conserved_nonlinear_grid(threads):
     assert abs(reference.energy().total - start) < bound * start
 
 
-@pytest.mark.parametrize("precision", ["float64", "float32"])
+@pytest.mark.parametrize("precision", ["float64", pytest.param("float32", marks=pytest.mark.slow)])
 def test_threads_equal_one_thread_to_round_off(precision):
     scene = sim.scenes.build("interference", nx=96, ny=41)
     runs = []
