@@ -196,3 +196,24 @@ def test_paths_typed_into_the_page_touch_no_file_on_the_server(browser, tmp_path
     assert sorted(p.name for p in scenes.iterdir()) == ["link.toml"]
     assert all(p.suffix == ".rrd" for p in recordings.glob("*"))
     assert "link.toml" not in app.scene_files.names()
+
+
+@pytest.mark.slow
+def test_the_drive_and_walls_controls_work_from_a_real_page(browser):
+    app = WebApp(sim.Simulation(sim.scenes.build("resonance")), port=free_port())
+    app.start()
+    try:
+        page = open_page(browser, app)
+        assert app.runner.simulation.model.driver is not None
+        stop = page.get_by_role("button", name="Stop driving", exact=True)
+        if not stop.is_visible():
+            page.get_by_text("Drive", exact=True).first.click()  # open the folder
+        stop.click()
+        assert wait_for(lambda: app.runner.simulation.model.driver is None)
+        if not page.get_by_label("Walls", exact=True).is_visible():
+            page.get_by_text("Scene", exact=True).first.click()  # open the folder
+        choose(page, "Walls", "free")
+        page.get_by_role("button", name="Apply walls", exact=True).click()
+        assert wait_for(lambda: app.runner.simulation.model.boundary == "free")
+    finally:
+        app.stop()
