@@ -173,12 +173,14 @@ def parse_driver_text(text: str) -> dict[str, Any]:
         if "=" not in part:
             raise ForcingError(f"driver fields are key=value, got {part!r} in {text!r}")
         key, raw = (item.strip() for item in part.split("=", 1))
-        if key == "direction":
-            fields[key] = raw if raw.lower() in _DIRECTIONS else [float(v) for v in raw.split()]
-        elif key == "kind":
-            fields[key] = raw
+        if key == "direction" and raw.lower() not in _DIRECTIONS:
+            try:
+                fields[key] = [float(value) for value in raw.split()]
+            except ValueError:
+                raise ForcingError(f"driver direction must be x, y, z or 'dx dy dz', "
+                                   f"got {raw!r}") from None
         else:
-            fields[key] = raw
+            fields[key] = raw  # numbers are checked by Driver.create
     return fields
 
 
