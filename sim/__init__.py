@@ -10,8 +10,9 @@ The physics knows nothing of any viewer.  Main entry points::
 
 Modules: ``model`` (immutable lattice description), ``state`` (positions, velocities, time),
 ``kernels`` and ``stepping`` (numba code), ``integrators``, ``observables``, ``simulation``,
-``scenes`` (presets and files), ``modes`` (normal modes), ``exact`` (the normal-mode solver
-for linear scenes), ``prediction`` (errors predicted before running), ``runner`` (the loop
+``scenes`` (presets and files), ``forcing`` (a driver and absorbing walls), ``modes`` (normal
+modes), ``probes`` (particle time series and spectra), ``exact`` (the normal-mode solver for
+linear scenes), ``prediction`` (errors predicted before running), ``runner`` (the loop
 that viewers and recorders subscribe to).
 """
 
@@ -24,9 +25,11 @@ from sim.observables import Energy, StabilityLimit
 from sim.scenes import Scene, SceneError
 from sim.simulation import BlowUpError, Simulation
 from sim import exact  # registers the "exact" integrator for linear scenes
+from sim import forcing, modes, probes
 from sim.state import State
 
 __all__ = [
     "WIDE_VECTORS", "INTEGRATORS", "ORDERS", "BlowUpError", "Energy", "IntegratorError", "Model",
-    "ModelError", "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "exact", "scenes",
+    "ModelError", "Scene", "SceneError", "Simulation", "StabilityLimit", "State", "exact", "forcing",
+    "modes", "probes", "scenes",
 ]
