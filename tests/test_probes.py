@@ -94,6 +94,8 @@ def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
                  recordings_dir=tmp_path)
     app.start()
     try:
+        # the first frame drawn clears the selection: select after it
+        assert wait_for(lambda: app.view.last_positions is not None)
         probes = app.panel.probes
         press(probes.probe_button)
         assert "select particles first" in probes.text.content
