@@ -6,6 +6,8 @@
     oscillators serve [SCENE]               the web app (viser)
     oscillators record SCENE                a rerun .rrd recording
     oscillators accuracy / stability        the speed/accuracy study and stability map
+    oscillators response / reflection       a driven scene's resonance curve; the absorbing
+                                            walls' reflection against wavelength
 
 Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
 ``--set nx=40 --set gravity=9.81 --set damping=0.5``; a driver with
