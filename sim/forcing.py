@@ -389,11 +389,3 @@ class Forcing:
         """The driver's second half: a half kick at the step's end time (force drivers)."""
         if self.driver is not None and self.driver.kind == "force":
             self._kick(state, state.time, dt)
-
-
-def driven_response_amplitude(force_amplitude: float, mass: float, omega_0: float,
-                              damping_rate: float, omega: float) -> float:
-    """Steady-state amplitude (m) of a damped oscillator m (x'' + gamma x' + omega_0^2 x) =
-    F0 sin(omega t): F0 / (m sqrt((omega_0^2 - omega^2)^2 + (gamma omega)^2))."""
-    return force_amplitude / (mass * math.sqrt((omega_0**2 - omega**2) ** 2
-                                               + (damping_rate * omega) ** 2))

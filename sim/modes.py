@@ -47,8 +47,15 @@ def sine_transform(values: np.ndarray, axis: int) -> np.ndarray:
     return np.moveaxis(transformed * np.sqrt(2.0 / (n + 1)), -1, axis)
 
 
-def second_difference_eigenvalues(n: int) -> np.ndarray:
-    """Eigenvalues 4 sin^2(p pi / (2 (n + 1))), p = 1..n, of the fixed-wall second difference."""
+def second_difference_eigenvalues(n: int, ends: str = "walls") -> np.ndarray:
+    """Eigenvalues of the second difference on n points, rising: 4 sin^2(p pi / (2 (n + 1))),
+    p = 1..n, between fixed walls (sine modes, in mode order); 4 sin^2(p pi / n), p = 0..n-1,
+    on a ring (``ends="ring"``, Fourier modes); 4 sin^2(p pi / (2 n)), p = 0..n-1, with free
+    ends (``"free"``, cosine modes)."""
+    if ends == "ring":
+        return np.sort(4.0 * np.sin(np.arange(n) * np.pi / n) ** 2)
+    if ends == "free":
+        return 4.0 * np.sin(np.arange(n) * np.pi / (2.0 * n)) ** 2
     p = np.arange(1, n + 1)
     return 4.0 * np.sin(p * np.pi / (2.0 * (n + 1))) ** 2
 
@@ -64,7 +71,7 @@ def polarisations(model: Model) -> list[tuple[float, float, float, float]]:
     return result
 
 
-def _stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
+def stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
                       ends: str = "walls") -> np.ndarray:
     """Dense (n, n) five-point matrix with fixed walls for one polarisation (row-major j*nx+i);
     with ``ends="ring"`` each row is a ring (its last particle joined to its first), with
@@ -127,9 +134,9 @@ class ModalBasis:
         scale = 1.0 / np.sqrt(np.asarray(model.masses, dtype=float).ravel())
         omega, rate, vectors = [], [], []
         for k_columns, k_rows, c_columns, c_rows in polarisations(model):
-            stiffness = _stiffness_matrix(nx, ny, k_columns, k_rows, model.row_ends)
+            stiffness = stiffness_matrix(nx, ny, k_columns, k_rows, model.row_ends)
             values, eigenvectors = np.linalg.eigh(stiffness * np.outer(scale, scale))
-            damping = _stiffness_matrix(nx, ny, c_columns, c_rows, model.row_ends)
+            damping = stiffness_matrix(nx, ny, c_columns, c_rows, model.row_ends)
             damping = damping * np.outer(scale, scale)
             damping += np.diag(model.drag * scale**2)
             omega.append(values)
@@ -200,7 +207,7 @@ def _ring_static_offset(model: Model, offset: np.ndarray) -> np.ndarray:
         g = float(model.gravity[component])
         if g == 0.0:
             continue
-        matrix = _stiffness_matrix(model.nx, model.ny, k_columns, k_rows, model.row_ends)
+        matrix = stiffness_matrix(model.nx, model.ny, k_columns, k_rows, model.row_ends)
         solution = np.linalg.lstsq(matrix, masses * g, rcond=None)[0]
         offset[component] = solution.reshape(model.ny, model.nx)
     return offset

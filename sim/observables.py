@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from sim.model import Model
+from sim.modes import polarisations, second_difference_eigenvalues, stiffness_matrix
 from sim.state import State
 
 
@@ -201,56 +202,6 @@ class ModeSet:
     exact: bool
 
 
-def _polarisations(model: Model) -> list[tuple[float, float, float, float]]:
-    """(stiffness across columns, across rows, dashpot across columns, across rows) for each
-    displacement component: x moves along horizontal springs, y along vertical ones, z across all."""
-    k, tension, c = model.stiffness, model.tension_stiffness, model.damping
-    polarisations = [(k, tension, c, 0.0), (tension, k, 0.0, c)]
-    if model.dim == 3:
-        polarisations.append((tension, tension, 0.0, 0.0))
-    return polarisations
-
-
-def _second_difference_eigenvalues(n: int, ends: str = "walls") -> np.ndarray:
-    """Eigenvalues of the second difference on n points: 4 sin^2(p pi / (2 (n + 1))), p = 1..n,
-    between fixed walls (sine modes); 4 sin^2(p pi / n), p = 0..n-1, on a ring (Fourier modes);
-    4 sin^2(p pi / (2 n)), p = 0..n-1, with free ends (cosine modes)."""
-    if ends == "ring":
-        return np.sort(4.0 * np.sin(np.arange(n) * np.pi / n) ** 2)
-    if ends == "free":
-        return 4.0 * np.sin(np.arange(n) * np.pi / (2.0 * n)) ** 2
-    p = np.arange(1, n + 1)
-    return 4.0 * np.sin(p * np.pi / (2.0 * (n + 1))) ** 2
-
-
-def _scalar_stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float,
-                             ends: str = "walls"):
-    """Dense (n, n) stiffness matrix of one displacement component (5-point, Dirichlet; rows
-    closed into rings (``ends="ring"``) or with free ends (``"free"``))."""
-    periodic = ends == "ring"
-    n = nx * ny
-    matrix = np.zeros((n, n))
-    index = np.arange(n).reshape(ny, nx)
-    diagonal = 2.0 * across_columns + 2.0 * across_rows
-    matrix[np.arange(n), np.arange(n)] = diagonal
-    left, right = index[:, :-1].ravel(), index[:, 1:].ravel()
-    matrix[left, right] = matrix[right, left] = -across_columns
-    if periodic and nx > 1:
-        first, last = index[:, 0], index[:, -1]
-        matrix[first, last] += -across_columns if nx > 2 else 0.0
-        matrix[last, first] += -across_columns if nx > 2 else 0.0
-        if nx == 2:  # two springs join the pair on a ring of two
-            matrix[first, last] = matrix[last, first] = -2.0 * across_columns
-    elif periodic:  # a ring of one: the spring joins the particle to itself
-        matrix[np.arange(n), np.arange(n)] -= 2.0 * across_columns
-    if ends == "free":  # the end particles lose their wall spring
-        matrix[index[:, 0], index[:, 0]] -= across_columns
-        matrix[index[:, -1], index[:, -1]] -= across_columns
-    lower, upper = index[:-1, :].ravel(), index[1:, :].ravel()
-    matrix[lower, upper] = matrix[upper, lower] = -across_rows
-    return matrix
-
-
 def _apply_scalar_stiffness(field: np.ndarray, across_columns: float, across_rows: float,
                             ends: str = "walls"):
     """K u for one displacement component field (ny, nx) with fixed walls (rows closed into
@@ -310,11 +261,11 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     nx, ny = model.nx, model.ny
     if model.uniform_mass:
         mass = float(model.masses.flat[0])
-        columns = np.sort(_second_difference_eigenvalues(nx, model.row_ends))
-        rows = _second_difference_eigenvalues(ny)
+        columns = second_difference_eigenvalues(nx, model.row_ends)
+        rows = second_difference_eigenvalues(ny)
         columns = _keep_extremes(columns, sample)
         rows = _keep_extremes(rows, sample)
-        for k_columns, k_rows, c_columns, c_rows in _polarisations(model):
+        for k_columns, k_rows, c_columns, c_rows in polarisations(model):
             p, q = np.meshgrid(columns, rows)
             omega_squared.append(((k_columns * p + k_rows * q) / mass).ravel())
             damping_rate.append(((c_columns * p + c_rows * q + model.drag) / mass).ravel())
@@ -322,13 +273,13 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
 
     inverse_sqrt_mass = 1.0 / np.sqrt(model.masses)
     n = model.n_particles
-    for k_columns, k_rows, c_columns, c_rows in _polarisations(model):
+    for k_columns, k_rows, c_columns, c_rows in polarisations(model):
         if n <= _DENSE_LIMIT:
             scale = inverse_sqrt_mass.ravel()
-            stiffness = _scalar_stiffness_matrix(nx, ny, k_columns, k_rows, model.row_ends)
+            stiffness = stiffness_matrix(nx, ny, k_columns, k_rows, model.row_ends)
             stiffness *= np.outer(scale, scale)
             values, vectors = np.linalg.eigh(stiffness)
-            damping = _scalar_stiffness_matrix(nx, ny, c_columns, c_rows, model.row_ends)
+            damping = stiffness_matrix(nx, ny, c_columns, c_rows, model.row_ends)
             damping *= np.outer(scale, scale)
             damping += np.diag(model.drag * scale**2)
             rates = np.einsum("im,ij,jm->m", vectors, damping, vectors)

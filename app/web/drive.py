@@ -57,12 +57,6 @@ ERRORS = (InputRefused, sim.ModelError, ValueError, TimeoutError)
 """What a refused drive raises; shown in the folder, never a traceback."""
 
 
-def ring_eigenvalues(n: int) -> np.ndarray:
-    """Eigenvalues 4 sin^2(p pi / n), p = 0..n-1, of the second difference on a ring of n
-    particles (a periodic row), rising."""
-    return np.sort(4.0 * np.sin(np.arange(n) * np.pi / n) ** 2)
-
-
 def mode_frequencies(model: sim.Model, polarisation: int,
                      count: int = LISTED_MODES) -> tuple[list[float], float]:
     """(the ``count`` lowest distinct normal-mode frequencies, the highest one), in Hz, of the
@@ -71,8 +65,7 @@ def mode_frequencies(model: sim.Model, polarisation: int,
     ``DENSE_MODES_LIMIT`` particles raise ``ModelError`` (a dense eigen-solve)."""
     if model.uniform_mass:
         across_columns, across_rows, _, _ = polarisations(model)[polarisation]
-        columns = (ring_eigenvalues(model.nx) if model.boundary == "periodic"
-                   else second_difference_eigenvalues(model.nx))
+        columns = second_difference_eigenvalues(model.nx, model.row_ends)
         rows = second_difference_eigenvalues(model.ny)
         mass = float(model.masses.flat[0])
         top = np.zeros(0)
