@@ -308,8 +308,8 @@ class Forcing:
         self._factors: dict[tuple[float, type], np.ndarray] = {}
         if self.driver is not None:
             driver = self.driver
-            self._rest = model.rest_positions[driver.row * model.nx + driver.column]
-            self._direction = np.array(driver.direction[: model.dim])
+            rest = model.rest_positions[driver.row * model.nx + driver.column]
+            self._rest = tuple(float(c) for c in rest) + (0.0,) * (3 - model.dim)  # (x, y, z) m
             self._mass = float(model.masses[driver.row, driver.column])
             parameters = model.kernel_parameters
             self._spring_arguments = (
@@ -322,10 +322,6 @@ class Forcing:
     @property
     def moves_particles(self) -> bool:
         return self.driver is not None and self.driver.kind == "displacement"
-
-    @property
-    def has_sponge(self) -> bool:
-        return self._rates is not None
 
     def sponge(self, state: Any, span: float) -> None:
         """Damp the layer over ``span`` seconds (exactly: v *= exp(-rate * span))."""
@@ -356,11 +352,9 @@ class Forcing:
     def _place(self, state: Any, time: float) -> None:
         driver = self.driver
         value, rate = driver.signal(time)
-        position = self._rest + driver.amplitude * value * self._direction
-        velocity = driver.amplitude * rate * self._direction
-        if self.model.dim == 2:
-            position = np.append(position, 0.0)
-            velocity = np.append(velocity, 0.0)
+        position = (r + driver.amplitude * value * d for r, d in zip(self._rest, driver.direction,
+                                                                      strict=True))
+        velocity = (driver.amplitude * rate * d for d in driver.direction)
         j, i = driver.row, driver.column
         before = self._local_energy(state)
         forcing_kernels.place_particle(state.positions, state.velocities, j, i, *position, *velocity)
