@@ -302,11 +302,16 @@ def command_run(arguments: argparse.Namespace) -> int:
     chunk = max(1, steps // 200)
     probes = None
     if arguments.probe:
+        from app.recording.instruments import check_probes, parse_probe
         from sim.observables import highest_frequency
         from sim.probes import ProbeSeries
 
         model = simulation.model
-        particles = [_probe_index(text, model) for text in arguments.probe]
+        try:
+            pairs = check_probes([parse_probe(text) for text in arguments.probe], model)
+        except ValueError as error:
+            raise ValueError(f"--probe: {error}") from None
+        particles = [row * model.nx + column for column, row in pairs]
         probes = ProbeSeries(model, particles, limit=steps + 1)
         probes.add(simulation.time, simulation.state.particle_positions())
         # sample four times per period of the fastest mode (twice the Nyquist rate)
@@ -372,18 +377,6 @@ def command_bench(arguments: argparse.Namespace) -> int:
     from app.bench import main as bench_main
 
     return bench_main(arguments)
-
-
-def _probe_index(text: str, model: Any) -> int:
-    """``--probe i,j`` (column i, row j, from 0) -> particle index, checked."""
-    try:
-        column, row = (int(part) for part in text.split(","))
-    except ValueError:
-        raise ValueError(f"--probe takes column,row (whole numbers), got {text!r}") from None
-    if not (0 <= column < model.nx and 0 <= row < model.ny):
-        raise ValueError(f"--probe {text}: the lattice has columns 0-{model.nx - 1} and rows "
-                         f"0-{model.ny - 1}")
-    return row * model.nx + column
 
 
 def _probe_report(probes: Any) -> list[dict[str, Any]]:
