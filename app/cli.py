@@ -28,6 +28,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from sim.integrators import estimated_seconds
+
 EPILOG = """examples:
   oscillators scenes
   oscillators run chain --integrator verlet --dt 0.01 --steps 2000
@@ -53,17 +55,6 @@ MAX_STEPS = 10**8
 
 MAX_ESTIMATED_SECONDS = 6 * 3600.0
 """Longest estimated wall time of a planned run; longer ones are refused before they start."""
-
-SECONDS_PER_STEP = {
-    # integrator: (fixed cost of a step, cost per particle) in seconds, measured with
-    # Simulation.step on a 2-core x86_64 machine: the chain/grid presets for the fixed part,
-    # 682x383 for the part per particle (the README's speed table).
-    "euler": (1.0e-6, 1 / 3.2e8),
-    "heun": (1.3e-6, 1 / 1.3e8),
-    "verlet": (1.0e-6, 1 / 3.4e8),
-    "rk4": (2.4e-6, 1 / 6.2e7),
-}
-
 
 class OneLineErrorParser(argparse.ArgumentParser):
     """An ArgumentParser whose usage errors are one line on stderr (exit code 2), not the usage
@@ -107,12 +98,6 @@ def bounded_int(smallest: int, largest: int | None) -> Callable[[str], int]:
         return value
 
     return parse
-
-
-def estimated_seconds(steps: float, n_particles: int, integrator: str) -> float:
-    """Rough wall time (s) of ``steps`` steps of ``integrator`` on ``n_particles`` particles."""
-    fixed, per_particle = SECONDS_PER_STEP.get(integrator, SECONDS_PER_STEP["rk4"])
-    return steps * (fixed + n_particles * per_particle)
 
 
 def describe_seconds(seconds: float) -> str:

@@ -143,10 +143,9 @@ def _look_ahead_integrator(integrator: str | None, scene: Any) -> str:
 
 
 def _step_cost(integrator: str, n_particles: int) -> float:
-    from app.cli import SECONDS_PER_STEP
+    from sim.integrators import describe
 
-    fixed, per_particle = SECONDS_PER_STEP.get(integrator, SECONDS_PER_STEP["rk4"])
-    return fixed + per_particle * n_particles
+    return describe(integrator).seconds_per_step(n_particles)
 
 
 def look_ahead(

@@ -417,7 +417,8 @@ def _check_plot_path(arguments: argparse.Namespace) -> None:
 
 def _check_plan(runs: list[tuple[float, int, str]], what: str) -> None:
     """Refuse a study whose (steps, particles, integrator) runs exceed the step or time limits."""
-    from app.cli import MAX_ESTIMATED_SECONDS, MAX_STEPS, describe_seconds, estimated_seconds
+    from app.cli import MAX_ESTIMATED_SECONDS, MAX_STEPS, describe_seconds
+    from sim.integrators import estimated_seconds
 
     most = max(steps for steps, _, _ in runs)
     wall = sum(estimated_seconds(steps, particles, name) for steps, particles, name in runs)
