@@ -1,0 +1,75 @@
+"""The boundaries of the lattice, described as data: one ``Boundary`` per choice, in one registry.
+
+A boundary says how the rows end at the left and right (``row_ends``: walls of anchors, a ring,
+or free ends), whether the kernels close each row into a ring or drop the end springs (compile-time
+flags of ``sim.kernels.SpringParameters``), and whether an absorbing layer damps the particles
+next to the walls (``sim.forcing``).  The top and bottom walls are always anchors.  Menus, scene
+files, the CLI and the normal-mode code read these objects instead of comparing names.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+
+@dataclasses.dataclass(frozen=True)
+class Boundary:
+    """One boundary choice.
+
+    ``row_ends``: "walls" (springs to fixed anchors), "ring" (each row's last particle joined to
+    its first) or "free" (no spring to the left and right walls).  ``absorbing``: a sponge layer
+    damps the particles near the walls.  ``label`` and ``description`` are for people.
+    """
+
+    name: str
+    label: str
+    row_ends: str
+    absorbing: bool = False
+    description: str = ""
+
+    @property
+    def periodic(self) -> bool:
+        """Whether each row is a ring."""
+        return self.row_ends == "ring"
+
+    @property
+    def free_ends(self) -> bool:
+        """Whether the rows' end particles have no spring to the left and right walls."""
+        return self.row_ends == "free"
+
+
+_REGISTRY: dict[str, Boundary] = {}
+
+
+def register(boundary: Boundary) -> Boundary:
+    """Add (or replace) a boundary; every menu and check sees it at once."""
+    _REGISTRY[boundary.name] = boundary
+    return boundary
+
+
+def names() -> tuple[str, ...]:
+    """Names of the registered boundaries, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def get(name: str) -> Boundary:
+    """The boundary called ``name`` (case and surrounding blanks ignored); ``KeyError`` if none."""
+    return _REGISTRY[str(name).strip().lower()]
+
+
+FIXED = register(Boundary(
+    "fixed", "fixed walls", "walls",
+    description="every row ends in springs to anchors that never move: waves reflect inverted",
+))
+ABSORBING = register(Boundary(
+    "absorbing", "absorbing walls", "walls", absorbing=True,
+    description="fixed walls behind a sponge layer that damps the waves before they reach them",
+))
+PERIODIC = register(Boundary(
+    "periodic", "periodic rows", "ring",
+    description="each row is a ring: a wave leaving on the right comes back on the left",
+))
+FREE = register(Boundary(
+    "free", "free row ends", "free",
+    description="no springs to the left and right walls: waves reflect upright",
+))
