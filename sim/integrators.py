@@ -140,6 +140,13 @@ def names(model: Model | None = None, kernel_only: bool = False) -> tuple[str, .
     )
 
 
+def most_accurate(model: Model | None = None) -> str:
+    """The compiled integrator of highest order (ties: the first registered) that applies to
+    ``model``: the numerical reference the studies compare against."""
+    candidates = [describe(name) for name in names(model, kernel_only=True)]
+    return max(candidates, key=lambda d: d.order).name
+
+
 def describe(name: str) -> IntegratorDescription:
     """The description of the integrator called ``name`` (aliases accepted)."""
     return _REGISTRY[check_integrator_name(name)]
