@@ -554,7 +554,7 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
 
 def command_response(arguments: argparse.Namespace) -> int:
     from app.cli import scene_from_arguments
-    from app.study import response
+    from app.study import response, response_report
 
     scene = scene_from_arguments(arguments)
     _default_plot(arguments, f"{Path(scene.name).stem or 'scene'}-response.png")
@@ -572,9 +572,9 @@ def command_response(arguments: argparse.Namespace) -> int:
         )
     data = curve.as_dict()
     if arguments.plot:
-        response.plot_response(curve, arguments.plot)
+        response_report.plot_response(curve, arguments.plot)
         data["picture"] = str(Path(arguments.plot).resolve())
-    _emit(arguments, data, response.format_report(curve))
+    _emit(arguments, data, response_report.format_report(curve))
     return 0
 
 
