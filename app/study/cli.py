@@ -464,12 +464,8 @@ def _emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> Non
 def command_accuracy(arguments: argparse.Namespace) -> int:
     import sim
     from app.cli import scene_from_arguments
-    from app.study.accuracy import (
-        accuracy_study,
-        default_until,
-        format_report,
-        plot_work_precision,
-    )
+    from app.study.accuracy import accuracy_study, default_until
+    from app.study.accuracy_report import format_report, plot_work_precision
 
     scene = scene_from_arguments(arguments)
     if arguments.no_plot:
