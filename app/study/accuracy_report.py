@@ -85,9 +85,9 @@ def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
             continue
         order = study.orders[name]
         label = f"{name} (order {order:.2f})" if order is not None else name
-        lines = left.loglog([r.wall_seconds for r in runs], [r.error for r in runs], "o-",
-                            label=label)
-        colour = lines[0].get_color()
+        colour = tuple(channel / 255 for channel in describe(name).colour)
+        left.loglog([r.wall_seconds for r in runs], [r.error for r in runs], "o-", color=colour,
+                    label=label)
         right.loglog([r.dt for r in runs], [r.error for r in runs], "o-", color=colour,
                      label=label)
         for precision in single_precisions:  # hollow markers, dashed: same integrator, float32
