@@ -12,7 +12,7 @@ import pytest
 
 import sim
 from app.cli import main
-from app.study import reflection, response
+from app.study import reflection, response, response_modes
 
 STIFFNESS = 35.0
 
@@ -61,7 +61,7 @@ def test_response_of_one_damped_particle_is_the_analytic_curve(tmp_path, capsys)
 def test_resonance_modes_are_the_chain_modes_and_the_default_grid_resolves_them():
     scene = sim.scenes.build("resonance")
     driver = scene.model.driver
-    lines = response.mode_lines(scene.model, driver, 0)
+    lines = response_modes.mode_lines(scene.model, driver, 0)
     assert [line.label for line in lines] == [f"n={n}" for n in range(1, 13)]
     for n, line in enumerate(lines, start=1):
         assert line.frequency == pytest.approx(
@@ -76,7 +76,7 @@ def test_resonance_modes_are_the_chain_modes_and_the_default_grid_resolves_them(
 def test_a_probe_at_a_node_does_not_show_the_mode():
     # the middle particle of a 13-particle chain is a node of every even mode
     scene = sim.scenes.build("resonance", nx=13)
-    lines = response.mode_lines(scene.model, scene.model.driver, 6)
+    lines = response_modes.mode_lines(scene.model, scene.model.driver, 6)
     assert [line.label for line in lines] == [f"n={n}" for n in range(1, 14, 2)]
 
 

@@ -464,12 +464,8 @@ def _emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> Non
 def command_accuracy(arguments: argparse.Namespace) -> int:
     import sim
     from app.cli import scene_from_arguments
-    from app.study.accuracy import (
-        accuracy_study,
-        default_until,
-        format_report,
-        plot_work_precision,
-    )
+    from app.study.accuracy import accuracy_study, default_until
+    from app.study.accuracy_report import format_report, plot_work_precision
 
     scene = scene_from_arguments(arguments)
     if arguments.no_plot:
@@ -554,7 +550,7 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
 
 def command_response(arguments: argparse.Namespace) -> int:
     from app.cli import scene_from_arguments
-    from app.study import response
+    from app.study import response, response_report
 
     scene = scene_from_arguments(arguments)
     _default_plot(arguments, f"{Path(scene.name).stem or 'scene'}-response.png")
@@ -572,9 +568,9 @@ def command_response(arguments: argparse.Namespace) -> int:
         )
     data = curve.as_dict()
     if arguments.plot:
-        response.plot_response(curve, arguments.plot)
+        response_report.plot_response(curve, arguments.plot)
         data["picture"] = str(Path(arguments.plot).resolve())
-    _emit(arguments, data, response.format_report(curve))
+    _emit(arguments, data, response_report.format_report(curve))
     return 0
 
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 import sim
+from sim.integrators import describe
 
 ProgressCallback = Callable[[str], None]
 
@@ -343,7 +344,6 @@ def plot_stability(study: StabilityStudy, path: str) -> None:
     names = list(dict.fromkeys(limit.integrator for limit in study.limits))
     figure, axis = plt.subplots(figsize=(max(8, 0.6 * len(cases) + 3), 5))
     width = 0.8 / max(1, len(names))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for index, name in enumerate(names):
         x_measured, y_measured, x_theory, y_theory, x_none, y_none = [], [], [], [], [], []
         for position, case in enumerate(cases):
@@ -359,21 +359,25 @@ def plot_stability(study: StabilityStudy, path: str) -> None:
             if limit.theory and math.isfinite(limit.theory):
                 x_theory.append(x)
                 y_theory.append(limit.theory * scale)
-        colour = colours[index % len(colours)]
+        colour = tuple(channel / 255 for channel in describe(name).colour)
         axis.plot(x_measured, y_measured, "o", color=colour, label=f"{name} measured")
         axis.plot(x_theory, y_theory, "_", color=colour, markersize=14, markeredgewidth=2,
                   label=f"{name} theory")
         if x_none:
             axis.plot(x_none, y_none, "v", color=colour, markerfacecolor="none",
                       label=f"{name}: unstable down to")
-    axis.axhline(2.0, color="grey", linestyle=":", linewidth=1)
-    axis.axhline(2 * math.sqrt(2), color="grey", linestyle="--", linewidth=1)
+    factors = [(describe(name).stability_factor, describe(name).short_label) for name in names]
+    drawn = [(factor, label) for factor, label in factors
+             if factor is not None and math.isfinite(factor)]
+    for factor, _ in drawn:
+        axis.axhline(factor, color="grey", linestyle=":", linewidth=1)
     axis.set_yscale("log")
     axis.set_xticks(range(len(cases)))
     axis.set_xticklabels(cases, rotation=40, ha="right", fontsize=8)
     axis.set_ylabel("omega_max * dt at the stability limit")
-    axis.set_title("largest stable step: measured (dots) vs theory (bars); "
-                   "dotted 2 (Verlet), dashed 2 sqrt 2 (RK4)", fontsize=9)
+    undamped = ", ".join(f"{factor:.3g} ({label})" for factor, label in drawn)
+    axis.set_title("largest stable step: measured (dots) vs theory (bars)"
+                   + (f"; dotted: undamped limits {undamped}" if drawn else ""), fontsize=9)
     axis.legend(fontsize=7, ncol=2)
     axis.grid(True, which="both", axis="y", alpha=0.3)
     figure.tight_layout()

@@ -786,7 +786,8 @@ class ControlPanel:
 
         import imageio.v3 as imageio
 
-        from app.study.accuracy import accuracy_study, plot_work_precision
+        from app.study.accuracy import accuracy_study
+        from app.study.accuracy_report import plot_work_precision
 
         scene = self.app.runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
         if scene.model.n_particles > STUDY_PARTICLE_LIMIT:
