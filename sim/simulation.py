@@ -27,6 +27,7 @@ from sim.integrators import (
     make_integrator,
 )
 from sim.model import Model, ModelError
+from sim.scenes import Scene
 from sim.state import State
 
 RUNAWAY_FACTOR = 1e6
@@ -87,8 +88,6 @@ class Simulation:
         self, scene: Any, integrator: str | None = None, dt: float | None = None,
         precision: str | None = None, threads: int = 1,
     ) -> None:
-        from sim.scenes import Scene
-
         if isinstance(scene, Model):
             scene = Scene(name="custom", model=scene)
         if not isinstance(scene, Scene):
