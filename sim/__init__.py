@@ -13,10 +13,10 @@ Modules: ``model`` (immutable lattice description), ``state`` (positions, veloci
 ``kernels`` and ``stepping`` (numba code), ``integrators``, ``observables``, ``simulation``,
 ``presets`` (the named configurations as data), ``scenes`` (a scene and building one from a
 preset), ``scene_files`` (TOML scene files), ``boundaries`` (the boundary registry),
-``forcing`` (a driver and absorbing walls), ``modes`` (normal
-modes), ``probes`` (particle time series and spectra), ``exact`` (the normal-mode solver for
-linear scenes), ``prediction`` (errors predicted before running), ``runner`` (the loop
-that viewers and recorders subscribe to).
+``forcing`` (a driver and absorbing walls), ``modes`` (normal modes), ``probes`` (particle time
+series and spectra), ``exact`` (the normal-mode solver for linear scenes), ``prediction``
+(errors predicted before running), ``reference`` (plain numpy integrators, a test oracle),
+``runner`` (the loop that viewers and recorders subscribe to).
 """
 
 # first: configures numba's target before anything is compiled

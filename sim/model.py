@@ -137,12 +137,13 @@ class Model:
         linear: use the springs linearised about the rest lattice instead of the full law.
         driver: a ``sim.forcing.Driver`` (a sinusoidal force or displacement on one particle),
             or None.
-        boundary: "fixed" (walls of anchors), "periodic" (each row a ring: its last particle
-            joined to its first, top and bottom walls kept; a chain becomes a ring, a lattice a
-            cylinder), "free" (no springs to the left and right walls: the rows' ends are free;
-            top and bottom walls kept) or "absorbing" (the walls behind a sponge
-            layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak damping rate
-            ``sponge_strength`` * omega_0; see ``sim.forcing``).
+        boundary: the name of a boundary of the registry ``sim.boundaries`` (``walls`` gives
+            the ``Boundary`` itself): "fixed" (walls of anchors), "periodic" (each row a ring:
+            its last particle joined to its first, top and bottom walls kept; a chain becomes a
+            ring, a lattice a cylinder), "free" (no springs to the left and right walls: the
+            rows' ends are free; top and bottom walls kept) or "absorbing" (the walls behind a
+            sponge layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak
+            damping rate ``sponge_strength`` * omega_0; see ``sim.forcing``).
     """
 
     nx: int
