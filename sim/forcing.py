@@ -35,10 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from sim import forcing_kernels
+from sim import boundaries, forcing_kernels
 
 DRIVER_KINDS = ("force", "displacement")
-BOUNDARIES = ("fixed", "periodic", "free", "absorbing")
 SPONGE_POWER = 2
 DEFAULT_SPONGE_STRENGTH = 0.5
 """Peak damping rate of the sponge in units of omega_0 = sqrt(k / m) (designed with the
@@ -208,10 +207,12 @@ SIDES = ("left", "right", "bottom", "top")
 
 def check_boundary(boundary: Any, sponge_width: Any, sponge_strength: Any
                    ) -> tuple[str, int, float]:
-    """Validated (boundary, sponge_width, sponge_strength); raises ``ForcingError``."""
+    """Validated (boundary, sponge_width, sponge_strength); raises ``ForcingError``.  The
+    boundary is a name of the registry ``sim.boundaries``."""
     name = str(boundary).strip().lower()
-    if name not in BOUNDARIES:
-        raise ForcingError(f"boundary must be one of {', '.join(BOUNDARIES)}, got {boundary!r}")
+    if name not in boundaries.names():
+        raise ForcingError(f"boundary must be one of {', '.join(boundaries.names())}, "
+                           f"got {boundary!r}")
     try:
         width = float(sponge_width)
         strength = float(sponge_strength)
@@ -302,7 +303,7 @@ class Forcing:
         self.model = model
         self.driver: Driver | None = model.driver
         self._masses = np.ascontiguousarray(model.masses, dtype=np.float64)
-        self._rates = sponge_rates(model) if model.boundary == "absorbing" else None
+        self._rates = sponge_rates(model) if model.walls.absorbing else None
         sides = model.sponge_sides if self._rates is not None else ()
         self._layer = tuple(model.sponge_width if side in sides else 0 for side in SIDES)
         self._factors: dict[tuple[float, type], np.ndarray] = {}

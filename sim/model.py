@@ -27,11 +27,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from functools import cached_property
 from typing import Any
 
 import numpy as np
+import psutil
+
+from sim import boundaries
+from sim.boundaries import Boundary
 
 
 class ModelError(ValueError):
@@ -63,18 +66,11 @@ def estimated_bytes(nx: int, ny: int, dim: int) -> int:
 
 
 def available_memory() -> int | None:
-    """Bytes of memory available now: MemAvailable of /proc/meminfo (Linux), else the free
-    physical pages (os.sysconf); None when neither can be read."""
+    """Bytes of memory available now to a new process without swapping (``psutil``: Linux's
+    MemAvailable); None when it cannot be read."""
     try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (AttributeError, ValueError, OSError):
+        return int(psutil.virtual_memory().available)
+    except (OSError, RuntimeError, AttributeError, NotImplementedError):
         return None
 
 
@@ -141,12 +137,13 @@ class Model:
         linear: use the springs linearised about the rest lattice instead of the full law.
         driver: a ``sim.forcing.Driver`` (a sinusoidal force or displacement on one particle),
             or None.
-        boundary: "fixed" (walls of anchors), "periodic" (each row a ring: its last particle
-            joined to its first, top and bottom walls kept; a chain becomes a ring, a lattice a
-            cylinder), "free" (no springs to the left and right walls: the rows' ends are free;
-            top and bottom walls kept) or "absorbing" (the walls behind a sponge
-            layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak damping rate
-            ``sponge_strength`` * omega_0; see ``sim.forcing``).
+        boundary: the name of a boundary of the registry ``sim.boundaries`` (``walls`` gives
+            the ``Boundary`` itself): "fixed" (walls of anchors), "periodic" (each row a ring:
+            its last particle joined to its first, top and bottom walls kept; a chain becomes a
+            ring, a lattice a cylinder), "free" (no springs to the left and right walls: the
+            rows' ends are free; top and bottom walls kept) or "absorbing" (the walls behind a
+            sponge layer ``sponge_width`` particles deep on the walls ``sponge_sides``, peak
+            damping rate ``sponge_strength`` * omega_0; see ``sim.forcing``).
     """
 
     nx: int
@@ -224,7 +221,7 @@ class Model:
         if driver is not None and dim == 2 and driver.direction[2] != 0.0:
             raise ModelError("a planar (2-D) lattice cannot be driven out of the plane (z)")
         sides: tuple[str, ...] = ()
-        if boundary == "absorbing":
+        if boundaries.get(boundary).absorbing:
             try:
                 if sponge_sides is None or (not isinstance(sponge_sides, str)
                                             and len(sponge_sides) == 0):
@@ -257,19 +254,24 @@ class Model:
         )
 
     @property
+    def walls(self) -> Boundary:
+        """The boundary called ``boundary``, from the registry ``sim.boundaries``."""
+        return boundaries.get(self.boundary)
+
+    @property
     def has_forcing(self) -> bool:
         """Whether a driver or an absorbing layer acts between the steps (``sim.forcing``)."""
-        return self.driver is not None or self.boundary == "absorbing"
+        return self.driver is not None or self.walls.absorbing
 
     @property
     def periodic(self) -> bool:
         """Whether each row is a ring (``boundary="periodic"``)."""
-        return self.boundary == "periodic"
+        return self.walls.periodic
 
     @property
     def row_ends(self) -> str:
         """How the rows end at the left and right: "walls", "ring" or "free"."""
-        return {"periodic": "ring", "free": "free"}.get(self.boundary, "walls")
+        return self.walls.row_ends
 
     # --- derived quantities ---------------------------------------------------------------------
 
@@ -306,7 +308,7 @@ class Model:
             float(self.stiffness), float(self.rest_length), float(self.tension_stiffness),
             float(self.spacing), float(origin_x), float(origin_y),
             periodic=True if self.periodic else None,
-            free_ends=True if self.boundary == "free" else None,
+            free_ends=True if self.walls.free_ends else None,
         )
 
     @property
@@ -400,9 +402,9 @@ class Model:
             extras.append("linearised springs")
         if self.periodic:
             extras.append("rows joined into rings (periodic in x)")
-        if self.boundary == "free":
+        if self.walls.free_ends:
             extras.append("free left and right ends")
-        if self.boundary == "absorbing":
+        if self.walls.absorbing:
             extras.append(f"absorbing walls: {'/'.join(self.sponge_sides)} "
                           f"({self.sponge_width}-particle sponge)")
         if self.driver is not None:

@@ -29,7 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sim.integrators import FORCE_EVALUATIONS, INTEGRATORS
+from sim.integrators import FORCE_EVALUATIONS, INTEGRATORS, names
 from sim.model import Model, ModelError
 from sim.modes import ModalBasis, static_offset
 from sim.observables import amplification_matrices
@@ -96,6 +96,15 @@ class Predictor:
         q, v = exact_modes(self.omega_squared, self.damping_rate, self.q0, self.v0, time)
         return float(0.5 * (v**2 + self.omega_squared * q**2).sum())
 
+    def _start_vectors(self, size: int) -> np.ndarray:
+        """(n_modes, size) initial modal states: (q, q') for a one-step method, and for a method
+        that carries the acceleration from step to step (amplification matrices of size 3) also
+        q'' = -omega^2 q - beta q'."""
+        components = [self.q0, self.v0]
+        if size == 3:
+            components.append(-self.omega_squared * self.q0 - self.damping_rate * self.v0)
+        return np.stack(components, axis=1)
+
     def predict(self, integrator: str, dt: float, duration: float) -> Prediction:
         """The accuracy of running ``integrator`` at ``dt`` for ``duration`` seconds."""
         steps = max(1, int(round(duration / dt)))
@@ -103,11 +112,7 @@ class Predictor:
         if self.energies.size == 0:
             return Prediction(integrator, dt, duration, steps, 0.0, 0.0, True, cost)
         matrices = amplification_matrices(integrator, self.omega_squared, self.damping_rate, dt)
-        if integrator == "verlet":
-            start = np.stack([self.q0, self.v0,
-                              -self.omega_squared * self.q0 - self.damping_rate * self.v0], axis=1)
-        else:
-            start = np.stack([self.q0, self.v0], axis=1)
+        start = self._start_vectors(matrices.shape[-1])
         radius = np.abs(np.linalg.eigvals(matrices)).max(axis=1)
         stable = bool(np.all(radius <= 1.0 + 1e-12))
         end = _matrix_power_apply(matrices, steps, start)
@@ -127,15 +132,16 @@ class Predictor:
         return Prediction(integrator, dt, duration, steps, float(error), phase_error, stable, cost)
 
     def choose(self, tolerance: float, duration: float, stable_dt: dict[str, float | None],
-               integrators: Sequence[str] = ("verlet", "rk4", "heun", "euler"),
+               integrators: Sequence[str] | None = None,
                fractions: Sequence[float] = tuple(0.9 * 0.8**k for k in range(30)),
                ) -> Prediction | None:
         """The cheapest run (force evaluations per simulated second) whose predicted |energy
         error| is within ``tolerance`` over ``duration``: each integrator is tried at
         fractions of its stability limit (``stable_dt``; None = no stable step, skipped), from
-        the largest down.  None if nothing meets it."""
+        the largest down.  ``integrators``: those to try, by default every compiled one of the
+        registry (``sim.integrators``).  None if nothing meets it."""
         best: Prediction | None = None
-        for integrator in integrators:
+        for integrator in names(kernel_only=True) if integrators is None else integrators:
             limit = stable_dt.get(integrator)
             if limit is None or integrator not in INTEGRATORS:
                 continue

@@ -3,7 +3,8 @@
 Written from the physics, independently of the numba kernels, for two uses: the tests check the
 kernels against them, and ``oscillators bench`` measures how much faster the kernels are.  Arrays
 are (dim, ny, nx) as in ``sim.state``; the wall anchors are a ring of fixed points around the
-lattice (padding), which makes every spring an array slice.
+lattice (padding), which makes every spring an array slice.  ``METHODS`` holds one small
+function per integrator; ``step`` and ``run`` look the method up there.
 """
 
 from __future__ import annotations
@@ -72,33 +73,58 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
     return acceleration
 
 
+# Each method advances (x, v) by one step dt and returns (x, v, carried): ``carried`` is what
+# the method keeps from one step to the next (velocity Verlet: the acceleration at the new
+# state), None for one-step methods; it is passed back in as ``carried`` (None on the first step).
+
+
+def _euler(model: Model, x, v, dt: float, carried=None):
+    a = accelerations(model, x, v)
+    return x + dt * v, v + dt * a, None
+
+
+def _heun(model: Model, x, v, dt: float, carried=None):
+    a = accelerations(model, x, v)
+    x_predicted, v_predicted = x + dt * v, v + dt * a
+    a_predicted = accelerations(model, x_predicted, v_predicted)
+    return x + dt / 2 * (v + v_predicted), v + dt / 2 * (a + a_predicted), None
+
+
+def _verlet(model: Model, x, v, dt: float, carried=None):
+    acceleration = accelerations(model, x, v) if carried is None else carried
+    return verlet_step(model, x, v, acceleration, dt)
+
+
+def _rk4(model: Model, x, v, dt: float, carried=None):
+    k1x, k1v = v, accelerations(model, x, v)
+    k2x = v + dt / 2 * k1v
+    k2v = accelerations(model, x + dt / 2 * k1x, k2x)
+    k3x = v + dt / 2 * k2v
+    k3v = accelerations(model, x + dt / 2 * k2x, k3x)
+    k4x = v + dt * k3v
+    k4v = accelerations(model, x + dt * k3x, k4x)
+    return (
+        x + dt / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
+        v + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v),
+        None,
+    )
+
+
+METHODS = {"euler": _euler, "heun": _heun, "verlet": _verlet, "rk4": _rk4}
+"""The numpy version of each compiled integrator, by its registry name."""
+
+
+def _method(integrator: str):
+    try:
+        return METHODS[integrator]
+    except KeyError:
+        raise ValueError(f"unknown integrator {integrator!r}") from None
+
+
 def step(model: Model, integrator: str, positions, velocities, dt: float):
     """One step of ``integrator`` in numpy; returns new (positions, velocities)."""
-    x, v = positions, velocities
-    if integrator == "euler":
-        a = accelerations(model, x, v)
-        return x + dt * v, v + dt * a
-    if integrator == "heun":
-        a = accelerations(model, x, v)
-        x_predicted, v_predicted = x + dt * v, v + dt * a
-        a_predicted = accelerations(model, x_predicted, v_predicted)
-        return x + dt / 2 * (v + v_predicted), v + dt / 2 * (a + a_predicted)
-    if integrator == "verlet":
-        x_new, v_new, _ = verlet_step(model, x, v, accelerations(model, x, v), dt)
-        return x_new, v_new
-    if integrator == "rk4":
-        k1x, k1v = v, accelerations(model, x, v)
-        k2x = v + dt / 2 * k1v
-        k2v = accelerations(model, x + dt / 2 * k1x, k2x)
-        k3x = v + dt / 2 * k2v
-        k3v = accelerations(model, x + dt / 2 * k2x, k3x)
-        k4x = v + dt * k3v
-        k4v = accelerations(model, x + dt * k3x, k4x)
-        return (
-            x + dt / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
-            v + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v),
-        )
-    raise ValueError(f"unknown integrator {integrator!r}")
+    x, v, _ = _method(integrator)(model, positions, velocities, dt)
+    return x, v
 
 
 def verlet_step(model: Model, positions, velocities, acceleration, dt: float):
@@ -112,12 +138,8 @@ def verlet_step(model: Model, positions, velocities, acceleration, dt: float):
 
 def run(model: Model, integrator: str, positions, velocities, dt: float, steps: int):
     """``steps`` steps of ``integrator`` in numpy; returns the final (positions, velocities)."""
-    x, v = positions.copy(), velocities.copy()
-    if integrator == "verlet":
-        a = accelerations(model, x, v)
-        for _ in range(steps):
-            x, v, a = verlet_step(model, x, v, a, dt)
-        return x, v
+    method = _method(integrator)
+    x, v, carried = positions.copy(), velocities.copy(), None
     for _ in range(steps):
-        x, v = step(model, integrator, x, v, dt)
+        x, v, carried = method(model, x, v, dt, carried)
     return x, v

@@ -27,6 +27,7 @@ from sim.integrators import (
     make_integrator,
 )
 from sim.model import Model, ModelError
+from sim.scenes import Scene
 from sim.state import State
 
 RUNAWAY_FACTOR = 1e6
@@ -71,6 +72,26 @@ def _check_dt(dt: Any) -> float:
     return value
 
 
+class _ParticleView:
+    """A ``Simulation`` attribute that is a writable (n_particles, dim) view of one of its state's
+    arrays (the ``State`` method ``view_method`` gives it); reading or assigning it counts as an
+    edit of the state (the energy references are taken again)."""
+
+    def __init__(self, view_method: str, doc: str) -> None:
+        self.view_method = view_method
+        self.__doc__ = doc + "; a writable view of the state."
+
+    def __get__(self, simulation: Simulation | None, owner: type | None = None) -> Any:
+        if simulation is None:
+            return self
+        simulation._state_touched()
+        return getattr(simulation.state, self.view_method)()
+
+    def __set__(self, simulation: Simulation, value: np.ndarray) -> None:
+        simulation._state_touched()
+        getattr(simulation.state, self.view_method)()[...] = value
+
+
 class Simulation:
     """A running lattice.  See the module docstring for an example.
 
@@ -87,8 +108,6 @@ class Simulation:
         self, scene: Any, integrator: str | None = None, dt: float | None = None,
         precision: str | None = None, threads: int = 1,
     ) -> None:
-        from sim.scenes import Scene
-
         if isinstance(scene, Model):
             scene = Scene(name="custom", model=scene)
         if not isinstance(scene, Scene):
@@ -117,27 +136,8 @@ class Simulation:
     def model(self) -> Model:
         return self._model
 
-    @property
-    def positions(self) -> np.ndarray:
-        """(n_particles, dim) positions (m); a writable view of the state."""
-        self._state_touched()
-        return self.state.particle_positions()
-
-    @positions.setter
-    def positions(self, value: np.ndarray) -> None:
-        self._state_touched()
-        self.state.particle_positions()[...] = value
-
-    @property
-    def velocities(self) -> np.ndarray:
-        """(n_particles, dim) velocities (m/s); a writable view of the state."""
-        self._state_touched()
-        return self.state.particle_velocities()
-
-    @velocities.setter
-    def velocities(self, value: np.ndarray) -> None:
-        self._state_touched()
-        self.state.particle_velocities()[...] = value
+    positions = _ParticleView("particle_positions", "(n_particles, dim) positions (m)")
+    velocities = _ParticleView("particle_velocities", "(n_particles, dim) velocities (m/s)")
 
     @property
     def rest_positions(self) -> np.ndarray:

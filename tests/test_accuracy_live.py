@@ -123,7 +123,7 @@ def _presets_large_ones_slow() -> list:
 
 
 def _particles(name: str) -> int:
-    parameters = sim.scenes.PRESETS[name].parameters
+    parameters = sim.presets.PRESETS[name].parameters
     return int(parameters.get("nx", 1)) * int(parameters.get("ny", 1))
 
 

@@ -230,9 +230,9 @@ def test_float32_kernels_compute_in_float32():
 def test_precision_from_scene_files_and_cli(tmp_path):
     scene = sim.scenes.build("chain", precision="float32")
     path = tmp_path / "chain.toml"
-    sim.scenes.save(scene, path)
-    assert sim.scenes.load_file(str(path)).precision == "float32"
-    assert sim.Simulation(sim.scenes.load_file(str(path))).precision == "float32"
+    sim.scene_files.save(scene, path)
+    assert sim.scene_files.load_file(str(path)).precision == "float32"
+    assert sim.Simulation(sim.scene_files.load_file(str(path))).precision == "float32"
     with pytest.raises(sim.SceneError):
         sim.scenes.build("chain", precision="float16")
     result = subprocess.run(

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import sim
-from sim import scenes
+from sim import scene_files, scenes
 from sim.scenes import SceneError
 
 REPO = Path(__file__).resolve().parent.parent
@@ -56,12 +56,12 @@ def write_scene_with_arrays(directory: Path, members: dict[str, bytes], nx: int 
 
 def test_a_scene_with_uneven_masses_round_trips_through_one_zip():
     scene = scenes.build("ionic", damping=0.25, gravity=(0.0, -2.0), linear=True)
-    suffix, content = scenes.to_bytes(scene)
+    suffix, content = scene_files.to_bytes(scene)
     assert suffix == ".zip" and content.startswith(b"PK\x03\x04")
     with zipfile.ZipFile(io.BytesIO(content)) as archive:
         assert sorted(archive.namelist()) == ["scene.npz", "scene.toml"]
     assert not scene.model.uniform_mass
-    assert_same_scene(scenes.from_bytes(content, "ionic" + suffix), scene)
+    assert_same_scene(scene_files.from_bytes(content, "ionic" + suffix), scene)
 
 
 def test_a_scene_with_displacements_and_velocities_round_trips():
@@ -74,22 +74,22 @@ def test_a_scene_with_displacements_and_velocities_round_trips():
         initial_positions=base.model.rest_positions + 0.05 * rng.standard_normal(shape),
         initial_velocities=0.1 * rng.standard_normal(shape),
     )
-    suffix, content = scenes.to_bytes(scene)
+    suffix, content = scene_files.to_bytes(scene)
     assert suffix == ".zip"
-    assert_same_scene(scenes.from_bytes(content, "anything.bin"), scene)
+    assert_same_scene(scene_files.from_bytes(content, "anything.bin"), scene)
 
 
 def test_a_scene_needing_no_arrays_is_plain_toml():
     scene = scenes.build("grid")  # one particle displaced: written inline
-    suffix, content = scenes.to_bytes(scene)
+    suffix, content = scene_files.to_bytes(scene)
     assert suffix == ".toml"
     assert b"[arrays]" not in content
     content.decode("utf-8")
-    assert_same_scene(scenes.from_bytes(content, "grid.toml"), scene)
+    assert_same_scene(scene_files.from_bytes(content, "grid.toml"), scene)
 
 
 def test_uploads_that_break_the_rules_are_refused(monkeypatch):
-    _, good = scenes.to_bytes(scenes.build("ionic"))
+    _, good = scene_files.to_bytes(scenes.build("ionic"))
     with zipfile.ZipFile(io.BytesIO(good)) as archive:
         toml, npz = archive.read("scene.toml"), archive.read("scene.npz")
 
@@ -112,17 +112,17 @@ def test_uploads_that_break_the_rules_are_refused(monkeypatch):
     }
     for what, content in refused.items():
         with pytest.raises(SceneError):
-            scenes.from_bytes(content, "upload.zip")
+            scene_files.from_bytes(content, "upload.zip")
             pytest.fail(f"accepted {what}")
-    monkeypatch.setattr(scenes, "MAX_UPLOAD_BYTES", 100)
+    monkeypatch.setattr(scene_files, "MAX_UPLOAD_BYTES", 100)
     with pytest.raises(SceneError, match="more than the 100 bytes allowed"):
-        scenes.from_bytes(good, "upload.zip")
+        scene_files.from_bytes(good, "upload.zip")
 
 
 def test_an_uploaded_toml_over_the_limit_is_refused(monkeypatch):
-    monkeypatch.setattr(scenes, "MAX_SCENE_FILE_BYTES", 100)
+    monkeypatch.setattr(scene_files, "MAX_SCENE_FILE_BYTES", 100)
     with pytest.raises(SceneError, match="allowed"):
-        scenes.from_bytes(b"# " + b"x" * 200 + b"\n[model]\nnx = 2\n", "big.toml")
+        scene_files.from_bytes(b"# " + b"x" * 200 + b"\n[model]\nnx = 2\n", "big.toml")
 
 
 # --- files that are not what they claim --------------------------------------------------------------
@@ -132,9 +132,9 @@ def test_a_directory_or_a_device_is_not_a_scene_file(tmp_path):
     folder = tmp_path / "folder.toml"
     folder.mkdir()
     with pytest.raises(SceneError, match="not a regular file"):
-        scenes.load(folder)
+        scene_files.load(folder)
     with pytest.raises(SceneError, match="not a regular file"):
-        scenes.load("/dev/zero")
+        scene_files.load("/dev/zero")
 
 
 def test_a_named_pipe_is_refused_without_blocking(tmp_path):
@@ -144,7 +144,7 @@ def test_a_named_pipe_is_refused_without_blocking(tmp_path):
 
     def load() -> None:
         try:
-            scenes.load(fifo)
+            scene_files.load(fifo)
         except BaseException as error:  # noqa: BLE001 - examined below
             outcome.append(error)
 
@@ -169,9 +169,9 @@ def test_the_command_line_refuses_a_named_pipe_as_a_scene_quickly(tmp_path):
 
 def test_an_oversized_scene_file_is_refused(tmp_path):
     path = tmp_path / "huge.toml"
-    path.write_text("[model]\nnx = 2\n" + "# padding\n" * (scenes.MAX_SCENE_FILE_BYTES // 10 + 1))
+    path.write_text("[model]\nnx = 2\n" + "# padding\n" * (scene_files.MAX_SCENE_FILE_BYTES // 10 + 1))
     with pytest.raises(SceneError, match="allowed"):
-        scenes.load(path)
+        scene_files.load(path)
 
 
 @pytest.mark.parametrize(
@@ -181,7 +181,7 @@ def test_the_array_file_must_be_a_bare_name_beside_the_toml(tmp_path, entry):
     path = tmp_path / "scene.toml"
     path.write_text(f'[model]\nnx = 2\n[arrays]\nfile = "{entry}"\n')
     with pytest.raises(SceneError, match="bare name"):
-        scenes.load(path)
+        scene_files.load(path)
 
 
 def test_the_array_file_must_be_a_regular_file(tmp_path):
@@ -189,7 +189,7 @@ def test_the_array_file_must_be_a_regular_file(tmp_path):
     path = tmp_path / "scene.toml"
     path.write_text('[model]\nnx = 2\n[arrays]\nfile = "arrays.npz"\n')
     with pytest.raises(SceneError, match="not a regular file"):
-        scenes.load(path)
+        scene_files.load(path)
 
 
 def test_within_keeps_the_scene_and_its_arrays_inside_a_directory(tmp_path):
@@ -197,15 +197,15 @@ def test_within_keeps_the_scene_and_its_arrays_inside_a_directory(tmp_path):
     root.mkdir()
     outside.mkdir()
     scene = scenes.build("ionic")
-    scenes.save(scene, root / "ionic.toml")
-    assert_same_scene(scenes.load(root / "ionic.toml", within=root), scene)
+    scene_files.save(scene, root / "ionic.toml")
+    assert_same_scene(scene_files.load(root / "ionic.toml", within=root), scene)
 
-    scenes.save(scene, outside / "elsewhere.toml")
+    scene_files.save(scene, outside / "elsewhere.toml")
     (root / "link.toml").symlink_to(outside / "elsewhere.toml")
     with pytest.raises(SceneError, match="outside"):
-        scenes.load(root / "link.toml", within=root)
+        scene_files.load(root / "link.toml", within=root)
     with pytest.raises(SceneError, match="outside"):
-        scenes.load(root / ".." / "outside" / "elsewhere.toml", within=root)
+        scene_files.load(root / ".." / "outside" / "elsewhere.toml", within=root)
 
     # a TOML inside whose array file is a symlink to one outside
     (root / "sneaky.toml").write_text(
@@ -213,8 +213,8 @@ def test_within_keeps_the_scene_and_its_arrays_inside_a_directory(tmp_path):
     )
     (root / "sneaky.npz").symlink_to(outside / "elsewhere.npz")
     with pytest.raises(SceneError, match="outside"):
-        scenes.load(root / "sneaky.toml", within=root)
-    assert_same_scene(scenes.load(root / "sneaky.toml"), scene)  # no root given: allowed
+        scene_files.load(root / "sneaky.toml", within=root)
+    assert_same_scene(scene_files.load(root / "sneaky.toml"), scene)  # no root given: allowed
 
 
 # --- array files -------------------------------------------------------------------------------------
@@ -229,7 +229,7 @@ def test_a_small_npz_claiming_a_huge_array_is_refused_without_allocating(tmp_pat
     tracemalloc.start()
     try:
         with pytest.raises(SceneError, match="shape"):
-            scenes.load(path)
+            scene_files.load(path)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -244,7 +244,7 @@ def test_a_highly_compressible_npz_member_is_refused_from_its_directory_size(tmp
     tracemalloc.start()
     try:
         with pytest.raises(SceneError, match="unpacks to"):
-            scenes.load(path)
+            scene_files.load(path)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -267,13 +267,13 @@ def test_a_highly_compressible_npz_member_is_refused_from_its_directory_size(tmp
 def test_npz_members_are_checked_against_the_lattice(tmp_path, members, message):
     path = write_scene_with_arrays(tmp_path, members)
     with pytest.raises(SceneError, match=message):
-        scenes.load(path)
+        scene_files.load(path)
 
 
 def test_flat_masses_are_accepted_as_save_might_have_written_them(tmp_path):
     masses = np.arange(1.0, 7.0)
     path = write_scene_with_arrays(tmp_path, {"masses.npy": npy_bytes(masses)})
-    np.testing.assert_array_equal(scenes.load(path).model.masses, masses.reshape(2, 3))
+    np.testing.assert_array_equal(scene_files.load(path).model.masses, masses.reshape(2, 3))
 
 
 def test_the_command_line_refuses_bad_scene_files_in_one_line(tmp_path, capsys):
@@ -293,10 +293,10 @@ def test_the_cli_runs_a_downloaded_zip_scene(tmp_path, capsys):
     from app.cli import main
 
     scene = sim.scenes.build("ionic", nx=4, ny=3)
-    suffix, content = sim.scenes.to_bytes(scene)
+    suffix, content = sim.scene_files.to_bytes(scene)
     assert suffix == ".zip"
     archive = tmp_path / "ionic.zip"
     archive.write_bytes(content)
     assert main(["run", str(archive), "--steps", "3", "--quiet", "--json"]) == 0
-    loaded = sim.scenes.load_file(archive)
+    loaded = sim.scene_files.load_file(archive)
     np.testing.assert_array_equal(loaded.model.masses, scene.model.masses)

@@ -65,7 +65,7 @@ def test_resonance_modes_are_the_chain_modes_and_the_default_grid_resolves_them(
     assert [line.label for line in lines] == [f"n={n}" for n in range(1, 13)]
     for n, line in enumerate(lines, start=1):
         assert line.frequency == pytest.approx(
-            sim.scenes.chain_mode_frequency(n, 12, STIFFNESS, 1.0), rel=1e-9)
+            sim.presets.chain_mode_frequency(n, 12, STIFFNESS, 1.0), rel=1e-9)
         assert line.decay_rate == pytest.approx(0.05)  # drag 0.1 N s/m on 1 kg: beta / 2
     grid = response.default_frequencies(lines)
     for line in lines:
@@ -143,8 +143,8 @@ def test_a_linearised_chain_responds_as_its_normal_modes_predict():
     """The resonance preset with linearised springs: equal masses, drag only, so the modal sum
     is exact; at the third mode (lag near 90 degrees) and halfway to the fourth."""
     scene = sim.scenes.build("resonance", linear=True)
-    third = sim.scenes.chain_mode_frequency(3, 12, STIFFNESS, 1.0)
-    fourth = sim.scenes.chain_mode_frequency(4, 12, STIFFNESS, 1.0)
+    third = sim.presets.chain_mode_frequency(3, 12, STIFFNESS, 1.0)
+    fourth = sim.presets.chain_mode_frequency(4, 12, STIFFNESS, 1.0)
     curve = response.response_curve(scene, frequencies=[third, 0.5 * (third + fourth)])
     at_mode, between = curve.points
     for point in curve.points:
