@@ -13,9 +13,9 @@ import pytest
 
 import sim
 from app.cli import build_parser, main
+from app.colours import SIGNED_FIELD
 from app.movie import movie_bytes, render_movie
 from app.movie.encode import available
-from app.recording import style
 
 
 def decoded(path_or_bytes: Path | bytes) -> tuple[list[np.ndarray], float, float]:
@@ -74,7 +74,7 @@ def test_interference_movie_shows_the_field_where_the_wave_is(interference_movie
     simulation.step(200)
     uy = (simulation.peek_positions() - simulation.rest_positions)[:, 1].reshape(model.ny, model.nx)
     last = frames[-1].astype(int)
-    background = np.array(style.colour_table(style.SIGNED_FIELD)[128], int)  # zero displacement
+    background = np.array(SIGNED_FIELD.table()[128], int)  # zero displacement
     # far from both sources (the middle of the lattice) nothing has arrived: background colour
     row, column = pixel_of(box, model, model.nx // 2, model.ny // 4)
     assert abs(uy[model.ny // 4, model.nx // 2]) < 1e-9

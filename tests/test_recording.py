@@ -504,8 +504,9 @@ def test_document_names_the_displaced_particle_and_the_command(grid_file, tmp_pa
 
 def test_line_colours_are_readable_on_light_and_dark_themes(grid_file):
     from app.recording import style
+    from sim.integrators import INTEGRATORS, describe
 
-    colours = [*style.TERM_COLOURS.values(), *style.INTEGRATOR_COLOURS.values(),
+    colours = [*style.TERM_COLOURS.values(), *(describe(name).colour for name in INTEGRATORS),
                style.DRIFT_COLOUR, style.NEUTRAL_COLOUR]
     for colour in colours:
         assert style.contrast_ratio(colour, style.WHITE) >= 3.0, colour

@@ -24,8 +24,8 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
+from app.colours import MAGNITUDE, SIGNED_FIELD, SIGNED_LINES, map_values
 from app.movie import encode, raster
-from app.recording import style
 from app.recording.scales import (
     AXIS_NAMES,
     SIGNED,
@@ -34,6 +34,7 @@ from app.recording.scales import (
     field_values,
     look_ahead,
 )
+from app.recording.style import NEUTRAL_COLOUR, PARTICLE_COLOUR, nice_number
 
 COLOURS = ("displacement", "speed", "strain", "density")
 """What colours the picture: the signed displacement component (m), the speed |v| (m/s), the
@@ -175,9 +176,8 @@ class Painter:
         self.width, self.height = options.size
         self.detailed = model.n_particles <= DETAIL_LIMIT
         self.signed = colour in SIGNED
-        self.table = style.colour_table(
-            (style.SIGNED_LINES if self.detailed else style.SIGNED_FIELD) if self.signed
-            else style.MAGNITUDE)
+        self.table = ((SIGNED_LINES if self.detailed else SIGNED_FIELD) if self.signed
+                      else MAGNITUDE).table()
         if colour == "displacement" and model.dim == 3 and self.detailed:
             self.scale = scales.height
         else:
@@ -186,7 +186,7 @@ class Painter:
         self.exaggeration = 1.0
         if model.dim == 3:
             width_m = (max(model.nx, model.ny) + 1) * model.spacing
-            self.exaggeration = options.exaggeration or style.nice_number(
+            self.exaggeration = options.exaggeration or nice_number(
                 0.08 * width_m / max(scales.height, 1e-12))
         self.top = max(24, round(self.height * 0.085))
         self.bottom = max(40, round(self.height * 0.15))
@@ -334,15 +334,15 @@ class Painter:
         x, y, depth = self._to_pixels(ends)
         springs = model.springs
         if self.colour == "strain" and state.strains is not None:
-            spring_colours = style.map_values(state.strains - self.scales.rest_strain, low,
+            spring_colours = map_values(state.strains - self.scales.rest_strain, low,
                                               self.scale, self.table)
         elif model.dim == 3:
             height = ends[:, 2] - np.concatenate([model.rest_positions[:, 2],
                                                   model.anchor_positions[:, 2]])
             mean = 0.5 * (height[springs[:, 0]] + height[springs[:, 1]])
-            spring_colours = style.map_values(mean, -self.scale, self.scale, self.table)
+            spring_colours = map_values(mean, -self.scale, self.scale, self.table)
         else:
-            spring_colours = np.tile(np.array(style.NEUTRAL_COLOUR, np.uint8), (len(springs), 1))
+            spring_colours = np.tile(np.array(NEUTRAL_COLOUR, np.uint8), (len(springs), 1))
         half = max(0.8, (0.12 if model.dim == 3 else 0.05) * model.spacing * self.pixels_per_metre)
         if model.dim == 3:
             order = np.argsort(np.minimum(depth[springs[:, 0]], depth[springs[:, 1]]))
@@ -357,9 +357,9 @@ class Painter:
         radii = np.maximum(1.5, 0.16 * model.spacing * self.pixels_per_metre
                            * (masses / masses.mean()) ** (1 / 3))
         if self.colour == "strain" and model.dim == 2:
-            colours = np.tile(np.array(style.PARTICLE_COLOUR, np.uint8), (n, 1))
+            colours = np.tile(np.array(PARTICLE_COLOUR, np.uint8), (n, 1))
         else:
-            colours = style.map_values(self.values(state), low, self.scale, self.table)
+            colours = map_values(self.values(state), low, self.scale, self.table)
         order = np.argsort(depth[:n], kind="stable")
         raster.draw_discs(frame, x[:n], y[:n], radii, np.ascontiguousarray(colours), order)
 

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from app.recording.scales import AXIS_NAMES, UNITS, ColourScales
+from sim import boundaries
 
 PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     # parameter: (symbol, unit, meaning)
@@ -32,7 +33,7 @@ PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     "gravity": ("g", "m/s²", "acceleration of gravity (x, y, z)"),
     "linear": ("-", "true/false (no unit)", "springs linearised about the rest lattice"),
     "driver": ("-", "see its fields (m, Hz)", "sinusoidal drive on one particle, or none"),
-    "boundary": ("-", "fixed/absorbing (no unit)", "walls: fixed anchors, or a sponge layer "
+    "boundary": ("-", f"{'/'.join(boundaries.names())} (no unit)", "walls: fixed anchors, or a sponge layer "
                  "inside them that absorbs waves"),
     "sponge_width": ("w", "particles", "depth of the sponge layer (absorbing walls only)"),
     "sponge_strength": ("-", "ω0 = √(k/m)", "damping rate at the wall (absorbing walls only)"),
@@ -278,8 +279,7 @@ def _view_notes(
     notes.append(
         "* **energy (J)**: kinetic (orange), potential (blue: springs + gravity), total "
         "(purple) and dissipated by damping (olive"
-        + (", the sponge layer's included" if getattr(model, "boundary", "fixed") == "absorbing"
-           else "") + ")"
+        + (", the sponge layer's included" if boundaries.get(model.boundary).absorbing else "") + ")"
         + ("; driven (teal): the work the driver has done" if driven else "")
         + (f"; one tab per integrator ({', '.join(names)})." if names else ".")
     )
