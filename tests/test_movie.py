@@ -31,7 +31,8 @@ def decoded(path_or_bytes: Path | bytes) -> tuple[list[np.ndarray], float, float
 
 def picture_box(scene, size: tuple[int, int]) -> tuple[int, int, int, int]:
     """(x0, y0, width, height) of the field picture in the frame, as the renderer lays it out."""
-    from app.movie.render import MovieOptions, Painter
+    from app.movie.options import MovieOptions
+    from app.movie.painter import Painter
     from app.recording.scales import ColourScales
 
     scales = ColourScales(strain=1, field=1, height=0, axis=1, rest_strain=0, seconds=0)

@@ -16,6 +16,7 @@ from rerun.chunk import RrdReader
 import sim
 from app.cli import build_parser, main
 from app.recording import Recorder, RecordingError, RecordingOptions
+from app.recording.explain import table_rows
 from app.recording.field import video_available
 from app.recording.layout import ENERGY_TERMS
 from sim.runner import Runner
@@ -412,16 +413,6 @@ def document(chunks: list) -> str:
     texts = [chunk.to_record_batch().column("TextDocument:text")[0].as_py()[0]
              for chunk in chunks if chunk.entity_path == "/scene" and chunk.is_static]
     return texts[-1]
-
-
-def table_rows(text: str) -> dict[str, list[str]]:
-    """{first cell: cells} of every markdown table row."""
-    rows = {}
-    for line in text.splitlines():
-        if line.startswith("|") and not line.startswith("| ---"):
-            cells = [cell.strip() for cell in line.strip("|").split("|")]
-            rows[cells[0]] = cells
-    return rows
 
 
 def default_timeline(path: Path) -> str:

@@ -175,6 +175,17 @@ def describe_forcing(model: Any) -> list[str]:
     return lines + [""]
 
 
+def table_rows(document: str) -> dict[str, list[str]]:
+    """{first cell: cells} of every row of the markdown tables in ``document`` (how a reader
+    finds a parameter in the document ``scene_document`` wrote)."""
+    rows = {}
+    for line in document.splitlines():
+        if line.startswith("|") and not line.startswith("| ---"):
+            cells = [cell.strip() for cell in line.strip("|").split("|")]
+            rows[cells[0]] = cells
+    return rows
+
+
 def scene_document(
     scene: Any, model: Any, *, integrator: str, dt: float, plan: Any, scales: ColourScales,
     run: RunInfo, trees: tuple[str | None, ...], exaggeration: float = 1.0,
