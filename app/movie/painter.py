@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
+import app.movie.raster as raster
 from app.colours import MAGNITUDE, SIGNED_FIELD, SIGNED_LINES, map_values
-from app.movie import raster
 from app.movie.frames import State
 from app.movie.options import MovieOptions
 from app.recording.options import DETAIL_LIMIT

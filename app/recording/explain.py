@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+import app.recording.instruments as instruments
 from app.recording.scales import AXIS_NAMES, UNITS, ColourScales
 from sim import boundaries
 
@@ -152,10 +153,8 @@ def describe_initial(scene: Any) -> list[str]:
 
 def describe_forcing(model: Any) -> list[str]:
     """Markdown section on the driver and an absorbing boundary (none if the scene has neither)."""
-    from app.recording.instruments import describe_sponge
-
     driver = getattr(model, "driver", None)
-    sponge = describe_sponge(model)
+    sponge = instruments.describe_sponge(model)
     if driver is None and not sponge:
         return []
     lines = ["## Driver and walls", ""]
@@ -311,8 +310,6 @@ def _view_notes(
 
 def _instrument_notes(model: Any, plan: Any) -> list[str]:
     """How to read the probe and mode-energy views (if the recording has them)."""
-    from app.recording import instruments
-
     notes = []
     probes = getattr(plan, "probes", ())
     if probes:

@@ -15,6 +15,9 @@ Three encodings, one class each, all with ``log(stream, entity, field, scale)`` 
   the frame is padded to even sizes (H.264 4:2:0 needs them) by repeating the last row/column;
 * ``RawField``: the values themselves as a float32 (or float16) ``rr.DepthImage`` (lossless
   apart from the float conversion); the viewer colour-maps it.
+
+``FieldView`` is a tree's field: it turns each frame's positions or velocities into the image and
+hands it to its encoder.
 """
 
 from __future__ import annotations
