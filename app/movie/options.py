@@ -13,7 +13,9 @@ COLOURS = ("displacement", "speed", "strain", "density")
 """What colours the picture: the signed displacement component (m), the speed |v| (m/s), the
 strain of the springs minus the rest strain, the relative density change rho/rho_0 - 1."""
 MAX_FRAMES = 1000
+"""Frames of a movie at most, unless asked for more (``MovieOptions.frames``)."""
 FRAMES_PER_SIMULATED_SECOND = 25
+"""Frames of a movie per simulated second by default."""
 
 
 @dataclasses.dataclass(frozen=True)
