@@ -10,7 +10,7 @@ import pytest
 
 from app.cli import main
 from app.recording import Recorder, RecordingError
-from app.recording.recorder import _Track
+from app.recording.track import Track
 from sim import scenes
 from tests.test_recording import read_chunks, temporal, texts
 
@@ -159,14 +159,14 @@ def test_a_disk_that_fills_during_record_stops_it_and_keeps_a_readable_file(
 def test_a_write_error_during_record_stops_it_and_keeps_a_readable_file(
     tmp_path, capsys, monkeypatch
 ):
-    real = _Track.log_frame
+    real = Track.log_frame
 
     def failing_log_frame(track, frame):
         if track.frames_logged >= 20:
             raise OSError(errno.EIO, "Input/output error")
         real(track, frame)
 
-    monkeypatch.setattr(_Track, "log_frame", failing_log_frame)
+    monkeypatch.setattr(Track, "log_frame", failing_log_frame)
     output = tmp_path / "broken.rrd"
     status = run_cli(["record", "grid", "--steps", "300", "--every", "1", "-o", str(output),
                       "--quiet"])

@@ -13,9 +13,9 @@ import pytest
 
 import sim
 from app.cli import build_parser, main
+from app.colours import SIGNED_FIELD
 from app.movie import movie_bytes, render_movie
 from app.movie.encode import available
-from app.recording import style
 
 
 def decoded(path_or_bytes: Path | bytes) -> tuple[list[np.ndarray], float, float]:
@@ -31,7 +31,8 @@ def decoded(path_or_bytes: Path | bytes) -> tuple[list[np.ndarray], float, float
 
 def picture_box(scene, size: tuple[int, int]) -> tuple[int, int, int, int]:
     """(x0, y0, width, height) of the field picture in the frame, as the renderer lays it out."""
-    from app.movie.render import MovieOptions, Painter
+    from app.movie.options import MovieOptions
+    from app.movie.painter import Painter
     from app.recording.scales import ColourScales
 
     scales = ColourScales(strain=1, field=1, height=0, axis=1, rest_strain=0, seconds=0)
@@ -74,7 +75,7 @@ def test_interference_movie_shows_the_field_where_the_wave_is(interference_movie
     simulation.step(200)
     uy = (simulation.peek_positions() - simulation.rest_positions)[:, 1].reshape(model.ny, model.nx)
     last = frames[-1].astype(int)
-    background = np.array(style.colour_table(style.SIGNED_FIELD)[128], int)  # zero displacement
+    background = np.array(SIGNED_FIELD.table()[128], int)  # zero displacement
     # far from both sources (the middle of the lattice) nothing has arrived: background colour
     row, column = pixel_of(box, model, model.nx // 2, model.ny // 4)
     assert abs(uy[model.ny // 4, model.nx // 2]) < 1e-9

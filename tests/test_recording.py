@@ -16,6 +16,7 @@ from rerun.chunk import RrdReader
 import sim
 from app.cli import build_parser, main
 from app.recording import Recorder, RecordingError, RecordingOptions
+from app.recording.explain import table_rows
 from app.recording.field import video_available
 from app.recording.layout import ENERGY_TERMS
 from sim.runner import Runner
@@ -414,16 +415,6 @@ def document(chunks: list) -> str:
     return texts[-1]
 
 
-def table_rows(text: str) -> dict[str, list[str]]:
-    """{first cell: cells} of every markdown table row."""
-    rows = {}
-    for line in text.splitlines():
-        if line.startswith("|") and not line.startswith("| ---"):
-            cells = [cell.strip() for cell in line.strip("|").split("|")]
-            rows[cells[0]] = cells
-    return rows
-
-
 def default_timeline(path: Path) -> str:
     reader = RrdReader(path)
     for store in reader.blueprints():
@@ -504,8 +495,9 @@ def test_document_names_the_displaced_particle_and_the_command(grid_file, tmp_pa
 
 def test_line_colours_are_readable_on_light_and_dark_themes(grid_file):
     from app.recording import style
+    from sim.integrators import INTEGRATORS, describe
 
-    colours = [*style.TERM_COLOURS.values(), *style.INTEGRATOR_COLOURS.values(),
+    colours = [*style.TERM_COLOURS.values(), *(describe(name).colour for name in INTEGRATORS),
                style.DRIFT_COLOUR, style.NEUTRAL_COLOUR]
     for colour in colours:
         assert style.contrast_ratio(colour, style.WHITE) >= 3.0, colour

@@ -1,8 +1,9 @@
-"""Movies of runs and recordings: ``oscillators movie`` (``app.movie.cli``) and, for code such
-as the web page, ``render_movie(scene_or_simulation, path, ...)`` and
-``movie_bytes(scene_or_simulation, kind, ...)`` (``app.movie.render``).  docs/recording.md
-("Movies") describes the pictures, colours and measured speed."""
+"""Movies of runs and recordings, for the ``oscillators movie`` command and code such as the web
+page: ``render_movie(scene_or_simulation, path, ...)`` and ``movie_bytes(scene_or_simulation,
+kind, ...)`` (``app.movie.render``) with ``MovieOptions`` (``app.movie.options``).
+docs/recording.md ("Movies") describes the pictures, colours and measured speed."""
 
-from app.movie.render import COLOURS, MovieOptions, movie_bytes, render_movie
+from app.movie.options import COLOURS, MovieOptions
+from app.movie.render import movie_bytes, render_movie
 
 __all__ = ["COLOURS", "MovieOptions", "movie_bytes", "render_movie"]

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from app.movie.render import COLOURS, MAX_FRAMES, MovieOptions
+from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
 
 EPILOG = f"""examples:
   oscillators movie interference -o interference.mp4         # the paper's 150 s, 1000 frames, 720p

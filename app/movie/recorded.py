@@ -19,24 +19,19 @@ from typing import Any
 
 import numpy as np
 
+from app.movie.frames import State
+from app.movie.options import MovieOptions
+from app.recording.explain import table_rows
 from app.recording.scales import (
     PERCENTILE,
     ColourScales,
     displacement_axis,
     field_values,
 )
+from sim.integrators import most_accurate
 
 POSITION_COLUMNS = {"Points2D:positions": 2, "Points3D:positions": 3,
                     "Mesh3D:vertex_positions": 3}
-
-
-def _cells(text: str) -> dict[str, list[str]]:
-    rows = {}
-    for line in text.splitlines():
-        if line.startswith("|") and not line.startswith("| ---"):
-            cells = [cell.strip() for cell in line.strip("|").split("|")]
-            rows[cells[0]] = cells
-    return rows
 
 
 def _flat(value: Any) -> np.ndarray:
@@ -47,10 +42,9 @@ def _flat(value: Any) -> np.ndarray:
 
 
 class RecordingSource:
-    """Frames of a recording (see the module docstring); ``frames``, ``model``, ``scene``,
-    ``summary``, ``scales(colour)`` and ``states(...)`` as ``SimulationSource``."""
+    """Frames of a recording (see the module docstring), an ``app.movie.frames.FrameSource``."""
 
-    def __init__(self, path: Path, options: Any) -> None:
+    def __init__(self, path: Path, options: MovieOptions) -> None:
         from rerun.chunk import RrdReader
 
         import sim
@@ -165,9 +159,7 @@ class RecordingSource:
                             height=scale(height, floor), axis=axis, rest_strain=rest_strain,
                             seconds=float(self.times[-1] - self.times[0]), bounds=bounds)
 
-    def states(self, velocities: bool, strains: bool) -> Iterator[Any]:
-        from app.movie.render import State
-
+    def states(self, velocities: bool, strains: bool) -> Iterator[State]:
         for k in range(self.frames):
             positions = self.positions[k]
             yield State(float(self.times[k]), positions,
@@ -179,7 +171,7 @@ def _model_from_document(document: str, masses: np.ndarray | None) -> tuple[Any,
     """The ``sim.Model`` described by a recording's parameter table, its integrator and dt."""
     from sim import Model
 
-    rows = _cells(document)
+    rows = table_rows(document)
     try:
         values: dict[str, Any] = {key: rows[key][2] for key in (
             "nx", "ny", "dim", "spacing", "stiffness", "rest_length", "damping", "drag",
@@ -195,7 +187,8 @@ def _model_from_document(document: str, masses: np.ndarray | None) -> tuple[Any,
             parameters["mass"] = np.asarray(masses, float).reshape(parameters["ny"], parameters["nx"])
         else:
             parameters["mass"] = float(rows["mass"][2])
-        integrator = rows.get("integrator", rows.get("integrators", ["", "rk4"]))[1].split(",")[0]
+        run_row = rows.get("integrator", rows.get("integrators"))
+        integrator = run_row[1].split(",")[0] if run_row else most_accurate()
         dt = float(rows["time step dt"][1])
     except (KeyError, IndexError, ValueError) as error:
         raise ValueError(f"the recording's scene document lacks a parameter ({error})") from None

@@ -1,17 +1,15 @@
 """Rerun recordings of simulations: ``Recorder`` (a ``sim.runner.Runner`` subscriber that writes a
-``.rrd`` file) and the ``oscillators record`` command (``app.recording.cli``).
+``.rrd`` file, ``app.recording.recorder``) with what to log (``RecordingOptions``,
+``app.recording.options``) and the fixed colour scales (``look_ahead``, ``app.recording.scales``).
+The ``oscillators record`` command uses them.
 
 See ``docs/recording.md`` for the file layout and how to open or analyse a recording.
 """
 
+from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo
-from app.recording.recorder import (
-    DETAIL_LIMIT,
-    LoggingPlan,
-    Recorder,
-    RecordingError,
-    RecordingOptions,
-)
+from app.recording.options import DETAIL_LIMIT, LoggingPlan, RecordingOptions
+from app.recording.recorder import Recorder
 from app.recording.scales import ColourScales, look_ahead
 
 __all__ = [

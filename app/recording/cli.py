@@ -21,14 +21,11 @@ from pathlib import Path
 from typing import Any
 
 from app.recording import instruments
+from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo, command_from_arguments
 from app.recording.field import FIELD_MODES, video_available
-from app.recording.recorder import (
-    DETAIL_LIMIT,
-    Recorder,
-    RecordingError,
-    RecordingOptions,
-)
+from app.recording.options import DETAIL_LIMIT, RecordingOptions
+from app.recording.recorder import Recorder
 from app.recording.scales import QUANTITIES
 
 MAX_DEFAULT_FRAMES = 1000

@@ -17,7 +17,9 @@ from typing import Any
 
 import numpy as np
 
+import app.recording.instruments as instruments
 from app.recording.scales import AXIS_NAMES, UNITS, ColourScales
+from sim import boundaries
 
 PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     # parameter: (symbol, unit, meaning)
@@ -32,7 +34,7 @@ PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     "gravity": ("g", "m/s²", "acceleration of gravity (x, y, z)"),
     "linear": ("-", "true/false (no unit)", "springs linearised about the rest lattice"),
     "driver": ("-", "see its fields (m, Hz)", "sinusoidal drive on one particle, or none"),
-    "boundary": ("-", "fixed/absorbing (no unit)", "walls: fixed anchors, or a sponge layer "
+    "boundary": ("-", f"{'/'.join(boundaries.names())} (no unit)", "walls: fixed anchors, or a sponge layer "
                  "inside them that absorbs waves"),
     "sponge_width": ("w", "particles", "depth of the sponge layer (absorbing walls only)"),
     "sponge_strength": ("-", "ω0 = √(k/m)", "damping rate at the wall (absorbing walls only)"),
@@ -151,10 +153,8 @@ def describe_initial(scene: Any) -> list[str]:
 
 def describe_forcing(model: Any) -> list[str]:
     """Markdown section on the driver and an absorbing boundary (none if the scene has neither)."""
-    from app.recording.instruments import describe_sponge
-
     driver = getattr(model, "driver", None)
-    sponge = describe_sponge(model)
+    sponge = instruments.describe_sponge(model)
     if driver is None and not sponge:
         return []
     lines = ["## Driver and walls", ""]
@@ -172,6 +172,17 @@ def describe_forcing(model: Any) -> list[str]:
         lines.append(f"* **Absorbing walls**: {sponge} The layer's inner edge is drawn as a "
                      "faint grey outline (lattice view and field image).")
     return lines + [""]
+
+
+def table_rows(document: str) -> dict[str, list[str]]:
+    """{first cell: cells} of every row of the markdown tables in ``document`` (how a reader
+    finds a parameter in the document ``scene_document`` wrote)."""
+    rows = {}
+    for line in document.splitlines():
+        if line.startswith("|") and not line.startswith("| ---"):
+            cells = [cell.strip() for cell in line.strip("|").split("|")]
+            rows[cells[0]] = cells
+    return rows
 
 
 def scene_document(
@@ -278,8 +289,7 @@ def _view_notes(
     notes.append(
         "* **energy (J)**: kinetic (orange), potential (blue: springs + gravity), total "
         "(purple) and dissipated by damping (olive"
-        + (", the sponge layer's included" if getattr(model, "boundary", "fixed") == "absorbing"
-           else "") + ")"
+        + (", the sponge layer's included" if boundaries.get(model.boundary).absorbing else "") + ")"
         + ("; driven (teal): the work the driver has done" if driven else "")
         + (f"; one tab per integrator ({', '.join(names)})." if names else ".")
     )
@@ -300,8 +310,6 @@ def _view_notes(
 
 def _instrument_notes(model: Any, plan: Any) -> list[str]:
     """How to read the probe and mode-energy views (if the recording has them)."""
-    from app.recording import instruments
-
     notes = []
     probes = getattr(plan, "probes", ())
     if probes:

@@ -15,6 +15,9 @@ Three encodings, one class each, all with ``log(stream, entity, field, scale)`` 
   the frame is padded to even sizes (H.264 4:2:0 needs them) by repeating the last row/column;
 * ``RawField``: the values themselves as a float32 (or float16) ``rr.DepthImage`` (lossless
   apart from the float conversion); the viewer colour-maps it.
+
+``FieldView`` is a tree's field: it turns each frame's positions or velocities into the image and
+hands it to its encoder.
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ from typing import Protocol
 import numpy as np
 import rerun as rr
 
-from app.recording import style
+from app.colours import MAGNITUDE, SIGNED_FIELD
+from app.recording.scales import SIGNED, field_values
+from sim.model import Model
 
 FIELD_MODES = ("jpeg", "video", "raw")
 
@@ -46,11 +51,9 @@ def lattice_image(values: np.ndarray, nx: int, ny: int) -> np.ndarray:
 
 
 def colour_map(field: np.ndarray, scale: float, signed: bool) -> np.ndarray:
-    """(ny, nx) values -> (ny, nx, 3) uint8 RGB: signed ones on ``style.SIGNED_FIELD`` from -scale
-    to +scale, magnitudes on ``style.MAGNITUDE`` from 0 to scale (saturating beyond)."""
-    if signed:
-        return style.map_values(field, -scale, scale, style.colour_table(style.SIGNED_FIELD))
-    return style.map_values(field, 0.0, scale, style.colour_table(style.MAGNITUDE))
+    """(ny, nx) values -> (ny, nx, 3) uint8 RGB: signed ones on ``SIGNED_FIELD`` (``app.colours``) from
+    -scale to +scale, magnitudes on ``MAGNITUDE`` from 0 to scale (saturating beyond)."""
+    return (SIGNED_FIELD if signed else MAGNITUDE).map(field, scale)
 
 
 class FieldEncoder(Protocol):
@@ -162,7 +165,7 @@ class RawField:
 
 def make_field_encoder(
     mode: str, jpeg_quality: int = 80, raw_dtype: str = "float32", signed: bool = False
-):
+) -> FieldEncoder:
     """The encoder for ``mode`` in FIELD_MODES; ``signed``: values from -scale to +scale."""
     if mode == "jpeg":
         return JpegField(jpeg_quality, signed)
@@ -175,3 +178,31 @@ def make_field_encoder(
     if mode == "raw":
         return RawField(raw_dtype, signed)
     raise ValueError(f"field mode must be one of {FIELD_MODES}, got {mode!r}")
+
+
+class FieldView:
+    """The field image of one tree at ``entity``: each frame's per-particle ``quantity`` (see
+    ``app.recording.scales``; ``axis`` is the signed displacement's component) as a (ny, nx)
+    image encoded by ``mode`` on the fixed ``scale`` (m or m/s)."""
+
+    def __init__(self, entity: str, mode: str, quantity: str, axis: int, scale: float, *,
+                 jpeg_quality: int = 80, raw_dtype: str = "float32") -> None:
+        self.entity = entity
+        self.quantity = quantity
+        self.axis = axis
+        self.scale = scale
+        self.encoder: FieldEncoder = make_field_encoder(mode, jpeg_quality, raw_dtype,
+                                                        signed=quantity in SIGNED)
+
+    def log_frame(self, stream: rr.RecordingStream, model: Model, positions: np.ndarray,
+                  velocities: np.ndarray | None) -> None:
+        """One frame from (n_particles, dim) positions (m) and velocities (m/s; the speed field
+        skips frames without them)."""
+        if self.quantity == "speed" and velocities is None:
+            return
+        values = field_values(self.quantity, positions, model.rest_positions, velocities,
+                              self.axis)
+        self.encoder.log(stream, self.entity, lattice_image(values, model.nx, model.ny), self.scale)
+
+    def finish(self, stream: rr.RecordingStream) -> None:
+        self.encoder.finish(stream, self.entity)

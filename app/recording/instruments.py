@@ -30,8 +30,10 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
-from app.recording import style
+from app.colours import MAGNITUDE, Colour, map_values
 from app.recording.layout import COMPONENT_NAMES, TreePaths, probe_label
+from app.recording.style import legend_png
+from sim import boundaries
 from sim.model import Model, ModelError
 
 MODE_IMAGE_SIDE = 128
@@ -49,13 +51,13 @@ SPECTRUM_PEAKS = 3
 """Peaks of each probe's spectrum named in the read-me."""
 NEAR_BINS = 3
 """A peak is attributed to a normal mode within this many frequency steps (1/T) of it."""
-PROBE_COLOURS: tuple[style.Colour, ...] = (
+PROBE_COLOURS: tuple[Colour, ...] = (
     (220, 90, 30), (40, 110, 235), (30, 150, 60), (150, 70, 200), (200, 40, 140), (150, 120, 30),
 )
 """Line colours of the probes' series, one per (probe, component) in turn (contrast >= 3 on both
 themes, like the energy lines)."""
 SPONGE_COLOUR = (128, 128, 128, 140)
-DRIVER_COLOUR: style.Colour = (230, 120, 0)
+DRIVER_COLOUR: Colour = (230, 120, 0)
 
 
 # --- probes ----------------------------------------------------------------------------------------
@@ -101,7 +103,7 @@ class ProbeLog:
         particles = [row * model.nx + column for column, row in self.probes]
         self.series = ProbeSeries(model, particles)
 
-    def colour(self, probe: int, component: int) -> style.Colour:
+    def colour(self, probe: int, component: int) -> Colour:
         return PROBE_COLOURS[(probe * len(self.components) + component) % len(PROBE_COLOURS)]
 
     def log_static(self, stream: rr.RecordingStream) -> None:
@@ -256,8 +258,8 @@ def mode_colour_range(top_energy: float) -> tuple[float, float]:
 
 def mode_legend_png(top_energy: float) -> bytes:
     bottom, top = mode_colour_range(top_energy)
-    return style.legend_png(
-        style.MAGNITUDE, math.log10(bottom), math.log10(top), "modes: log10 energy per mode (J)",
+    return legend_png(
+        MAGNITUDE, math.log10(bottom), math.log10(top), "modes: log10 energy per mode (J)",
         note="columns m = 1, 2, ... (half-waves along x), rows n = 1, 2, ... upwards",
     )
 
@@ -301,21 +303,21 @@ class ModeLog:
                   velocities: np.ndarray) -> None:
         if not self.enabled:
             return
-        table = style.colour_table(style.MAGNITUDE)
+        table = MAGNITUDE.table()
         for name, energies in zip(self.polarisations, self.energies(positions, velocities),
                                   strict=True):
             stream.log(self.paths.mode_energy(name),
                        rr.Tensor(energies.astype(np.float32), dim_names=["n", "m"]))
             logarithm = np.log10(np.maximum(energies, self.bottom))
-            colours = style.map_values(logarithm, math.log10(self.bottom), math.log10(self.top),
-                                       table)
+            rgb = map_values(logarithm, math.log10(self.bottom), math.log10(self.top),
+                                     table)
             # image rows run downwards: n = 1 (the longest waves across rows) at the bottom;
             # an explicit format, so that a one-row image is not taken for a grey one
             height, width = energies.shape
             image_format = rr.components.ImageFormat(width=width, height=height,
                                                      color_model="RGB", channel_datatype="U8")
             stream.log(self.paths.mode_image(name),
-                       rr.Image.from_fields(buffer=np.ascontiguousarray(colours[::-1]).tobytes(),
+                       rr.Image.from_fields(buffer=np.ascontiguousarray(rgb[::-1]).tobytes(),
                                             format=image_format))
 
 
@@ -346,7 +348,7 @@ def log_sponge(stream: rr.RecordingStream, paths: TreePaths, model: Model, *, la
                field: bool) -> None:
     """A faint outline of the absorbing layer's inner edge: in the lattice view (metres) and
     over the field image (pixels, top row first)."""
-    if model.boundary != "absorbing":
+    if not boundaries.get(model.boundary).absorbing:
         return
     edges = _layer_edges(model.nx, model.ny, model.sponge_width, model.sponge_sides)
     if not edges:
@@ -384,7 +386,7 @@ def log_driver(stream: rr.RecordingStream, paths: TreePaths, model: Model) -> No
 def describe_sponge(model: Model) -> str:
     """A sentence about the absorbing layer, "along the ... wall(s) a sponge layer ..." (empty
     for fixed walls)."""
-    if model.boundary != "absorbing":
+    if not boundaries.get(model.boundary).absorbing:
         return ""
     omega_0 = math.sqrt(model.stiffness / float(np.mean(model.masses)))
     sides = ", ".join(model.sponge_sides)

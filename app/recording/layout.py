@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import overload
 
 import rerun.blueprint as rrb
 
@@ -32,128 +33,75 @@ def probe_label(column: int, row: int) -> str:
     return f"{column}_{row}"
 
 
+class _Entity:
+    """A path below a tree's root: ``TreePaths(root).<name>`` is ``f"{root}/{tail}"``."""
+
+    def __init__(self, tail: str, doc: str | None = None) -> None:
+        self.tail = tail
+        self.__doc__ = doc or f"``<root>/{tail}``"
+
+    @overload
+    def __get__(self, tree: None, owner: type) -> _Entity: ...
+
+    @overload
+    def __get__(self, tree: TreePaths, owner: type) -> str: ...
+
+    def __get__(self, tree: TreePaths | None, owner: type) -> str | _Entity:
+        return self if tree is None else tree.below(self.tail)
+
+
 @dataclasses.dataclass(frozen=True)
 class TreePaths:
     """Entity paths of one simulation's tree (``root`` is "" for a single run)."""
 
     root: str = ""
 
-    def _path(self, tail: str) -> str:
+    def below(self, tail: str) -> str:
         return f"{self.root}/{tail}"
 
-    @property
-    def lattice(self) -> str:
-        return self._path("lattice")
-
-    @property
-    def rest(self) -> str:
-        return self._path("lattice/rest")
-
-    @property
-    def anchors(self) -> str:
-        return self._path("lattice/anchors")
-
-    @property
-    def particles(self) -> str:
-        return self._path("lattice/particles")
-
-    @property
-    def springs(self) -> str:
-        return self._path("lattice/springs")
-
-    @property
-    def surface(self) -> str:
-        return self._path("lattice/surface")
-
-    @property
-    def field(self) -> str:
-        return self._path("field")
-
-    @property
-    def drift(self) -> str:
-        return self._path("drift")
-
-    @property
-    def balance_error(self) -> str:
-        return self._path("drift/energy_balance_error")
-
-    @property
-    def log_balance_error(self) -> str:
-        return self._path("drift/log10_abs_error")
-
-    @property
-    def sponge(self) -> str:
-        """The absorbing layer's inner edge, drawn in the lattice view."""
-        return self._path("lattice/sponge")
-
-    @property
-    def field_sponge(self) -> str:
-        """The absorbing layer's inner edge over the field image (pixel coordinates)."""
-        return self._path("field/sponge")
-
-    @property
-    def driver(self) -> str:
-        """The driven particle's rest position, marked in the lattice view."""
-        return self._path("lattice/driver")
-
-    @property
-    def probes(self) -> str:
-        return self._path("probes")
+    lattice = _Entity("lattice")
+    rest = _Entity("lattice/rest")
+    anchors = _Entity("lattice/anchors")
+    particles = _Entity("lattice/particles")
+    springs = _Entity("lattice/springs")
+    surface = _Entity("lattice/surface")
+    sponge = _Entity("lattice/sponge", "The absorbing layer's inner edge, drawn in the lattice view.")
+    driver = _Entity("lattice/driver", "The driven particle's rest position, marked in the lattice view.")
+    field = _Entity("field")
+    field_sponge = _Entity("field/sponge", "The absorbing layer's inner edge over the field image "
+                           "(pixel coordinates).")
+    drift = _Entity("drift")
+    balance_error = _Entity("drift/energy_balance_error")
+    log_balance_error = _Entity("drift/log10_abs_error")
+    probes = _Entity("probes")
+    spectra = _Entity("spectra")
+    modes = _Entity("modes")
+    energy = _Entity("energy")
+    settings = _Entity("settings")
+    dt = _Entity("settings/dt")
+    integrator = _Entity("settings/integrator")
+    model = _Entity("settings/model")
+    field_scale = _Entity("settings/field_scale")
+    log = _Entity("log")
 
     def probe(self, label: str, component: str) -> str:
         """Displacement component (x, y or z) of the probe ``label`` (``<column>_<row>``)."""
-        return self._path(f"probes/{label}/{component}")
-
-    @property
-    def spectra(self) -> str:
-        return self._path("spectra")
+        return self.below(f"probes/{label}/{component}")
 
     def spectrum(self, label: str, component: str) -> str:
         """Amplitude spectrum of one probe's displacement component (logged at the end)."""
-        return self._path(f"spectra/{label}/{component}")
-
-    @property
-    def modes(self) -> str:
-        return self._path("modes")
+        return self.below(f"spectra/{label}/{component}")
 
     def mode_energy(self, polarisation: str) -> str:
         """Energy per normal mode of one polarisation, a tensor (J)."""
-        return self._path(f"modes/{polarisation}/energy")
+        return self.below(f"modes/{polarisation}/energy")
 
     def mode_image(self, polarisation: str) -> str:
         """The same energies as a log-colour heat map."""
-        return self._path(f"modes/{polarisation}/image")
-
-    @property
-    def energy(self) -> str:
-        return self._path("energy")
+        return self.below(f"modes/{polarisation}/image")
 
     def energy_term(self, term: str) -> str:
-        return self._path(f"energy/{term}")
-
-    @property
-    def settings(self) -> str:
-        return self._path("settings")
-
-    @property
-    def dt(self) -> str:
-        return self._path("settings/dt")
-
-    @property
-    def integrator(self) -> str:
-        return self._path("settings/integrator")
-
-    @property
-    def model(self) -> str:
-        return self._path("settings/model")
-
-    @property
-    def field_scale(self) -> str:
-        return self._path("settings/field_scale")
-
-    @property
-    def log(self) -> str:
-        return self._path("log")
+        return self.below(f"energy/{term}")
 
 
 def tree_paths(name: str | None) -> TreePaths:

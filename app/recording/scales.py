@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from sim.integrators import describe, descriptions
+
 QUANTITIES = ("displacement", "magnitude", "speed")
 """Field quantities of recordings: signed displacement component (m), |u| (m), |v| (m/s)."""
 SITE_QUANTITIES = ("strain", "density")
@@ -134,18 +136,16 @@ def field_values(
     raise ValueError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
 
 
-def _look_ahead_integrator(integrator: str | None, scene: Any) -> str:
+def look_ahead_integrator(integrator: str | None, scene: Any) -> str:
+    """The integrator of the look-ahead run for ``integrator`` (one name or a comma-separated
+    comparison): of the named ones that have a stable step on an undamped lattice, the one of
+    highest order (RK4 before Verlet); else the only one named; else the scene's."""
     names = [n.strip() for n in (integrator or "").split(",") if n.strip()]
-    for preferred in ("rk4", "verlet"):
-        if preferred in names:
-            return preferred
+    stable = [d for d in descriptions()
+              if d.stability_factor is not None and ({d.name, *d.aliases} & set(names))]
+    if stable:
+        return max(stable, key=lambda d: d.order).name
     return names[0] if len(names) == 1 else scene.integrator
-
-
-def _step_cost(integrator: str, n_particles: int) -> float:
-    from sim.integrators import describe
-
-    return describe(integrator).seconds_per_step(n_particles)
 
 
 def look_ahead(
@@ -156,18 +156,19 @@ def look_ahead(
 ) -> ColourScales:
     """Run a copy of ``scene`` and return fixed colour scales (see the module docstring).
 
-    integrator: one name, or a comma-separated comparison (RK4 or Verlet is then used, as the
-    accurate ones); dt: the step (s), default the scene's.  A blow-up ends the look-ahead early
+    integrator: one name, or a comma-separated comparison (``look_ahead_integrator`` picks the
+    accurate one); dt: the step (s), default the scene's.  A blow-up ends the look-ahead early
     (the scales use what was sampled).  ``energies``: also find the largest kinetic + spring
     energy (``ColourScales.energy``)."""
     from sim import BlowUpError, Simulation
 
     model = scene.model
-    name = _look_ahead_integrator(integrator, scene)
+    name = look_ahead_integrator(integrator, scene)
     simulation = Simulation(scene, integrator=name, dt=dt or scene.dt)
     dt = simulation.dt
     wanted = max(1, math.ceil(scene.duration / dt - 1e-9))
-    affordable = max(samples, int(budget_seconds / _step_cost(name, model.n_particles)))
+    step_seconds = describe(name).seconds_per_step(model.n_particles)
+    affordable = max(samples, int(budget_seconds / step_seconds))
     steps = min(wanted, affordable)
     axis = displacement_axis(scene)
     rest = model.rest_positions

@@ -1,27 +1,21 @@
-"""Colours of recordings and movies: series lines readable on light and dark backgrounds, colour
-maps, and colour-bar legends drawn as small images.
+"""Colours of recordings and movies: series lines readable on light and dark backgrounds, and
+colour-bar legends drawn as small images.
 
 Line colours are chosen so that their WCAG contrast ratio is at least 3 against white (rerun's
 light theme) and against rerun's dark panel background (``DARK_BACKGROUND``); the tests check it.
-
-Colour maps (each a (256, 3) uint8 lookup table, see ``colour_table``):
-
-* ``SIGNED_LINES``: blue (negative) - mid grey (zero) - red (positive), for springs and meshes
-  drawn over either theme's background (a white middle would vanish on the light theme);
-* ``SIGNED_FIELD``: matplotlib's ``RdBu_r`` (white at zero), for field images (they fill their
-  own pixels, so the background does not matter), like the paper's pictures;
-* ``MAGNITUDE``: ``inferno`` (black at zero), for magnitudes |u| and speeds |v|.
+Each integrator's lines take its colour from the integrator registry (``integrator_colour``).
+The colour maps (springs, meshes, field images, mode energies) are those of ``app.colours``.
 """
 
 from __future__ import annotations
 
-import functools
 import io
 import math
 
 import numpy as np
 
-Colour = tuple[int, int, int]
+from app.colours import Colour, ColourMap
+from sim.integrators import IntegratorError, describe
 
 WHITE: Colour = (255, 255, 255)
 DARK_BACKGROUND: Colour = (13, 16, 17)
@@ -34,12 +28,6 @@ TERM_COLOURS: dict[str, Colour] = {  # RGB of each energy term's line
     "dissipated": (150, 120, 30),
     "driven": (0, 140, 140),
 }
-INTEGRATOR_COLOURS: dict[str, Colour] = {  # RGB of each integrator's lines in a comparison
-    "euler": (220, 50, 50),
-    "heun": (205, 120, 0),
-    "verlet": (30, 150, 60),
-    "rk4": (40, 110, 235),
-}
 DRIFT_COLOUR: Colour = (200, 40, 140)
 """The energy-balance error line of a single run."""
 NEUTRAL_COLOUR: Colour = (128, 128, 128)
@@ -47,9 +35,17 @@ NEUTRAL_COLOUR: Colour = (128, 128, 128)
 PARTICLE_COLOUR: Colour = (40, 110, 235)
 ANCHOR_COLOUR: Colour = (128, 128, 128)
 
-SIGNED_LINES = "signed_lines"
-SIGNED_FIELD = "RdBu_r"
-MAGNITUDE = "inferno"
+
+def integrator_colour(name: str | None) -> Colour:
+    """The RGB of the energy-balance lines of the tree ``name``: its integrator's colour in a
+    comparison (trees named after integrators), ``DRIFT_COLOUR`` for a single run (None) or a
+    tree that is not named after an integrator."""
+    if not name:
+        return DRIFT_COLOUR
+    try:
+        return describe(name).colour
+    except IntegratorError:
+        return DRIFT_COLOUR
 
 
 def relative_luminance(colour: Colour) -> float:
@@ -69,34 +65,6 @@ def contrast_ratio(first: Colour, second: Colour) -> float:
     return (high + 0.05) / (low + 0.05)
 
 
-@functools.lru_cache(maxsize=8)
-def colour_table(name: str) -> np.ndarray:
-    """(256, 3) uint8 RGB lookup table of ``name`` (a matplotlib map or ``SIGNED_LINES``)."""
-    x = np.linspace(0.0, 1.0, 256)
-    if name == SIGNED_LINES:
-        blue, grey, red = (np.array(c, float) for c in ((30, 80, 230), (128, 128, 128), (225, 40, 30)))
-        low = (x < 0.5)[:, None]
-        t = np.where(x < 0.5, x * 2.0, (x - 0.5) * 2.0)[:, None]
-        table = np.where(low, blue + (grey - blue) * t, grey + (red - grey) * t)
-        table = np.round(table).astype(np.uint8)
-    else:
-        from matplotlib import colormaps
-
-        table = np.round(colormaps[name](x)[:, :3] * 255).astype(np.uint8)
-    table.setflags(write=False)
-    return table
-
-
-def map_values(values: np.ndarray, low: float, high: float, table: np.ndarray) -> np.ndarray:
-    """Values mapped linearly from [low, high] onto ``table`` (saturating outside): uint8 RGB with
-    the shape of ``values`` plus (3,)."""
-    indices = np.subtract(values, low, dtype=np.float32)
-    indices *= np.float32(255.0 / (high - low))
-    np.clip(indices, 0.0, 255.0, out=indices)
-    indices += np.float32(0.5)
-    return table[indices.astype(np.uint8)]
-
-
 def nice_number(value: float) -> float:
     """``value`` rounded to 1, 2 or 5 times a power of ten (for exaggeration factors)."""
     if not (value > 0 and math.isfinite(value)):
@@ -109,7 +77,7 @@ def nice_number(value: float) -> float:
 
 
 def legend_png(
-    colour_map: str, low: float, high: float, label: str, *, width: int = 520, height: int = 96,
+    colour_map: ColourMap, low: float, high: float, label: str, *, width: int = 520, height: int = 96,
     note: str | None = None,
 ) -> bytes:
     """A colour bar from ``low`` to ``high`` with five ticks and ``label`` (its unit in it), as PNG
@@ -124,7 +92,7 @@ def legend_png(
     margin = 26
     bar_top, bar_height = 28, 18
     bar_width = width - 2 * margin
-    table = colour_table(colour_map)
+    table = colour_map.table()
     gradient = table[np.linspace(0, 255, bar_width).round().astype(int)]
     pixels = np.asarray(image).copy()
     pixels[bar_top : bar_top + bar_height, margin : margin + bar_width] = gradient[None]

@@ -1,0 +1,56 @@
+"""Frames of a fresh run of a scene: the movie's frames are evenly spaced states of a private
+``sim.Simulation``, its colour scales come from a look-ahead run (``app.recording.scales``)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Any
+
+from app.movie.frames import State
+from app.movie.options import FRAMES_PER_SIMULATED_SECOND, MAX_FRAMES, MovieOptions
+from app.recording.options import DETAIL_LIMIT
+from app.recording.scales import ColourScales, look_ahead
+
+
+class SimulationSource:
+    """Frames of a fresh run of ``scene`` (its initial state at t = 0)."""
+
+    def __init__(self, scene: Any, options: MovieOptions) -> None:
+        from sim import Simulation
+
+        self.scene = scene
+        self.model = scene.model
+        self.simulation = Simulation(scene, integrator=options.integrator, dt=options.dt)
+        dt = self.simulation.dt
+        duration = options.duration or scene.duration
+        steps = max(1, math.ceil(duration / dt - 1e-9))
+        frames = options.frames or min(
+            MAX_FRAMES, steps + 1, max(2, round(duration * FRAMES_PER_SIMULATED_SECOND) + 1)
+        )
+        self.frames = frames
+        self.every = max(1, round(steps / (frames - 1)))
+        self.summary = (f"{scene.name}: {self.model.describe()}; {self.simulation.integrator}, "
+                        f"dt={dt:g} s")
+
+    def scales(self, colour: str) -> ColourScales:
+        quantity = "speed" if colour == "speed" else colour
+        return look_ahead(self.scene, integrator=self.simulation.integrator,
+                          dt=self.simulation.dt, quantity=quantity,
+                          strains=colour == "strain" and self.model.n_particles <= DETAIL_LIMIT)
+
+    def states(self, velocities: bool, strains: bool) -> Iterator[State]:
+        from sim import BlowUpError
+
+        simulation = self.simulation
+        for index in range(self.frames):
+            if index:
+                try:
+                    simulation.step(self.every)
+                except BlowUpError:
+                    return
+            yield State(
+                simulation.time, simulation.peek_positions().copy(),
+                simulation.velocities.copy() if velocities else None,
+                simulation.strains() if strains else None,
+            )
