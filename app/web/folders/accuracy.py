@@ -9,7 +9,7 @@
 * **Choose for me**: the cheapest integrator and dt (force evaluations per simulated second)
   whose predicted error meets the tolerance; applied as ordinary commands.
 
-Like the rest of the panel, callbacks act only on events a browser sent (``from_user``) and
+Like every folder of the page, callbacks act only on events a browser sent (``from_user``) and
 check the values they get.
 """
 
@@ -18,12 +18,13 @@ from __future__ import annotations
 import collections
 import math
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import viser
 
 import sim
+from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
     amber_html,
@@ -33,10 +34,8 @@ from app.web.inputs import (
     ok_html,
     warning_html,
 )
+from sim.integrators import describe
 from sim.runner import Frame
-
-if TYPE_CHECKING:
-    from app.web.panel import PanelHost
 
 HISTORY = 600
 """Points kept in the error plot."""
@@ -44,36 +43,32 @@ DEFAULT_TOLERANCE = 0.01
 """Relative energy-balance error (1 %) above which the page warns."""
 
 
-def explanation(integrator: str, error: float, exact_available: bool) -> str:
-    """Why the energy balance drifts for this integrator, and what to do, in plain words."""
+def has_time_step_error(integrator: str) -> bool:
+    """Whether ``integrator``'s error depends on the time step (every method of some order; not
+    an exact solution such as the normal-mode solver, registered with order 0)."""
+    return describe(integrator).order > 0
+
+
+def explanation(integrator: str, error: float, model: sim.Model) -> str:
+    """Why the energy balance drifts for this integrator (its registry entry says), and what to
+    do on ``model``, in plain words."""
+    applicable = [describe(name) for name in sim.integrators.names(model)]
     remedies = ["a smaller dt"]
-    if integrator != "verlet":
-        remedies.append("velocity Verlet")
-    if exact_available and integrator != "exact":
-        remedies.append("the exact solver (this scene has linearised springs)")
+    if not describe(integrator).symplectic:
+        remedies += [other.label for other in applicable if other.symplectic]
+    if has_time_step_error(integrator):
+        remedies += [f"the {other.label} (no time-step error on this scene)"
+                     for other in applicable if not has_time_step_error(other.name)]
     remedy = "Try " + ", or ".join(remedies) + " (Choose for me picks the cheapest)."
-    if integrator == "euler":
-        why = ("Explicit Euler adds energy at every step (each mode by 1 + (ω·dt)² per step): "
-               "the motion grows without bound at any dt.")
-    elif integrator == "verlet":
-        why = ("Velocity Verlet keeps a nearby energy exactly, so its error stays bounded, but "
-               "short waves travel at the wrong speed (phase error); the error shown is that "
-               "wobble.")
-    elif integrator in ("rk4", "heun") and error < 0:
-        why = (f"{sim.integrators.LABELS.get(integrator, integrator)} damps the short waves "
-               "numerically: energy leaks away although nothing in the physics removes it.")
-    elif integrator == "heun":
-        why = "Heun's method slowly adds energy to every mode (by 1 + (ω·dt)⁴/4 per step)."
-    else:
-        why = "The integrator does not conserve the energy at this dt."
-    return f"{why} {remedy}"
+    return f"{describe(integrator).drift_explanation(error)} {remedy}"
 
 
-class AccuracyFolder:
-    """Builds the folder in ``host``'s GUI; ``update(frame)`` for every frame drawn."""
+class AccuracyFolder(Folder):
+    name = "accuracy"
 
-    def __init__(self, host: PanelHost, gui: Any) -> None:
+    def __init__(self, host: PanelHost) -> None:
         self.host = host
+        gui = host.server.gui
         self.control = host.control
         self._times: collections.deque[float] = collections.deque(maxlen=HISTORY)
         self._errors: collections.deque[float] = collections.deque(maxlen=HISTORY)
@@ -165,6 +160,9 @@ class AccuracyFolder:
         self._errors.clear()
         self._prediction_key = None
 
+    def show_scene(self, simulation: sim.Simulation) -> None:
+        self.clear()
+
     def update(self, frame: Frame, now: float) -> None:
         if self._times and frame.time < self._times[-1]:
             self.clear()
@@ -187,8 +185,7 @@ class AccuracyFolder:
         if self.live.content != live:
             self.live.content = live
         if size > tolerance:
-            exact = self.host.runner.simulation.model.linear
-            why = as_html(explanation(frame.integrator, error, exact))
+            why = as_html(explanation(frame.integrator, error, frame.model))
             if self.why.content != why:
                 self.why.content = why
             self.why.visible = True
@@ -205,8 +202,9 @@ class AccuracyFolder:
             return
         self._prediction_key = key
         simulation = self.host.runner.simulation
-        if frame.integrator == "exact":
-            self.predicted.content = ok_html("exact solver: no time-step error at any dt")
+        if not has_time_step_error(frame.integrator):
+            self.predicted.content = ok_html(
+                f"{describe(frame.integrator).short_label} solver: no time-step error at any dt")
             return
 
         def work() -> None:
