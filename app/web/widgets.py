@@ -5,14 +5,18 @@
   outside it (a scene's value is shown as it is, never rounded or clamped);
 * ``Limits`` are the server's own limits of some sliders, widened the same way, so that a value
   the page shows is also a value the server accepts back;
+* ``History`` keeps the values a plot shows against simulated time;
 * ``download_name`` makes a harmless file name for the user's browser from a scene name;
 * ``MATPLOTLIB_LOCK`` is held while a folder draws a matplotlib picture.
 """
 
 from __future__ import annotations
 
+import collections
 import threading
 from typing import Any
+
+import numpy as np
 
 import sim
 from app.web.inputs import InputRefused, number, warning_html
@@ -62,6 +66,37 @@ class Limits:
         """``handle``'s value if it lies within the limit ``key``, else ``InputRefused``."""
         low, high = self._limits[key]
         return number(handle.value, label, low, high, low_open=key in self._low_open)
+
+
+class History:
+    """Values against simulated time for a plot: one row of values per frame, the last ``length``
+    frames; it starts again when the time goes back (a reset, a new scene)."""
+
+    def __init__(self, length: int) -> None:
+        self._times: collections.deque[float] = collections.deque(maxlen=length)
+        self._rows: collections.deque[tuple[float, ...]] = collections.deque(maxlen=length)
+
+    def __len__(self) -> int:
+        return len(self._times)
+
+    def clear(self) -> None:
+        self._times.clear()
+        self._rows.clear()
+
+    def add(self, time: float, row: tuple[float, ...]) -> bool:
+        """Add a frame's values at ``time`` (s; a frame at the same time again is left out).
+        Returns whether the history started again."""
+        restarted = bool(self._times) and time < self._times[-1]
+        if restarted:
+            self.clear()
+        if not self._times or time > self._times[-1]:
+            self._times.append(time)
+            self._rows.append(row)
+        return restarted
+
+    def columns(self) -> tuple[np.ndarray, np.ndarray]:
+        """(times (n,) s, values (values per row, n))."""
+        return np.array(self._times), np.array(self._rows).T
 
 
 def download_name(name: str) -> str:

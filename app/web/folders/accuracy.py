@@ -15,7 +15,6 @@ check the values they get.
 
 from __future__ import annotations
 
-import collections
 import math
 import threading
 from typing import Any
@@ -34,11 +33,14 @@ from app.web.inputs import (
     ok_html,
     warning_html,
 )
+from app.web.widgets import History, say
 from sim.integrators import describe
 from sim.runner import Frame
 
 HISTORY = 600
 """Points kept in the error plot."""
+PLOT_INTERVAL = 0.25
+"""Seconds between two updates of the error plot."""
 DEFAULT_TOLERANCE = 0.01
 """Relative energy-balance error (1 %) above which the page warns."""
 
@@ -70,8 +72,8 @@ class AccuracyFolder(Folder):
         self.host = host
         gui = host.server.gui
         self.control = host.control
-        self._times: collections.deque[float] = collections.deque(maxlen=HISTORY)
-        self._errors: collections.deque[float] = collections.deque(maxlen=HISTORY)
+        self.history = History(HISTORY)
+        """The energy-balance error (%) against time."""
         self._prediction_key: tuple | None = None
         self._prediction_text = ""
         self._predictors: dict[int, Any] = {}
@@ -105,7 +107,7 @@ class AccuracyFolder(Folder):
             try:
                 number(self.tolerance.value, "tolerance (%)", 0.0, 100.0, low_open=True)
             except InputRefused as error:
-                self.message.content = warning_html(f"refused: {error}")
+                say(self.message, error)
                 return
             self.message.content = ""
 
@@ -117,7 +119,7 @@ class AccuracyFolder(Folder):
                 self.message.content = as_html("predicting…")
                 choice = self.choose(tolerance)
             except (InputRefused, sim.ModelError, ValueError) as error:
-                self.message.content = warning_html(f"could not choose: {error}")
+                say(self.message, error, "could not choose")
                 return
             if choice is None:
                 self.message.content = warning_html(
@@ -156,20 +158,16 @@ class AccuracyFolder(Folder):
     # --- keeping in step ----------------------------------------------------------------------
 
     def clear(self) -> None:
-        self._times.clear()
-        self._errors.clear()
+        self.history.clear()
         self._prediction_key = None
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         self.clear()
 
     def update(self, frame: Frame, now: float) -> None:
-        if self._times and frame.time < self._times[-1]:
-            self.clear()
         error = frame.energy_balance_error
-        if not self._times or frame.time > self._times[-1]:
-            self._times.append(frame.time)
-            self._errors.append(100.0 * error)
+        if self.history.add(frame.time, (100.0 * error,)):
+            self._prediction_key = None
         try:
             tolerance = self.tolerance_value()
         except InputRefused:
@@ -191,9 +189,10 @@ class AccuracyFolder(Folder):
             self.why.visible = True
         elif self.why.visible:
             self.why.visible = False
-        if now - self._last_plot > 0.25 and len(self._times) > 1:
+        if now - self._last_plot > PLOT_INTERVAL and len(self.history) > 1:
             self._last_plot = now
-            self.plot.data = (np.array(self._times), np.array(self._errors))
+            times, errors = self.history.columns()
+            self.plot.data = (times, *errors)
         self._update_prediction(frame)
 
     def _update_prediction(self, frame: Frame) -> None:

@@ -31,10 +31,9 @@ from app.web.inputs import (
     from_user,
     number,
     ok_html,
-    warning_html,
     whole_number,
 )
-from app.web.widgets import show_number
+from app.web.widgets import say, show_number
 from sim.forcing import DRIVER_KINDS, Driver
 from sim.modes import POLARISATION_NAMES, ModalBasis, polarisations, second_difference_eigenvalues
 from sim.runner import Frame
@@ -167,7 +166,7 @@ class DriveFolder(Folder):
             try:
                 driver = self.drive_from_page()
             except ERRORS as error:
-                self.message.content = warning_html(f"could not drive: {error}")
+                say(self.message, error, "could not drive")
                 return
             self.message.content = ok_html(
                 f"driving particle ({driver.column}, {driver.row}) from t = {driver.start:.4g} s; "
@@ -179,7 +178,7 @@ class DriveFolder(Folder):
             try:
                 self.host.control.stop_driving().result(timeout=30)
             except ERRORS as error:
-                self.message.content = warning_html(f"could not stop driving: {error}")
+                say(self.message, error, "could not stop driving")
                 return
             self.message.content = ok_html("stopped driving (the lattice keeps the energy the "
                                            "driver put in)")

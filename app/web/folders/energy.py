@@ -7,13 +7,13 @@ reset, a new scene) the plot starts again.
 
 from __future__ import annotations
 
-import collections
 from typing import Any
 
 import numpy as np
 
 import sim
 from app.web.host import Folder, PanelHost
+from app.web.widgets import History
 from sim.runner import Frame
 
 ENERGY_HISTORY = 600
@@ -36,10 +36,8 @@ class EnergyFolder(Folder):
 
     def __init__(self, host: PanelHost) -> None:
         self.gui = host.server.gui
-        self._times: collections.deque[float] = collections.deque(maxlen=ENERGY_HISTORY)
-        self._energies: collections.deque[tuple[float, float, float, float, float]] = (
-            collections.deque(maxlen=ENERGY_HISTORY)
-        )
+        self.history = History(ENERGY_HISTORY)
+        """Kinetic, potential, total, dissipated energy and the driver's work (J) against time."""
         self._last_plot = 0.0
         self.shows_driver = False
         """Whether the plot has the driver's work line."""
@@ -61,26 +59,18 @@ class EnergyFolder(Folder):
             )
         self.shows_driver = with_driver
 
-    def _clear(self) -> None:
-        self._times.clear()
-        self._energies.clear()
-
     def show_scene(self, simulation: sim.Simulation) -> None:
-        self._clear()
+        self.history.clear()
 
     def update(self, frame: Frame, now: float) -> None:
-        if self._times and frame.time < self._times[-1]:
-            self._clear()
         energy = frame.energy
-        if not self._times or frame.time > self._times[-1]:
-            self._times.append(frame.time)
-            self._energies.append((energy.kinetic, energy.potential, energy.total,
-                                   energy.dissipated, energy.driven))
+        self.history.add(frame.time, (energy.kinetic, energy.potential, energy.total,
+                                      energy.dissipated, energy.driven))
         with_driver = frame.model.driver is not None or energy.driven != 0.0
         if with_driver != self.shows_driver:
             self._make_plot(with_driver)
-        if now - self._last_plot > PLOT_INTERVAL and len(self._times) > 1:
+        if now - self._last_plot > PLOT_INTERVAL and len(self.history) > 1:
             self._last_plot = now
-            columns = np.array(self._energies).T
+            times, columns = self.history.columns()
             shown = columns if self.shows_driver else columns[:4]
-            self.plot.data = (np.array(self._times), *shown)
+            self.plot.data = (times, *shown)

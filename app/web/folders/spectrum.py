@@ -33,7 +33,7 @@ from app.web.inputs import (
     warning_html,
     whole_number,
 )
-from app.web.widgets import MATPLOTLIB_LOCK
+from app.web.widgets import MATPLOTLIB_LOCK, say
 from sim.modes import (
     POLARISATION_NAMES,
     ModalBasis,
@@ -134,7 +134,7 @@ class SpectrumFolder(Folder):
             try:
                 self.excite()
             except (InputRefused, sim.ModelError, ValueError) as error:
-                self.message.content = warning_html(f"could not excite: {error}")
+                say(self.message, error, "could not excite")
 
     # --- values -------------------------------------------------------------------------------
 
