@@ -151,7 +151,7 @@ class SpectrumFolder(Folder):
         if not model.uniform_mass:
             self.frequency.content = as_html("unequal masses: the modes are not sine waves")
             return
-        if model.boundary == "periodic":
+        if model.periodic:
             self.frequency.content = as_html("periodic rows: the modes are waves around the "
                                              "rings, not sine modes (m, n); the picture shows "
                                              "their energy against frequency")
@@ -192,7 +192,7 @@ class SpectrumFolder(Folder):
         names = list(POLARISATION_NAMES[: model.dim])
         self.polarisation.options = names
         self.m.max, self.n.max = model.nx, model.ny
-        self.excite_button.disabled = not model.uniform_mass or model.boundary == "periodic"
+        self.excite_button.disabled = not model.uniform_mass or model.periodic
         self._last = 0.0
         self._show_frequency()
 
