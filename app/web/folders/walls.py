@@ -28,6 +28,7 @@ def offered(model: sim.Model) -> list[str]:
 
 
 def walls_hint() -> str:
+    """The walls dropdown's hint: each registered boundary's description."""
     return "; ".join(f"{boundary}: {boundaries.get(boundary).description}"
                      for boundary in boundaries.names())
 
