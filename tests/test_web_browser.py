@@ -184,7 +184,7 @@ def test_paths_typed_into_the_page_touch_no_file_on_the_server(browser, tmp_path
         page.locator("input[type=file]").set_input_files(
             files=[{"name": "../escape.toml", "mimeType": "text/plain",
                     "buffer": secret.read_bytes()}])
-        assert wait_for(lambda: "escape.toml" in app.panel.scene_message.content)
+        assert wait_for(lambda: "escape.toml" in app.panel.scene.message.content)
         assert app.runner.simulation.scene.name != "canary" or "upload" in app.scene_source
         time.sleep(0.5)
     finally:

@@ -15,7 +15,7 @@ import pytest
 import sim
 from app.web.app import WebApp
 from app.web.control import DRIVE_RAMP, LatticeRunner, SimulationControl
-from app.web.drive import mode_frequencies
+from app.web.folders.drive import mode_frequencies
 from sim.forcing import Driver
 from sim.modes import ModalBasis
 from sim.probes import mode_table
@@ -80,8 +80,8 @@ def test_driving_the_selected_particle_sets_the_driver_and_its_work_grows(web_ap
     assert wait_for(lambda: "work done by the driver so far" in drive.state.content)
     web_app.runner.pause()
     # the energy plot carries the driver's work as a sixth series
-    assert wait_for(lambda: web_app.panel._plot_shows_driver)
-    assert [series["label"] for series in web_app.panel.plot.series][-1] == "driver's work"
+    assert wait_for(lambda: web_app.panel.energy.shows_driver)
+    assert [series["label"] for series in web_app.panel.energy.plot.series][-1] == "driver's work"
 
 
 def test_stop_driving_clears_the_driver_and_keeps_its_work(web_app):
@@ -100,7 +100,7 @@ def test_stop_driving_clears_the_driver_and_keeps_its_work(web_app):
     assert "not driven" in drive.state.content
     work = driven_work(web_app)
     assert work != 0.0  # the energy account keeps what the driver did
-    assert wait_for(lambda: web_app.panel._plot_shows_driver)
+    assert wait_for(lambda: web_app.panel.energy.shows_driver)
 
 
 def test_a_driven_preset_is_shown_and_refreshing_posts_no_commands(web_app):
@@ -123,8 +123,8 @@ def test_a_driven_preset_is_shown_and_refreshing_posts_no_commands(web_app):
     drive.amplitude.value = 0.2
     drive.kind.value = "displacement"
     drive.direction.value = "y"
-    panel.boundary.value = "absorbing"
-    panel.sponge_width.value = 2
+    panel.scene.walls.boundary.value = "absorbing"
+    panel.scene.walls.sponge_width.value = 2
     drive.show_scene(web_app.runner.simulation)
     panel.show_scene(web_app.runner.simulation)
     settle(web_app)
@@ -172,44 +172,44 @@ def test_a_drive_without_a_particle_inside_the_lattice_is_refused(web_app):
 def test_absorbing_walls_on_a_too_small_lattice_are_refused_and_keep_the_scene(web_app):
     panel = web_app.panel
     model = web_app.runner.simulation.model
-    send(panel.boundary, "absorbing")
-    send(panel.sponge_width, 30)
-    press(panel.boundary_button)
-    assert "could not change the walls" in panel.scene_message.content
-    assert "sponge_width" in panel.scene_message.content  # the model's own explanation
+    send(panel.scene.walls.boundary, "absorbing")
+    send(panel.scene.walls.sponge_width, 30)
+    press(panel.scene.walls.boundary_button)
+    assert "could not change the walls" in panel.scene.message.content
+    assert "sponge_width" in panel.scene.message.content  # the model's own explanation
     assert web_app.runner.simulation.model is model
-    assert panel.boundary.value == "fixed"  # shows what runs
-    for widget, bad in ((panel.sponge_width, float("nan")), (panel.sponge_width, 0),
-                        (panel.sponge_width, 2.5), (panel.boundary, "open")):
+    assert panel.scene.walls.boundary.value == "fixed"  # shows what runs
+    for widget, bad in ((panel.scene.walls.sponge_width, float("nan")), (panel.scene.walls.sponge_width, 0),
+                        (panel.scene.walls.sponge_width, 2.5), (panel.scene.walls.boundary, "open")):
         send(widget, bad)
-        press(panel.boundary_button)
-        assert "could not change the walls" in panel.scene_message.content
+        press(panel.scene.walls.boundary_button)
+        assert "could not change the walls" in panel.scene.message.content
         assert web_app.runner.simulation.model is model
-    send(panel.boundary, "absorbing")
-    send(panel.sponge_width, 2)
-    press(panel.boundary_button)
+    send(panel.scene.walls.boundary, "absorbing")
+    send(panel.scene.walls.sponge_width, 2)
+    press(panel.scene.walls.boundary_button)
     changed = web_app.runner.simulation.model
     assert (changed.boundary, changed.sponge_width) == ("absorbing", 2)
     assert changed.sponge_sides == ("left", "right", "bottom", "top")
-    assert "walls now absorbing" in panel.scene_message.content
-    assert "absorbing" in panel.scene_info.content
-    send(panel.boundary, "fixed")
-    press(panel.boundary_button)
+    assert "walls now absorbing" in panel.scene.message.content
+    assert "absorbing" in panel.scene.info.content
+    send(panel.scene.walls.boundary, "fixed")
+    press(panel.scene.walls.boundary_button)
     assert web_app.runner.simulation.model.boundary == "fixed"
 
 
 def test_a_scene_with_periodic_rows_opens_and_shows_its_walls(web_app):
     panel = web_app.panel
     web_app.replace_scene(sim.scenes.build("chain", boundary="periodic"), source="test")
-    assert panel.boundary.value == "periodic" and "periodic" in panel.boundary.options
+    assert panel.scene.walls.boundary.value == "periodic" and "periodic" in panel.scene.walls.boundary.options
     assert "periodic rows" in panel.spectrum.frequency.content
     assert panel.spectrum.excite_button.disabled
     lowest, _ = mode_frequencies(web_app.runner.simulation.model, 0)
     assert f"{lowest[0]:.4g}" in panel.drive.modes.content  # the ring's lowest wave
-    send(panel.boundary, "fixed")
-    press(panel.boundary_button)
+    send(panel.scene.walls.boundary, "fixed")
+    press(panel.scene.walls.boundary_button)
     assert web_app.runner.simulation.model.boundary == "fixed"
-    assert panel.boundary.options == ("fixed", "absorbing", "periodic", "free")
+    assert panel.scene.walls.boundary.options == ("fixed", "absorbing", "periodic", "free")
 
 
 def test_the_exact_solver_refuses_a_driver_and_keeps_the_model():
@@ -271,7 +271,7 @@ def test_mode_frequencies_are_the_lattice_normal_modes():
 @pytest.mark.parametrize("walls", ["periodic", "free"])
 def test_periodic_and_free_walls_from_the_page_change_the_running_lattice(web_app, walls):
     panel = web_app.panel
-    panel.boundary.value = walls
+    panel.scene.walls.boundary.value = walls
     web_app.control.set_boundary(walls, 3).result(timeout=30)
     model = web_app.runner.simulation.model
     assert model.boundary == walls

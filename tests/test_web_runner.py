@@ -201,8 +201,8 @@ def test_page_recording_records_the_running_lattice(running, tmp_path):
 
 def test_speed_accuracy_study_from_the_page(web_app):
     panel = web_app.panel
-    panel._run_study(1e-2)
-    assert panel.study_image.visible
-    assert panel.study_image.image.shape[2] == 3 and panel.study_image.image.shape[0] > 100
-    assert "Recommendation" in panel.study_text.content
-    assert " at dt = " in panel.study_text.content  # an integrator and dt that meet 1e-2
+    panel.study.measure(1e-2)
+    assert panel.study.image.visible
+    assert panel.study.image.image.shape[2] == 3 and panel.study.image.image.shape[0] > 100
+    assert "Recommendation" in panel.study.text.content
+    assert " at dt = " in panel.study.text.content  # an integrator and dt that meet 1e-2

@@ -103,11 +103,11 @@ def assert_same_scene(simulation: sim.Simulation, expected: sim.Scene) -> None:
 @pytest.mark.parametrize("name", [n for n in sim.scenes.names() if n != "interference"])
 def test_a_preset_built_in_the_page_is_exactly_the_preset(web_app, name):
     panel = web_app.panel
-    send(panel.preset, name)
-    press(panel.build_button)
+    send(panel.scene.preset, name)
+    press(panel.scene.build_button)
     settle(web_app)
     assert_same_scene(web_app.runner.simulation, sim.scenes.build(name))
-    assert name in panel.scene_info.content
+    assert name in panel.scene.info.content
     # showing the scene assigned many widget values; none of them may have posted a change
     settle(web_app)
     assert_same_scene(web_app.runner.simulation, sim.scenes.build(name))
@@ -115,17 +115,17 @@ def test_a_preset_built_in_the_page_is_exactly_the_preset(web_app, name):
 
 @pytest.mark.slow
 def test_the_interference_preset_built_in_the_page_is_exactly_the_preset(web_app):
-    send(web_app.panel.preset, "interference")
-    press(web_app.panel.build_button)
+    send(web_app.panel.scene.preset, "interference")
+    press(web_app.panel.scene.build_button)
     settle(web_app)
     assert_same_scene(web_app.runner.simulation, sim.scenes.build("interference"))
 
 
 def test_typed_size_is_the_only_change_to_the_preset(web_app):
     panel = web_app.panel
-    send(panel.preset, "catenary")
-    send(panel.nx, 9)
-    press(panel.build_button)
+    send(panel.scene.preset, "catenary")
+    send(panel.scene.nx, 9)
+    press(panel.scene.build_button)
     settle(web_app)
     assert_same_scene(web_app.runner.simulation, sim.scenes.build("catenary", nx=9))
 
@@ -147,14 +147,14 @@ def test_download_then_upload_gives_back_the_same_scene(web_app):
     scene = chain_with_masses()
     web_app.replace_scene(scene, source="test")
     client = PageClient()
-    press(panel.download_button, client)
+    press(panel.scene.files.download_button, client)
     (name, content), = client.downloads
     assert name.startswith("heavy-chain")
     web_app.replace_scene(sim.scenes.build("grid"), source="test")
-    send(panel.upload_button, viser.UploadedFile(name, content))
+    send(panel.scene.files.upload_button, viser.UploadedFile(name, content))
     settle(web_app)
     assert_same_scene(web_app.runner.simulation, scene)
-    assert "heavy-chain" in panel.scene_info.content and "5x1" in panel.scene_info.content
+    assert "heavy-chain" in panel.scene.info.content and "5x1" in panel.scene.info.content
 
 
 def test_a_scene_file_in_the_scenes_directory_opens_by_name(web_app, folders):
@@ -162,13 +162,13 @@ def test_a_scene_file_in_the_scenes_directory_opens_by_name(web_app, folders):
     scene = chain_with_masses()
     sim.scene_files.save(scene, scenes / "lesson.toml")
     panel = web_app.panel
-    press(panel.list_button)
-    assert panel.server_scenes.options == ("lesson.toml",)
-    send(panel.server_scenes, "lesson.toml")
-    press(panel.open_button)
+    press(panel.scene.files.list_button)
+    assert panel.scene.files.server_scenes.options == ("lesson.toml",)
+    send(panel.scene.files.server_scenes, "lesson.toml")
+    press(panel.scene.files.open_button)
     settle(web_app)
     assert_same_scene(web_app.runner.simulation, scene)
-    assert "lesson.toml" in panel.scene_info.content
+    assert "lesson.toml" in panel.scene.info.content
 
 
 # --- every value from the page is checked --------------------------------------------------------
@@ -179,45 +179,45 @@ def test_bad_values_from_the_page_are_refused_and_change_nothing(web_app):
     simulation = web_app.runner.simulation
     dt, stiffness = simulation.dt, simulation.model.stiffness
     for bad in (-0.01, 0.0, float("nan"), float("inf"), 1e9):
-        send(panel.dt, bad)
+        send(panel.integrator.dt, bad)
         settle(web_app)
         assert web_app.runner.simulation.dt == dt
-        assert "refused" in panel.integrator_message.content
-        assert panel.dt.value == dt  # the widget shows the simulation's dt again, not a clamp
-    send(panel.steps_per_frame, 1e9)
+        assert "refused" in panel.integrator.message.content
+        assert panel.integrator.dt.value == dt  # the widget shows the simulation's dt again, not a clamp
+    send(panel.integrator.steps_per_frame, 1e9)
     assert web_app.runner.steps_per_frame == 1
-    assert "steps per frame" in panel.integrator_message.content
-    send(panel.integrator, "warp-drive")
+    assert "steps per frame" in panel.integrator.message.content
+    send(panel.integrator.method, "warp-drive")
     settle(web_app)
     assert web_app.runner.simulation.integrator == simulation.integrator
     for bad in (1e9, float("nan"), -5.0):
-        send(panel.stiffness, bad)
+        send(panel.physics.stiffness, bad)
         settle(web_app)
         assert web_app.runner.simulation.model.stiffness == stiffness
-        assert "refused" in panel.physics_message.content
+        assert "refused" in panel.physics.message.content
     model = web_app.runner.simulation.model
     for nx in (1e12, 0, -4, 2.5, 3000):
-        send(panel.nx, nx)
-        press(panel.build_button)
+        send(panel.scene.nx, nx)
+        press(panel.scene.build_button)
         assert web_app.runner.simulation.model is model
-        assert "could not build" in panel.scene_message.content
-    send(panel.nx, 2000)
-    send(panel.ny, 2000)
-    press(panel.build_button)
+        assert "could not build" in panel.scene.message.content
+    send(panel.scene.nx, 2000)
+    send(panel.scene.ny, 2000)
+    press(panel.scene.build_button)
     assert web_app.runner.simulation.model is model
-    assert "particles" in panel.scene_message.content
-    send(panel.row, 10**6)
-    press(panel.select_buttons)
-    assert "row" in panel.selection_message.content
-    send(panel.color_by, "<script>")
-    assert "&lt;script&gt;" in panel.view_message.content
+    assert "particles" in panel.scene.message.content
+    send(panel.selection.row, 10**6)
+    press(panel.selection.select_buttons)
+    assert "row" in panel.selection.message.content
+    send(panel.view.color_by, "<script>")
+    assert "&lt;script&gt;" in panel.view.message.content
 
 
 def test_text_from_the_page_is_shown_as_text(web_app):
     panel = web_app.panel
     name = '<img src=x onerror="alert(1)"><b>lesson</b>.toml'
-    send(panel.upload_button, viser.UploadedFile(name, b"not [a scene"))
-    message = panel.scene_message.content
+    send(panel.scene.files.upload_button, viser.UploadedFile(name, b"not [a scene"))
+    message = panel.scene.message.content
     assert "could not open" in message
     assert "<img" not in message and "<b>" not in message
     assert "&lt;img" in message
@@ -227,11 +227,11 @@ def test_programmatic_values_post_no_commands(web_app):
     """The server assigning widget values (as it does to show a scene) must not change it."""
     panel = web_app.panel
     before = web_app.runner.simulation.model
-    panel.stiffness.value = 77.0
-    panel.damping_on.value = True
-    panel.gravity_on.value = True
-    panel.mass_pattern.value = "ionic"
-    panel.dt.value = 0.5
+    panel.physics.stiffness.value = 77.0
+    panel.physics.damping_on.value = True
+    panel.physics.gravity_on.value = True
+    panel.physics.mass_pattern.value = "ionic"
+    panel.integrator.dt.value = 0.5
     settle(web_app)
     assert web_app.runner.simulation.model is before
     assert web_app.runner.simulation.dt != 0.5
@@ -324,8 +324,8 @@ def test_a_failing_subscriber_is_detached_and_the_simulation_goes_on(web_app):
     step = web_app.runner.simulation.step_count
     assert wait_for(lambda: web_app.runner.simulation.step_count > step + 50)
     assert len(failures) == 1 and "No space left" in str(failures[0])
-    assert wait_for(lambda: "No space left" in web_app.panel.part_html.content)
-    assert web_app.panel.part_html.visible
+    assert wait_for(lambda: "No space left" in web_app.panel.run.part_html.content)
+    assert web_app.panel.run.part_html.visible
     web_app.control.reset().result(timeout=5)
     assert wait_for(lambda: web_app.runner.simulation.step_count > 10)  # Reset and Play still work
 
@@ -339,13 +339,13 @@ def test_double_click_on_record_and_stopping_the_server_leave_valid_recordings(f
     app.start()
     try:
         app.runner.play()
-        clicks = [threading.Thread(target=press, args=(app.panel.record_button,))
+        clicks = [threading.Thread(target=press, args=(app.panel.recording.record_button,))
                   for _ in range(2)]
         for click in clicks:
             click.start()
         for click in clicks:
             click.join(30)
-        press(app.panel.record_button)  # start (or stop) once more: a new, unique file
+        press(app.panel.recording.record_button)  # start (or stop) once more: a new, unique file
         assert wait_for(lambda: app.runner.simulation.step_count > 30)
     finally:
         app.stop()  # closes whatever is still recording
@@ -362,8 +362,8 @@ def test_double_click_on_record_and_stopping_the_server_leave_valid_recordings(f
 def test_the_page_shows_the_energy_balance_error_and_explains_it(web_app):
     panel = web_app.panel
     accuracy = panel.accuracy
-    send(panel.integrator, "euler")
-    send(panel.dt, 0.02)
+    send(panel.integrator.method, "euler")
+    send(panel.integrator.dt, 0.02)
     web_app.runner.play()
     assert wait_for(lambda: "energy-balance error" in accuracy.live.content
                     and "#c0392b" in accuracy.live.content)  # far above 1 %: red
@@ -388,11 +388,11 @@ def test_choose_for_me_sets_a_run_that_meets_the_tolerance(web_app):
 
 def test_linearised_springs_offer_the_exact_solver(web_app):
     panel = web_app.panel
-    assert "exact" not in panel.integrator.options
-    send(panel.linear, True)
+    assert "exact" not in panel.integrator.method.options
+    send(panel.physics.linear, True)
     settle(web_app)
-    assert wait_for(lambda: "exact" in panel.integrator.options)
-    send(panel.integrator, "exact")
+    assert wait_for(lambda: "exact" in panel.integrator.method.options)
+    send(panel.integrator.method, "exact")
     settle(web_app)
     assert web_app.runner.simulation.integrator == "exact"
     web_app.runner.play()
@@ -405,17 +405,17 @@ def test_linearised_springs_offer_the_exact_solver(web_app):
 
 def test_precision_and_threads_from_the_page_are_checked_and_applied(web_app):
     panel = web_app.panel
-    send(panel.precision, "float16")
+    send(panel.integrator.precision, "float16")
     settle(web_app)
     assert web_app.runner.simulation.precision == "float64"
-    assert "precision" in panel.integrator_message.content
-    send(panel.precision, "float32")
+    assert "precision" in panel.integrator.message.content
+    send(panel.integrator.precision, "float32")
     settle(web_app)
     assert web_app.runner.simulation.precision == "float32"
-    send(panel.threads, 10**6)
+    send(panel.integrator.threads, 10**6)
     settle(web_app)
     assert web_app.runner.simulation.threads == 1
-    send(panel.threads, 1)
+    send(panel.integrator.threads, 1)
     settle(web_app)
     web_app.runner.play()
     steps = web_app.runner.simulation.step_count
@@ -428,9 +428,9 @@ def test_download_a_movie_of_the_current_run(web_app):
     import av
 
     client = PageClient()
-    press(web_app.panel.movie_button, client)
+    press(web_app.panel.recording.movie_button, client)
     (name, content), = client.downloads
-    assert name.endswith(".mp4") and "sent" in web_app.panel.movie_text.content
+    assert name.endswith(".mp4") and "sent" in web_app.panel.recording.movie_text.content
     path = Path(web_app.scene_files.root) / "movie.mp4"
     path.write_bytes(content)
     with av.open(str(path)) as container:

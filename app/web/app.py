@@ -61,9 +61,8 @@ def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
     Large lattices: at most the cost of 5 RK4 steps (20 force evaluations) per frame, and no more
     steps than ``LARGE_LATTICE_FRAME_TIME`` of simulated time needs (Verlet at dt = 0.02 s: 12)."""
     if simulation.model.n_particles >= LARGE_LATTICE:
-        from sim.integrators import FORCE_EVALUATIONS
-
-        by_cost = 20 // max(1, FORCE_EVALUATIONS.get(simulation.integrator, 4))
+        evaluations = sim.integrators.describe(simulation.integrator).force_evaluations
+        by_cost = 20 // max(1, evaluations)
         by_time = max(1, round(LARGE_LATTICE_FRAME_TIME / simulation.dt))
         return max(1, min(by_cost, by_time)), 25.0, 25.0
     return 1, 60.0, 90.0

@@ -22,7 +22,7 @@ import threading
 import numpy as np
 import viser
 
-from app.web import colors
+from app import colours
 from sim.model import Model
 from sim.runner import Frame
 
@@ -35,6 +35,14 @@ SPRING_HARD_LIMIT = 20_000
 MOVE_POINTS_LIMIT = 50_000
 """Above this many particles the point cloud stays at rest sites unless asked to move."""
 COLOR_MODES = ("displacement", "speed", "mass", "plain")
+SELECTED = (255, 30, 30)
+"""RGB of selected particles."""
+PARTICLE = (60, 60, 70)
+"""RGB of particles when they are not coloured by a field."""
+ANCHOR = (120, 90, 60)
+"""RGB of the walls and their anchor points."""
+STRAIN_FULL_SCALE = 0.05
+"""Spring strain shown at full colour (``app.colours.STRAIN``: blue compressed, red stretched)."""
 
 
 @dataclasses.dataclass
@@ -174,7 +182,7 @@ class LatticeView:
             )
             if self.selection.size:
                 self._selection_points = scene.add_point_cloud(
-                    "/lattice/selection", xyz[self.selection], colors.SELECTED,
+                    "/lattice/selection", xyz[self.selection], SELECTED,
                     point_size=1.5 * model.spacing, point_shape="circle", precision="float32",
                     point_shading="flat",
                 )
@@ -213,10 +221,10 @@ class LatticeView:
         )
         walls = np.stack([corners, np.roll(corners, -1, axis=0)], axis=1)
         self.server.scene.add_line_segments(
-            "/lattice/walls", walls, colors.ANCHOR, thickness=0.15 * a,
+            "/lattice/walls", walls, ANCHOR, thickness=0.15 * a,
         )
         self.server.scene.add_point_cloud(
-            "/lattice/anchors", to_xyz(model.anchor_positions), colors.ANCHOR,
+            "/lattice/anchors", to_xyz(model.anchor_positions), ANCHOR,
             point_size=0.2 * a if model.n_particles <= SPHERE_LIMIT else a,
             point_shape="square", precision="float32", point_shading="flat",
         )
@@ -236,11 +244,11 @@ class LatticeView:
             values = None
         if values is None:
             result = np.empty((n, 3), np.uint8)
-            result[:] = colors.PARTICLE
+            result[:] = PARTICLE
         else:
-            result = colors.field_colors(values, self._adapt_scale(values, mode))
+            result = colours.MAGNITUDE.map(values, self._adapt_scale(values, mode))
         if self._spheres is not None or n <= SPHERE_LIMIT:
-            result[self.selection] = colors.SELECTED
+            result[self.selection] = SELECTED
         return result
 
     def _adapt_scale(self, values: np.ndarray, mode: str) -> float:
@@ -261,6 +269,7 @@ class LatticeView:
     @staticmethod
     def _spring_colors(frame: Frame) -> np.ndarray:
         if frame.strains is None:
-            return np.broadcast_to(colors.RELAXED.astype(np.uint8), (frame.model.n_springs, 2, 3))
-        per_spring = colors.strain_colors(frame.strains)
+            relaxed = colours.STRAIN.map(np.zeros(1), STRAIN_FULL_SCALE)[0]  # strain 0
+            return np.broadcast_to(relaxed, (frame.model.n_springs, 2, 3))
+        per_spring = colours.STRAIN.map(frame.strains, STRAIN_FULL_SCALE)
         return np.repeat(per_spring[:, None, :], 2, axis=1)

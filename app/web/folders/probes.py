@@ -11,19 +11,17 @@ new scene starts the series again.
 from __future__ import annotations
 
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import viser
 
 import sim
+from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, warning_html
 from sim.modes import POLARISATION_NAMES
 from sim.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
 from sim.runner import Frame
-
-if TYPE_CHECKING:
-    from app.web.panel import PanelHost
 
 MAX_PROBES = 4
 """Particles probed at once (one line each in the plots)."""
@@ -31,11 +29,12 @@ COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
 REFRESH_SECONDS = 0.5
 
 
-class ProbesFolder:
-    """Builds the folder in ``host``'s GUI; ``update(frame, now)`` for every frame drawn."""
+class ProbesFolder(Folder):
+    name = "probes"
 
-    def __init__(self, host: PanelHost, gui: Any) -> None:
+    def __init__(self, host: PanelHost) -> None:
         self.host = host
+        gui = host.server.gui
         self.series: ProbeSeries | None = None
         self._lock = threading.Lock()
         self._unsubscribe: Any = None

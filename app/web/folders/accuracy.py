@@ -9,21 +9,21 @@
 * **Choose for me**: the cheapest integrator and dt (force evaluations per simulated second)
   whose predicted error meets the tolerance; applied as ordinary commands.
 
-Like the rest of the panel, callbacks act only on events a browser sent (``from_user``) and
+Like every folder of the page, callbacks act only on events a browser sent (``from_user``) and
 check the values they get.
 """
 
 from __future__ import annotations
 
-import collections
 import math
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import viser
 
 import sim
+from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
     amber_html,
@@ -33,50 +33,47 @@ from app.web.inputs import (
     ok_html,
     warning_html,
 )
+from app.web.widgets import History, say
+from sim.integrators import describe
 from sim.runner import Frame
-
-if TYPE_CHECKING:
-    from app.web.panel import PanelHost
 
 HISTORY = 600
 """Points kept in the error plot."""
+PLOT_INTERVAL = 0.25
+"""Seconds between two updates of the error plot."""
 DEFAULT_TOLERANCE = 0.01
 """Relative energy-balance error (1 %) above which the page warns."""
 
 
-def explanation(integrator: str, error: float, exact_available: bool) -> str:
-    """Why the energy balance drifts for this integrator, and what to do, in plain words."""
+def has_time_step_error(integrator: str) -> bool:
+    """Whether ``integrator``'s error depends on the time step (every method of some order; not
+    an exact solution such as the normal-mode solver, registered with order 0)."""
+    return describe(integrator).order > 0
+
+
+def explanation(integrator: str, error: float, model: sim.Model) -> str:
+    """Why the energy balance drifts for this integrator (its registry entry says), and what to
+    do on ``model``, in plain words."""
+    applicable = [describe(name) for name in sim.integrators.names(model)]
     remedies = ["a smaller dt"]
-    if integrator != "verlet":
-        remedies.append("velocity Verlet")
-    if exact_available and integrator != "exact":
-        remedies.append("the exact solver (this scene has linearised springs)")
+    if not describe(integrator).symplectic:
+        remedies += [other.label for other in applicable if other.symplectic]
+    if has_time_step_error(integrator):
+        remedies += [f"the {other.label} (no time-step error on this scene)"
+                     for other in applicable if not has_time_step_error(other.name)]
     remedy = "Try " + ", or ".join(remedies) + " (Choose for me picks the cheapest)."
-    if integrator == "euler":
-        why = ("Explicit Euler adds energy at every step (each mode by 1 + (ω·dt)² per step): "
-               "the motion grows without bound at any dt.")
-    elif integrator == "verlet":
-        why = ("Velocity Verlet keeps a nearby energy exactly, so its error stays bounded, but "
-               "short waves travel at the wrong speed (phase error); the error shown is that "
-               "wobble.")
-    elif integrator in ("rk4", "heun") and error < 0:
-        why = (f"{sim.integrators.LABELS.get(integrator, integrator)} damps the short waves "
-               "numerically: energy leaks away although nothing in the physics removes it.")
-    elif integrator == "heun":
-        why = "Heun's method slowly adds energy to every mode (by 1 + (ω·dt)⁴/4 per step)."
-    else:
-        why = "The integrator does not conserve the energy at this dt."
-    return f"{why} {remedy}"
+    return f"{describe(integrator).drift_explanation(error)} {remedy}"
 
 
-class AccuracyFolder:
-    """Builds the folder in ``host``'s GUI; ``update(frame)`` for every frame drawn."""
+class AccuracyFolder(Folder):
+    name = "accuracy"
 
-    def __init__(self, host: PanelHost, gui: Any) -> None:
+    def __init__(self, host: PanelHost) -> None:
         self.host = host
+        gui = host.server.gui
         self.control = host.control
-        self._times: collections.deque[float] = collections.deque(maxlen=HISTORY)
-        self._errors: collections.deque[float] = collections.deque(maxlen=HISTORY)
+        self.history = History(HISTORY)
+        """The energy-balance error (%) against time."""
         self._prediction_key: tuple | None = None
         self._prediction_text = ""
         self._predictors: dict[int, Any] = {}
@@ -110,7 +107,7 @@ class AccuracyFolder:
             try:
                 number(self.tolerance.value, "tolerance (%)", 0.0, 100.0, low_open=True)
             except InputRefused as error:
-                self.message.content = warning_html(f"refused: {error}")
+                say(self.message, error)
                 return
             self.message.content = ""
 
@@ -122,7 +119,7 @@ class AccuracyFolder:
                 self.message.content = as_html("predicting…")
                 choice = self.choose(tolerance)
             except (InputRefused, sim.ModelError, ValueError) as error:
-                self.message.content = warning_html(f"could not choose: {error}")
+                say(self.message, error, "could not choose")
                 return
             if choice is None:
                 self.message.content = warning_html(
@@ -161,17 +158,16 @@ class AccuracyFolder:
     # --- keeping in step ----------------------------------------------------------------------
 
     def clear(self) -> None:
-        self._times.clear()
-        self._errors.clear()
+        self.history.clear()
         self._prediction_key = None
 
+    def show_scene(self, simulation: sim.Simulation) -> None:
+        self.clear()
+
     def update(self, frame: Frame, now: float) -> None:
-        if self._times and frame.time < self._times[-1]:
-            self.clear()
         error = frame.energy_balance_error
-        if not self._times or frame.time > self._times[-1]:
-            self._times.append(frame.time)
-            self._errors.append(100.0 * error)
+        if self.history.add(frame.time, (100.0 * error,)):
+            self._prediction_key = None
         try:
             tolerance = self.tolerance_value()
         except InputRefused:
@@ -187,16 +183,16 @@ class AccuracyFolder:
         if self.live.content != live:
             self.live.content = live
         if size > tolerance:
-            exact = self.host.runner.simulation.model.linear
-            why = as_html(explanation(frame.integrator, error, exact))
+            why = as_html(explanation(frame.integrator, error, frame.model))
             if self.why.content != why:
                 self.why.content = why
             self.why.visible = True
         elif self.why.visible:
             self.why.visible = False
-        if now - self._last_plot > 0.25 and len(self._times) > 1:
+        if now - self._last_plot > PLOT_INTERVAL and len(self.history) > 1:
             self._last_plot = now
-            self.plot.data = (np.array(self._times), np.array(self._errors))
+            times, errors = self.history.columns()
+            self.plot.data = (times, *errors)
         self._update_prediction(frame)
 
     def _update_prediction(self, frame: Frame) -> None:
@@ -205,8 +201,9 @@ class AccuracyFolder:
             return
         self._prediction_key = key
         simulation = self.host.runner.simulation
-        if frame.integrator == "exact":
-            self.predicted.content = ok_html("exact solver: no time-step error at any dt")
+        if not has_time_step_error(frame.integrator):
+            self.predicted.content = ok_html(
+                f"{describe(frame.integrator).short_label} solver: no time-step error at any dt")
             return
 
         def work() -> None:

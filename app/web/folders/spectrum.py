@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import io
 import threading
-from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import viser
 
 import sim
+from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
     as_html,
@@ -33,6 +33,7 @@ from app.web.inputs import (
     warning_html,
     whole_number,
 )
+from app.web.widgets import MATPLOTLIB_LOCK, say
 from sim.modes import (
     POLARISATION_NAMES,
     ModalBasis,
@@ -42,17 +43,10 @@ from sim.modes import (
 )
 from sim.runner import Frame
 
-if TYPE_CHECKING:
-    from app.web.panel import PanelHost
-
 REFRESH_SECONDS = 1.0
 """Seconds between two pictures of the spectrum (more on large lattices, see ``_interval``)."""
 DYNAMIC_RANGE = 1e-10
 """The colour scale spans this fraction of the largest mode energy up to the largest."""
-MATPLOTLIB_LOCK = threading.Lock()
-"""Held while the page draws a matplotlib picture (this folder's, the speed-vs-accuracy study's):
-matplotlib is not thread-safe (its text layout shares one mathtext parser), and the pictures are
-drawn in different background threads."""
 
 
 def render_spectrum(energies: np.ndarray, model: sim.Model, polarisation: int,
@@ -100,11 +94,12 @@ def _render_spectrum(energies: np.ndarray, model: sim.Model, polarisation: int,
     return np.frombuffer(buffer.getvalue(), np.uint8).reshape(height, width, 4)[..., :3].copy()
 
 
-class SpectrumFolder:
-    """Builds the folder in ``host``'s GUI; ``update(frame)`` for every frame drawn."""
+class SpectrumFolder(Folder):
+    name = "spectrum"
 
-    def __init__(self, host: PanelHost, gui: Any) -> None:
+    def __init__(self, host: PanelHost) -> None:
         self.host = host
+        gui = host.server.gui
         self._basis: tuple[int, ModalBasis | None, str] | None = None
         self._working = threading.Lock()
         self._last = 0.0
@@ -139,7 +134,7 @@ class SpectrumFolder:
             try:
                 self.excite()
             except (InputRefused, sim.ModelError, ValueError) as error:
-                self.message.content = warning_html(f"could not excite: {error}")
+                say(self.message, error, "could not excite")
 
     # --- values -------------------------------------------------------------------------------
 
@@ -156,7 +151,7 @@ class SpectrumFolder:
         if not model.uniform_mass:
             self.frequency.content = as_html("unequal masses: the modes are not sine waves")
             return
-        if model.boundary == "periodic":
+        if model.periodic:
             self.frequency.content = as_html("periodic rows: the modes are waves around the "
                                              "rings, not sine modes (m, n); the picture shows "
                                              "their energy against frequency")
@@ -197,7 +192,7 @@ class SpectrumFolder:
         names = list(POLARISATION_NAMES[: model.dim])
         self.polarisation.options = names
         self.m.max, self.n.max = model.nx, model.ny
-        self.excite_button.disabled = not model.uniform_mass or model.boundary == "periodic"
+        self.excite_button.disabled = not model.uniform_mass or model.periodic
         self._last = 0.0
         self._show_frequency()
 

@@ -17,13 +17,13 @@ checked on the server (``app.web.inputs``) before a command is posted through
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import viser
 
 import sim
 from app.web.control import DRIVE_RAMP
+from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
     as_html,
@@ -31,15 +31,12 @@ from app.web.inputs import (
     from_user,
     number,
     ok_html,
-    warning_html,
     whole_number,
 )
+from app.web.widgets import say, show_number
 from sim.forcing import DRIVER_KINDS, Driver
 from sim.modes import POLARISATION_NAMES, ModalBasis, polarisations, second_difference_eigenvalues
 from sim.runner import Frame
-
-if TYPE_CHECKING:
-    from app.web.panel import PanelHost
 
 LISTED_MODES = 5
 """How many of the lowest normal-mode frequencies the folder lists."""
@@ -119,12 +116,12 @@ def axis_of(direction: tuple[float, float, float]) -> str | None:
     return None
 
 
-class DriveFolder:
-    """Builds the folder in ``host``'s GUI; ``show_scene`` for a new scene, ``update(frame, now)``
-    for every frame drawn and ``selection_changed`` when the selection changes."""
+class DriveFolder(Folder):
+    name = "drive"
 
-    def __init__(self, host: PanelHost, gui: Any) -> None:
+    def __init__(self, host: PanelHost) -> None:
         self.host = host
+        gui = host.server.gui
         self._last = 0.0
         self._shown_state = ""
         self._modes_for: tuple[sim.Model, int, float] | None = None
@@ -169,7 +166,7 @@ class DriveFolder:
             try:
                 driver = self.drive_from_page()
             except ERRORS as error:
-                self.message.content = warning_html(f"could not drive: {error}")
+                say(self.message, error, "could not drive")
                 return
             self.message.content = ok_html(
                 f"driving particle ({driver.column}, {driver.row}) from t = {driver.start:.4g} s; "
@@ -181,7 +178,7 @@ class DriveFolder:
             try:
                 self.host.control.stop_driving().result(timeout=30)
             except ERRORS as error:
-                self.message.content = warning_html(f"could not stop driving: {error}")
+                say(self.message, error, "could not stop driving")
                 return
             self.message.content = ok_html("stopped driving (the lattice keeps the energy the "
                                            "driver put in)")
@@ -238,14 +235,6 @@ class DriveFolder:
 
     # --- keeping in step ------------------------------------------------------------------------
 
-    def _show_number(self, handle: Any, value: float) -> None:
-        """Show ``value`` in a slider, widening its range if needed (never clamped)."""
-        if value > handle.max:
-            handle.max = value
-        if value < handle.min:
-            handle.min = value
-        handle.value = value
-
     def show_driver(self, model: sim.Model) -> None:
         """Show the model's driver in the widgets (assigning values posts nothing)."""
         self.direction.options = self._directions(model)
@@ -256,8 +245,8 @@ class DriveFolder:
         else:
             spacing = float(model.spacing)
             self._amplitude_limit = max(MAX_AMPLITUDE_SPACINGS, driver.amplitude / spacing)
-            self._show_number(self.frequency, driver.frequency)
-            self._show_number(self.amplitude, driver.amplitude)
+            show_number(self.frequency, driver.frequency)
+            show_number(self.amplitude, driver.amplitude)
             self.kind.value = driver.kind
             self.direction.value = axis_of(driver.direction) or AS_LOADED
         self._modes_for = None

@@ -1,0 +1,105 @@
+"""The page's "Scene" folder: what runs, a preset built at a chosen size, its walls and files.
+
+The folder shows the scene's name, source, size and parameters.  *Build scene* replaces the
+lattice by a preset (``sim.scenes``) with its own parameters at the chosen nx x ny (up to
+``MAX_PAGE_PARTICLES``: larger lattices are for the command line).  The walls
+(``app.web.folders.walls``) and the Files subfolder (``app.web.folders.files``) share the
+folder's message line.
+"""
+
+from __future__ import annotations
+
+import viser
+
+import sim
+from app.web.folders.files import SceneFileControls
+from app.web.folders.walls import WallsControls
+from app.web.host import Folder, PanelHost
+from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, whole_number
+from app.web.widgets import ERRORS, say
+
+MAX_SIDE = 2_000
+"""Largest nx or ny the page builds (and deepest sponge layer it accepts)."""
+MAX_PAGE_PARTICLES = 1_000_000
+"""Largest lattice (nx * ny) the page builds; bigger ones: the command line."""
+FALLBACK_PRESET = "grid"
+"""Preset shown when the running scene is not a preset."""
+
+
+class SceneFolder(Folder):
+    name = "scene"
+
+    def __init__(self, host: PanelHost) -> None:
+        self.host = host
+        gui = host.server.gui
+        simulation = host.runner.simulation
+        names = sim.scenes.names()
+        current = simulation.scene.name if simulation.scene.name in names else FALLBACK_PRESET
+        with gui.add_folder("Scene", expand_by_default=False):
+            self.info = gui.add_html("")
+            self.preset = gui.add_dropdown("Preset", names, initial_value=current)
+            self.nx = gui.add_number("Columns (nx)", simulation.model.nx, min=1, max=MAX_SIDE,
+                                     step=1)
+            self.ny = gui.add_number("Rows (ny)", simulation.model.ny, min=1, max=MAX_SIDE,
+                                     step=1)
+            self.build_button = gui.add_button(
+                "Build scene", icon=viser.Icon.HAMMER,
+                hint="replace the lattice by this preset (its own parameters) at this size",
+            )
+            self.walls = WallsControls(host, lambda: self.message, self.show_info, MAX_SIDE)
+            self.files = SceneFileControls(host, lambda: self.message)
+            self.message = gui.add_html("")
+
+        @self.preset.on_update
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            try:
+                name = choice(self.preset.value, "preset", sim.scenes.names())
+            except InputRefused as error:
+                say(self.message, error)
+                return
+            parameters = sim.presets.PRESETS[name].parameters
+            self.nx.value = int(parameters.get("nx", 1))
+            self.ny.value = int(parameters.get("ny", 1))
+
+        @self.build_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            try:
+                name = choice(self.preset.value, "preset", sim.scenes.names())
+                nx = whole_number(self.nx.value, "nx", 1, MAX_SIDE)
+                ny = whole_number(self.ny.value, "ny", 1, MAX_SIDE)
+                if nx * ny > MAX_PAGE_PARTICLES:
+                    raise InputRefused(
+                        f"{nx}x{ny} = {nx * ny:,} particles; the page builds up to "
+                        f"{MAX_PAGE_PARTICLES:,} (use `oscillators run` for larger lattices)"
+                    )
+                parameters = sim.presets.PRESETS[name].parameters
+                overrides = {}
+                if nx != parameters.get("nx", 1):
+                    overrides["nx"] = nx
+                if ny != parameters.get("ny", 1):
+                    overrides["ny"] = ny
+                self.message.content = as_html(f"building {name} {nx}x{ny}…")
+                scene = sim.scenes.build(name, **overrides)
+                host.replace_scene(scene, source=f"preset {name}")
+            except ERRORS as error:
+                say(self.message, error, "could not build")
+                return
+            self.message.content = ok_html(f"built {name} {nx}x{ny}")
+
+    def show_scene(self, simulation: sim.Simulation) -> None:
+        model = simulation.model
+        if simulation.scene.name in sim.scenes.names():
+            self.preset.value = simulation.scene.name
+        self.nx.value, self.ny.value = model.nx, model.ny
+        self.show_info(simulation)
+        self.walls.show(model)
+
+    def show_info(self, simulation: sim.Simulation) -> None:
+        model, scene = simulation.model, simulation.scene
+        self.info.content = as_html(
+            f"{scene.name} ({self.host.scene_source}): {model.nx}x{model.ny}, "
+            f"{model.n_particles:,} particles\n{model.describe()}\n"
+            f"{scene.description}".rstrip()
+        )
