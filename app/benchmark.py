@@ -9,9 +9,9 @@ printed beside them and included in ``--json``):
   (``Integrator.advance``), ``Simulation.step`` (the loop plus the blow-up check after each chunk)
   and the same step in plain vectorised numpy (``sim.reference``);
 * the integrators the C reference implements (``app.c_reference.METHODS``: velocity Verlet and
-  RK4) in float64 and float32 on 1 and N threads, each with its ratio to the C
-  reference (``app.c_reference``: gcc -O3 -march=native -ffast-math; the C leapfrog in the same
-  precision and thread count for Verlet, the C fused RK4 in float64 on one thread for RK4).  The
+  RK4) in float64 and float32 on 1 and N threads, each with its ratio to the C kernel (gcc -O3
+  -march=native -ffast-math; the C leapfrog in the same precision and thread count for Verlet,
+  the C fused RK4 in float64 on one thread for RK4).  The
   ratio uses ``Simulation.step``, which includes the blow-up checks.  Without a C compiler the
   ratios are skipped with a note.  Each row also gives its speed-up over the same integrator and
   precision on one thread, measured in the same run;
@@ -264,12 +264,16 @@ def _specialisation(scene, seconds: float) -> dict | None:
     return results
 
 
+INSTRUMENTS_INTEGRATOR = "verlet"
+"""The integrator the teaching instruments' cost is measured with."""
+
+
 def _instruments(scene, seconds: float) -> dict:
     """What the teaching instruments cost: ``Simulation.step`` steps/s (velocity Verlet, float64,
     one thread) of the scene as it is, with periodic rows, with absorbing walls (the default
     30-particle sponge where the lattice is long enough) and with a force driver on one particle;
-    each with its ratio to the scene as it is.  A scene without them runs the same compiled loop
-    as before they existed (the periodic choice is made at compile time)."""
+    each with its ratio to the scene as it is.  A scene without them runs the plain compiled loop
+    (the periodic choice is made at compile time)."""
     import dataclasses
 
     import sim
@@ -287,12 +291,12 @@ def _instruments(scene, seconds: float) -> dict:
     rates: dict = {}
     for name, changes in variants.items():
         variant = dataclasses.replace(scene, model=model.replace(**changes)) if changes else scene
-        simulation = sim.Simulation(variant, integrator="verlet")
+        simulation = sim.Simulation(variant, integrator=INSTRUMENTS_INTEGRATOR)
 
         def run(steps: int, simulation=simulation) -> None:
             simulation.step(steps)
 
-        rates[name] = _best_rate(run, _burst("verlet"), seconds)
+        rates[name] = _best_rate(run, _burst(INSTRUMENTS_INTEGRATOR), seconds)
     base = rates["as_is"]
     return {"steps_per_second": rates,
             "cost": {name: base / rate for name, rate in rates.items() if name != "as_is"}}

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
 
 from app.cli.arguments import bounded_int, positive_float
 from app.cli.limits import check_plan
@@ -69,28 +70,31 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=command_reflection)
 
 
-def _numbers(text: str) -> list[float]:
-    """argparse type: positive numbers separated by commas."""
-    try:
-        values = [float(part) for part in text.split(",") if part.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"takes numbers separated by commas, e.g. 5,10,20, got {text!r}") from None
-    if not values or not all(math.isfinite(value) and value > 0 for value in values):
-        raise argparse.ArgumentTypeError(f"takes positive numbers, got {text!r}")
-    return values
+def _comma_separated(convert: Callable[[str], float], accepted: Callable[[float], bool],
+                     kind: str, example: str, rule: str) -> Callable[[str], list]:
+    """argparse type factory: ``kind`` (converted by ``convert``) separated by commas, each
+    ``accepted``; ``rule`` says which are, in the message of a refused list."""
+
+    def parse(text: str) -> list:
+        try:
+            values = [convert(part) for part in text.split(",") if part.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"takes {kind} separated by commas, e.g. {example}, got {text!r}") from None
+        if not values or not all(accepted(value) for value in values):
+            raise argparse.ArgumentTypeError(f"takes {rule}, got {text!r}")
+        return values
+
+    return parse
 
 
-def _whole_numbers(text: str) -> list[int]:
-    """argparse type: whole numbers >= 1 separated by commas."""
-    try:
-        values = [int(part) for part in text.split(",") if part.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"takes whole numbers separated by commas, e.g. 20,30,40, got {text!r}") from None
-    if not values or min(values) < 1:
-        raise argparse.ArgumentTypeError(f"takes whole numbers >= 1, got {text!r}")
-    return values
+_numbers = _comma_separated(float, lambda value: math.isfinite(value) and value > 0,
+                            "numbers", "5,10,20", "positive numbers")
+"""argparse type of --wavelengths: positive numbers separated by commas."""
+
+_whole_numbers = _comma_separated(int, lambda value: value >= 1,
+                                  "whole numbers", "20,30,40", "whole numbers >= 1")
+"""argparse type of --widths: whole numbers >= 1 separated by commas."""
 
 
 def command_reflection(arguments: argparse.Namespace) -> int:
