@@ -6,11 +6,18 @@ default; the planned runs are checked against the limits of ``app.cli.limits`` f
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from app.cli.arguments import add_scene_arguments, positive_float, scene_from_arguments
 from app.cli.limits import check_plan
-from app.cli.study_output import add_output_arguments, advance, default_plot, emit, progress_bar, save_picture
+from app.cli.study_output import (
+    add_output_arguments,
+    advance,
+    default_plot,
+    emit,
+    progress_bar,
+    save_picture,
+    scene_picture,
+)
 from sim.integrators import INTEGRATORS, most_accurate
 
 DESCRIPTION = """\
@@ -96,7 +103,7 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
     )
 
     scene = scene_from_arguments(arguments)
-    default_plot(arguments, f"{Path(scene.name).stem or 'scene'}-work-precision.png")
+    default_plot(arguments, scene_picture(scene, "work-precision"))
     if arguments.integrator and not arguments.integrators:
         arguments.integrators = [arguments.integrator]
     integrators = arguments.integrators or list(INTEGRATORS)

@@ -7,11 +7,18 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from app.cli.arguments import add_scene_arguments, bounded_int, scene_from_arguments
 from app.cli.limits import check_plan
-from app.cli.study_output import add_output_arguments, advance, default_plot, emit, progress_bar, save_picture
+from app.cli.study_output import (
+    add_output_arguments,
+    advance,
+    default_plot,
+    emit,
+    progress_bar,
+    save_picture,
+    scene_picture,
+)
 
 DESCRIPTION = """\
 Resonance curve of a driven scene.  For each drive frequency the scene is run from rest with its
@@ -122,7 +129,7 @@ def command_response(arguments: argparse.Namespace) -> int:
     from app.study import response
 
     scene = scene_from_arguments(arguments)
-    default_plot(arguments, f"{Path(scene.name).stem or 'scene'}-response.png")
+    default_plot(arguments, scene_picture(scene, "response"))
     dt = arguments.dt or scene.dt
     checked = response.plan(scene, arguments.frequencies, arguments.probe, arguments.settle, dt)
     steps = response.planned_steps(scene.model.driver, checked.frequencies, checked.settles,

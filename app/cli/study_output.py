@@ -26,6 +26,12 @@ def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = 
                             "here, or to --plot)")
 
 
+def scene_picture(scene: Any, kind: str) -> str:
+    """The default picture of a study of ``scene``: ``grid-response.png`` here (a scene file's
+    name without its suffix)."""
+    return f"{Path(scene.name).stem or 'scene'}-{kind}.png"
+
+
 def default_plot(arguments: argparse.Namespace, name: str) -> None:
     """The picture goes to --plot, or to ``name`` here unless --no-plot; checked."""
     if arguments.no_plot:
