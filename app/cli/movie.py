@@ -1,8 +1,7 @@
 """``oscillators movie``: render a scene's run, or a recording, to an MP4, WebM or GIF movie.
 
-Exit codes: 0 done, 2 bad input
-(checked before anything runs; an existing file is replaced only with ``--force``), 3 the run blew
-up (the frames before it are kept in the movie).
+Exit codes: 0 done, 2 bad input (checked before anything runs; an existing file is replaced only
+with ``--force``), 3 the run blew up (the frames before it are kept in the movie).
 """
 
 from __future__ import annotations

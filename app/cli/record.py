@@ -1,10 +1,10 @@
 """``oscillators record``: run a scene headless and write a rerun ``.rrd`` recording.
 
-Exit codes: 0 done, 2 bad input
-or unwritable destination (checked before any step is run; an existing file is only replaced with
-``--force``) or a write that failed during the run (disk full: the run stops, what was written is
-kept as a valid ``.rrd`` ending with an ERROR entry), 3 the run blew up (the file is still valid
-and ends with the error), 130 interrupted by SIGINT/SIGTERM (what was recorded is kept).
+Exit codes: 0 done, 2 bad input or unwritable destination (checked before any step is run; an
+existing file is only replaced with ``--force``) or a write that failed during the run (disk
+full: the run stops, what was written is kept as a valid ``.rrd`` ending with an ERROR entry),
+3 the run blew up (the file is still valid and ends with the error), 130 interrupted by
+SIGINT/SIGTERM (what was recorded is kept).
 """
 
 from __future__ import annotations
