@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import sim
-from app.cli import IntegratorChoices
+from app.cli.arguments import IntegratorChoices
 from sim import integrators, stepping
 from sim.integrators import IntegratorDescription
 

@@ -10,6 +10,7 @@ import pytest
 
 import sim
 from app import cli
+from app.cli.arguments import parse_overrides
 from sim.runner import Runner
 
 
@@ -110,7 +111,7 @@ def test_scenes_lists_every_preset(capsys):
 
 
 def test_override_values_are_parsed():
-    assert cli.parse_overrides(["nx=40", "gravity=0,-9.81", "linear=true", "damping=0.5"]) == {
+    assert parse_overrides(["nx=40", "gravity=0,-9.81", "linear=true", "damping=0.5"]) == {
         "nx": 40, "gravity": (0.0, -9.81), "linear": True, "damping": 0.5,
     }
 

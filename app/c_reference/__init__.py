@@ -2,27 +2,58 @@
 against: a fused symplectic (leapfrog) step, its OpenMP row-block version, and a fused RK4, built
 with ``gcc -O3 -march=native -ffast-math`` (``ckernels.c``, ``ckernels_t.h``).
 
-``load()`` compiles them once per source version into a cache directory (``$XDG_CACHE_HOME`` or
-``~/.cache``, else a temporary one) and returns a ``CReference``, or None and the reason when no C
-compiler is available.  Arrays are the C code's own layout: padded ``(ny + 2, nx + 2)`` fields
-whose ring holds the wall anchors; the lattice is pre-tensioned (k = 1 N/m, L = 0.9 a) with
-random masses, so every spring does the same work as in the project's undamped planar kernels.
+``METHODS`` lists what the C kernels implement: which integrator each matches, in which
+precisions and whether on threads.  ``load()`` compiles them once per source version into a cache
+directory (``$XDG_CACHE_HOME`` or ``~/.cache``, else a temporary one) and returns a
+``CReference``, or None and the reason when no C compiler is available.  Arrays are the C
+code's own layout: padded ``(ny + 2, nx + 2)`` fields whose ring holds the wall anchors; the
+lattice is pre-tensioned (k = 1 N/m, L = 0.9 a) with random masses, so every spring does the same
+work as in the project's undamped planar kernels.
 """
 
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import hashlib
 import os
 import shutil
 import subprocess
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 _SOURCES = ("ckernels.c", "ckernels_t.h")
+
+
+@dataclasses.dataclass(frozen=True)
+class CMethod:
+    """One method of the C kernels: the integrator it matches (its name in ``sim.integrators``),
+    what it is called, the precisions it runs in and whether it runs on OpenMP threads."""
+
+    integrator: str
+    label: str
+    precisions: tuple[str, ...]
+    threaded: bool
+
+    def configuration(self, precision: str, threads: int) -> tuple[str, str, int]:
+        """(integrator, precision, threads) of the C kernel nearest to the integrator run in
+        ``precision`` on ``threads``: the same where the C method has it, else float64 / 1."""
+        return (self.integrator, precision if precision in self.precisions else self.precisions[0],
+                threads if self.threaded else 1)
+
+    def describe(self, precision: str, threads: int) -> str:
+        """``"C fused leapfrog, float32, 2 threads (OpenMP row blocks)"``."""
+        kind = f"{threads} threads (OpenMP row blocks)" if threads > 1 else "1 thread"
+        return f"{self.label}, {precision}, {kind}"
+
+
+METHODS = (
+    CMethod("verlet", "C fused leapfrog", ("float64", "float32"), threaded=True),
+    CMethod("rk4", "C fused RK4", ("float64",), threaded=False),
+)
+"""What the C kernels implement, in the order ``oscillators bench`` measures them."""
 _FLAGS = ("-O3", "-march=native", "-ffast-math", "-fopenmp", "-shared", "-fPIC", "-std=gnu11")
 
 
@@ -94,8 +125,9 @@ class CReference:
                                                                  inverse_mass)]
 
     def step_function(self, method: str, nx: int, ny: int, dtype=np.float64, threads: int = 1):
-        """A function ``run(steps)`` advancing a C lattice; ``method`` "verlet" (the symplectic
-        leapfrog step, f64 or f32, OpenMP row blocks when threads > 1) or "rk4" (f64, serial)."""
+        """A function ``run(steps)`` advancing a C lattice; ``method`` is the integrator of one
+        of ``METHODS``: "verlet" (the symplectic leapfrog step, f64 or f32, OpenMP row blocks
+        when threads > 1) or "rk4" (f64, serial)."""
         arrays = self._state(nx, ny, dtype)
         pointers = [a.ctypes.data for a in arrays]
         suffix = "f" if np.dtype(dtype) == np.float32 else "d"
@@ -125,13 +157,6 @@ class CReference:
             return run
         raise ValueError(f"no C reference for {method!r}")
 
-    @staticmethod
-    def describe(method: str, dtype=np.float64, threads: int = 1) -> str:
-        if method == "rk4":
-            return "C fused RK4, float64, 1 thread"
-        kind = f"{threads} threads (OpenMP row blocks)" if threads > 1 else "1 thread"
-        return f"C fused leapfrog, {np.dtype(dtype).name}, {kind}"
-
 
 def load() -> tuple[CReference | None, str]:
     """The C reference, or (None, the reason it is unavailable)."""
@@ -143,8 +168,3 @@ def load() -> tuple[CReference | None, str]:
     except OSError as error:
         return None, f"C reference could not be loaded: {error}"
 
-
-def timed(run, steps: int) -> float:
-    started = time.perf_counter()
-    run(steps)
-    return time.perf_counter() - started

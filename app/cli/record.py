@@ -1,10 +1,10 @@
 """``oscillators record``: run a scene headless and write a rerun ``.rrd`` recording.
 
-Registered into ``app.cli`` through ``register(subparsers)``.  Exit codes: 0 done, 2 bad input
-or unwritable destination (checked before any step is run; an existing file is only replaced with
-``--force``) or a write that failed during the run (disk full: the run stops, what was written is
-kept as a valid ``.rrd`` ending with an ERROR entry), 3 the run blew up (the file is still valid
-and ends with the error), 130 interrupted by SIGINT/SIGTERM (what was recorded is kept).
+Exit codes: 0 done, 2 bad input or unwritable destination (checked before any step is run; an
+existing file is only replaced with ``--force``) or a write that failed during the run (disk
+full: the run stops, what was written is kept as a valid ``.rrd`` ending with an ERROR entry),
+3 the run blew up (the file is still valid and ends with the error), 130 interrupted by
+SIGINT/SIGTERM (what was recorded is kept).
 """
 
 from __future__ import annotations
@@ -20,6 +20,16 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from app.cli.arguments import (
+    add_length_arguments,
+    add_scene_arguments,
+    bounded_int,
+    check_output_file,
+    positive_float,
+    positive_int,
+    scene_from_arguments,
+)
+from app.cli.limits import planned_steps
 from app.recording import instruments
 from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo, command_from_arguments
@@ -74,9 +84,7 @@ layout of the file for analysis: docs/recording.md
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``record`` subcommand to ``oscillators``."""
-    from app.cli import add_scene_arguments, bounded_int, positive_float, positive_int
-
+    """Add the ``record`` command to ``oscillators``."""
     parser = subparsers.add_parser(
         "record", help="run a scene headless and write a rerun .rrd recording",
         description="Run a scene without a viewer and record it into a rerun .rrd file: "
@@ -92,12 +100,8 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("--force", action="store_true",
                         help="replace the output file if it exists")
-    length = parser.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=positive_int,
-                        help="steps to run (default: the scene's duration, e.g. 150 s for "
-                        "interference, so the waves meet)")
-    length.add_argument("--duration", type=positive_float,
-                        help="simulated seconds instead of --steps")
+    add_length_arguments(parser, "steps to run (default: the scene's duration, e.g. 150 s for "
+                         "interference, so the waves meet)")
     parser.add_argument(
         "--every", type=positive_int, metavar="K",
         help=f"record a frame every K steps (default: every step, or every K-th for at most "
@@ -215,14 +219,6 @@ def _probe_choice(text: str) -> str:
     return text
 
 
-def _check_output(output: Path, force: bool) -> None:
-    """Refuse a directory, and an existing file unless ``force`` (before anything runs)."""
-    if output.is_dir():
-        raise ValueError(f"{output} is a directory; give a file name ending in .rrd")
-    if output.exists() and not force:
-        raise ValueError(f"{output} already exists; use --force to replace it")
-
-
 @contextlib.contextmanager
 def _runner_log_quiet() -> Iterator[None]:
     """The runner logs a detached subscriber with a traceback; the command prints one line
@@ -270,7 +266,6 @@ def default_every(steps: int, runs: int, options: RecordingOptions, model: Any) 
 def command_record(arguments: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from app.cli import planned_steps, scene_from_arguments
     from sim import BlowUpError, Simulation
     from sim.runner import Runner
 
@@ -278,7 +273,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     if compare and arguments.integrator:
         raise ValueError("give either --integrator or --compare, not both")
     if arguments.output is not None:
-        _check_output(arguments.output, arguments.force)
+        check_output_file(arguments.output, arguments.force, ".rrd")
     scene = scene_from_arguments(arguments)
     probes = [instruments.parse_probe(text) for text in arguments.probe or []]
     try:
@@ -301,7 +296,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     output = arguments.output or Path("recordings") / (
         f"{scene.name}-compare.rrd" if compare else f"{scene.name}.rrd"
     )
-    _check_output(output, arguments.force)
+    check_output_file(output, arguments.force, ".rrd")
     options = RecordingOptions(
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
         positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,

@@ -1,8 +1,7 @@
 """``oscillators movie``: render a scene's run, or a recording, to an MP4, WebM or GIF movie.
 
-Registered into ``app.cli`` through ``register(subparsers)``.  Exit codes: 0 done, 2 bad input
-(checked before anything runs; an existing file is replaced only with ``--force``), 3 the run blew
-up (the frames before it are kept in the movie).
+Exit codes: 0 done, 2 bad input (checked before anything runs; an existing file is replaced only
+with ``--force``), 3 the run blew up (the frames before it are kept in the movie).
 """
 
 from __future__ import annotations
@@ -13,6 +12,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from app.cli.arguments import (
+    add_scene_arguments,
+    bounded_int,
+    check_output_file,
+    positive_float,
+    scene_from_arguments,
+)
 from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
 
 EPILOG = f"""examples:
@@ -49,9 +55,7 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``movie`` subcommand to ``oscillators``."""
-    from app.cli import add_scene_arguments, bounded_int, positive_float
-
+    """Add the ``movie`` command to ``oscillators``."""
     parser = subparsers.add_parser(
         "movie", help="render a run or a recording to an MP4, WebM or GIF movie",
         description="Run a scene (or read a .rrd recording) and render it to a movie without a "
@@ -88,10 +92,7 @@ def command_movie(arguments: argparse.Namespace) -> int:
     kind = encode.kind_of(output)
     if not encode.available(kind):
         raise ValueError(f"this PyAV build cannot write .{kind}; try .mp4 or .gif")
-    if output.is_dir():
-        raise ValueError(f"{output} is a directory; give a file name ending in .{kind}")
-    if output.exists() and not arguments.force:
-        raise ValueError(f"{output} already exists; use --force to replace it")
+    check_output_file(output, arguments.force, f".{kind}")
     output.parent.mkdir(parents=True, exist_ok=True)
     options = MovieOptions(
         fps=arguments.fps, frames=arguments.frames, duration=arguments.duration,
@@ -105,8 +106,6 @@ def command_movie(arguments: argparse.Namespace) -> int:
         if not source.is_file():
             raise ValueError(f"no recording {source}")
     else:
-        from app.cli import scene_from_arguments
-
         source = scene_from_arguments(arguments)
     started = time.perf_counter()
     path = render_movie(source, output, options)

@@ -1,6 +1,5 @@
-"""The ``oscillators serve`` subcommand: start the web app on a scene and print its address.
-
-``register(subparsers)`` is called by ``app.cli`` when it builds the command line.
+"""``oscillators serve``: start the web app (``app.web.app.WebApp``) on a scene and print its
+address; checks the host, the allowed origins and the scene directory before it starts.
 """
 
 from __future__ import annotations
@@ -12,6 +11,8 @@ import socket
 import sys
 import time
 from pathlib import Path
+
+from app.cli.arguments import add_scene_arguments, simulation_from_arguments
 
 EPILOG = """examples:
   oscillators serve                          # the 12x8 grid on http://127.0.0.1:8080
@@ -36,8 +37,7 @@ machine (127.0.0.1) unless you pass --host; anyone who can then reach the port c
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from app.cli import add_scene_arguments
-
+    """Add the ``serve`` command to ``oscillators``."""
     parser = subparsers.add_parser(
         "serve", help="the web app: watch and play with a lattice in the browser",
         description="Start a viser web server showing the lattice live. Open the printed "
@@ -100,7 +100,6 @@ def _loopback(host: str) -> bool:
 
 
 def command_serve(arguments: argparse.Namespace) -> int:
-    from app.cli import simulation_from_arguments
     from app.web.app import WebApp
     from app.web.security import check_origins, network_warning
 

@@ -1,5 +1,6 @@
-"""``oscillators bench``: steps per second of the compiled integrators, against plain numpy and
-against hand-written C kernels, with what each specialisation buys measured separately.
+"""Steps per second of the compiled integrators, against plain numpy and against hand-written C
+kernels, with what each specialisation buys measured separately (``measure``; the ``oscillators
+bench`` command prints it).
 
 All figures come from one run on one host (the host, its vector width and the thread counts are
 printed beside them and included in ``--json``):
@@ -7,9 +8,10 @@ printed beside them and included in ``--json``):
 * every kernel integrator, float64, one thread: the compiled loop alone
   (``Integrator.advance``), ``Simulation.step`` (the loop plus the blow-up check after each chunk)
   and the same step in plain vectorised numpy (``sim.reference``);
-* velocity Verlet and RK4 in float64 and float32 on 1 and N threads, each with its ratio to the C
-  reference (``app.c_reference``: gcc -O3 -march=native -ffast-math; the C leapfrog in the same
-  precision and thread count for Verlet, the C fused RK4 in float64 on one thread for RK4).  The
+* the integrators the C reference implements (``app.c_reference.METHODS``: velocity Verlet and
+  RK4) in float64 and float32 on 1 and N threads, each with its ratio to the C kernel (gcc -O3
+  -march=native -ffast-math; the C leapfrog in the same precision and thread count for Verlet,
+  the C fused RK4 in float64 on one thread for RK4).  The
   ratio uses ``Simulation.step``, which includes the blow-up checks.  Without a C compiler the
   ratios are skipped with a note.  Each row also gives its speed-up over the same integrator and
   precision on one thread, measured in the same run;
@@ -25,14 +27,15 @@ busy with other work; the load average is printed beside them.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import platform
 import time
 from collections.abc import Callable
 
 import numpy as np
+
+from app import c_reference as c_module
+from sim.integrators import PRECISIONS, describe
 
 
 def _best_rate(
@@ -94,17 +97,14 @@ def host_description() -> dict:
     }
 
 
-_BURSTS = {"euler": 20, "heun": 10, "verlet": 100, "rk4": 20}
-
-
 def _burst(integrator: str) -> int:
-    return _BURSTS.get(integrator, 10)
+    return describe(integrator).bench_burst
 
 
 def _integrator_table(scene, seconds: float) -> dict:
     """Every kernel integrator in float64 on one thread: loop, Simulation.step, numpy."""
     import sim
-    from sim.integrators import describe, names
+    from sim.integrators import names
 
     simulation = sim.Simulation(scene)
     table = {}
@@ -140,14 +140,16 @@ def _integrator_table(scene, seconds: float) -> dict:
 
 
 def _configurations(scene, seconds: float, thread_counts: list[int], c_reference) -> list[dict]:
-    """Verlet and RK4 in float64/float32 on each thread count, with the C ratio."""
+    """The integrators the C reference implements, in each precision on each thread count, with
+    the ratio to the nearest C kernel (``CMethod.configuration``)."""
     import sim
 
     model = scene.model
     rows = []
     c_rates: dict[tuple, float] = {}
-    for integrator in ("verlet", "rk4"):
-        for precision in ("float64", "float32"):
+    for method in c_module.METHODS:
+        integrator = method.integrator
+        for precision in PRECISIONS:
             for threads in thread_counts:
                 simulation = sim.Simulation(
                     scene, integrator=integrator, precision=precision, threads=threads
@@ -168,15 +170,13 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
                     "simulation_steps_per_second": checked_rate,
                 }
                 if c_reference is not None:
-                    dtype = np.float32 if precision == "float32" else np.float64
-                    key = ((integrator, np.dtype(dtype).name, threads) if integrator == "verlet"
-                           else ("rk4", "float64", 1))
+                    key = method.configuration(precision, threads)
                     if key not in c_rates:
                         run = c_reference.step_function(
                             key[0], model.nx, model.ny, np.dtype(key[1]).type, key[2]
                         )
                         c_rates[key] = _best_rate(run, _burst(integrator), seconds)
-                    row["c_reference"] = c_reference.describe(key[0], np.dtype(key[1]).type, key[2])
+                    row["c_reference"] = method.describe(key[1], key[2])
                     row["c_steps_per_second"] = c_rates[key]
                     row["ratio_to_c"] = checked_rate / c_rates[key]
                 single = next(
@@ -190,10 +190,41 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
     return rows
 
 
+def _rk4_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
+    """``run(steps)``: the compiled RK4 loop (``sim.stepping.rk4_steps``) on ``common``."""
+    from sim import stepping
+
+    dim, _, nx = position.shape
+    work = [np.zeros((dim, 4, nx)) for _ in range(4)]
+
+    def run(steps: int) -> None:
+        stepping.rk4_steps(steps, dt, *common, *work)
+
+    return run
+
+
+def _verlet_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
+    """``run(steps)``: the compiled velocity Verlet loop (``sim.stepping.verlet_steps``)."""
+    from sim import stepping
+
+    acceleration = np.zeros_like(position)
+    predicted = np.zeros_like(position)
+    power = stepping.accelerations(*common, acceleration)
+
+    def run(steps: int) -> None:
+        stepping.verlet_steps(steps, dt, *common, acceleration, power, predicted)
+
+    return run
+
+
+SPECIALISATION_SWEEPS = (("rk4", _rk4_sweep), ("verlet", _verlet_sweep))
+"""The compiled loops the specialisation table times directly, named by their integrator: the
+two the C reference also implements."""
+
+
 def _specialisation(scene, seconds: float) -> dict | None:
     """What each of the scene's specialisations buys, measured one at a time on RK4 and Verlet."""
     import sim
-    from sim import stepping
     from sim.integrators import KernelArguments
 
     model = scene.model
@@ -217,27 +248,13 @@ def _specialisation(scene, seconds: float) -> dict | None:
                                   mass=arguments.uniform_inverse_mass, terms=(None, None, None)),
     }
     results: dict = {}
-    for integrator in ("rk4", "verlet"):
+    for integrator, sweep in SPECIALISATION_SWEEPS:
         rates = {}
         for variant, setup in variants.items():
             position, velocity = (a.copy() for a in setup["arrays"])
-            dim = position.shape[0]
             common = (arguments.linear, setup["out_of_plane"], position, velocity,
                       arguments.inverse_mass, setup["mass"], arguments.parameters, *setup["terms"])
-            if integrator == "rk4":
-                work = [np.zeros((dim, 4, model.nx)) for _ in range(4)]
-
-                def run(steps: int, common=common, work=work) -> None:
-                    stepping.rk4_steps(steps, scene.dt, *common, *work)
-            else:
-                acceleration = np.zeros_like(position)
-                predicted = np.zeros_like(position)
-                power = stepping.accelerations(*common, acceleration)
-
-                def run(steps: int, common=common, acceleration=acceleration,
-                        predicted=predicted, power=power) -> None:
-                    stepping.verlet_steps(steps, scene.dt, *common, acceleration, power, predicted)
-
+            run = sweep(scene.dt, common, position)
             rates[variant] = _best_rate(run, _burst(integrator), seconds)
         base = rates["specialised"]
         results[integrator] = {
@@ -247,12 +264,16 @@ def _specialisation(scene, seconds: float) -> dict | None:
     return results
 
 
+INSTRUMENTS_INTEGRATOR = "verlet"
+"""The integrator the teaching instruments' cost is measured with."""
+
+
 def _instruments(scene, seconds: float) -> dict:
     """What the teaching instruments cost: ``Simulation.step`` steps/s (velocity Verlet, float64,
     one thread) of the scene as it is, with periodic rows, with absorbing walls (the default
     30-particle sponge where the lattice is long enough) and with a force driver on one particle;
-    each with its ratio to the scene as it is.  A scene without them runs the same compiled loop
-    as before they existed (the periodic choice is made at compile time)."""
+    each with its ratio to the scene as it is.  A scene without them runs the plain compiled loop
+    (the periodic choice is made at compile time)."""
     import dataclasses
 
     import sim
@@ -270,12 +291,12 @@ def _instruments(scene, seconds: float) -> dict:
     rates: dict = {}
     for name, changes in variants.items():
         variant = dataclasses.replace(scene, model=model.replace(**changes)) if changes else scene
-        simulation = sim.Simulation(variant, integrator="verlet")
+        simulation = sim.Simulation(variant, integrator=INSTRUMENTS_INTEGRATOR)
 
         def run(steps: int, simulation=simulation) -> None:
             simulation.step(steps)
 
-        rates[name] = _best_rate(run, _burst("verlet"), seconds)
+        rates[name] = _best_rate(run, _burst(INSTRUMENTS_INTEGRATOR), seconds)
     base = rates["as_is"]
     return {"steps_per_second": rates,
             "cost": {name: base / rate for name, rate in rates.items() if name != "as_is"}}
@@ -285,7 +306,6 @@ def measure(scene_name: str = "interference", overrides: dict | None = None,
             seconds: float = 2.0, threads: int | None = None, c_reference: bool = True) -> dict:
     """Run the benchmark and return the numbers (steps per second, ratios, host)."""
     import sim
-    from app import c_reference as c_module
 
     scene = sim.scenes.build(scene_name, **(overrides or {}))
     most = threads if threads is not None else min(2, os.cpu_count() or 1)
@@ -303,73 +323,3 @@ def measure(scene_name: str = "interference", overrides: dict | None = None,
         "specialisation": _specialisation(scene, seconds),
         "instruments": _instruments(scene, seconds),
     }
-
-
-def print_table(results: dict) -> None:
-    host = results["host"]
-    print(f"scene {results['scene']} ({results['lattice']} = {results['particles']:,} particles)")
-    print(f"host: {host['cpu']}, {host['machine']}, {host['cores']} cores, "
-          f"{host['vector_width_bits']}-bit vectors, python {host['python']}, numba {host['numba']}, "
-          f"load average {host['load_average']:.1f}")
-    print("\nfloat64, one thread")
-    header = f"{'integrator':10s} {'kernel steps/s':>15s} {'Simulation.step':>16s} " \
-             f"{'numpy steps/s':>14s} {'kernel/numpy':>13s}"
-    print(header)
-    print("-" * len(header))
-    for name, row in results["integrators"].items():
-        print(f"{name:10s} {row['kernel_steps_per_second']:15.1f} "
-              f"{row['simulation_steps_per_second']:16.1f} {row['numpy_steps_per_second']:14.2f} "
-              f"{row['speedup_over_numpy']:12.1f}x")
-    print(f"\nprecision and threads (ratio to C = Simulation.step / C kernel; "
-          f"threads measured: {', '.join(map(str, results['threads']))})")
-    header = f"{'integrator':10s} {'precision':9s} {'threads':>7s} {'kernel steps/s':>15s} " \
-             f"{'Simulation.step':>16s} {'vs 1 thread':>11s} {'C steps/s':>10s} " \
-             f"{'ratio to C':>11s}  C kernel"
-    print(header)
-    print("-" * len(header))
-    for row in results["configurations"]:
-        c_rate = f"{row['c_steps_per_second']:10.1f}" if "c_steps_per_second" in row else f"{'-':>10s}"
-        ratio = f"{row['ratio_to_c']:10.2f}x" if "ratio_to_c" in row else f"{'-':>11s}"
-        print(f"{row['integrator']:10s} {row['precision']:9s} {row['threads']:7d} "
-              f"{row['kernel_steps_per_second']:15.1f} {row['simulation_steps_per_second']:16.1f} "
-              f"{row['speedup_over_one_thread']:10.2f}x "
-              f"{c_rate} {ratio}  {row.get('c_reference', '')}")
-    if results["c_reference_note"]:
-        print(f"note: {results['c_reference_note']}")
-    specialisation = results.get("specialisation")
-    if specialisation:
-        print("\nscene flags pick a specialised kernel; each effect alone (specialised steps/s over "
-              "the variant's):")
-        for integrator, row in specialisation.items():
-            rates, gains = row["steps_per_second"], row["gain"]
-            print(f"  {integrator:6s} specialised {rates['specialised']:.1f} steps/s; "
-                  f"zero damping/drag/gravity terms {gains['zero_damping_drag_gravity']:.2f}x, "
-                  f"1/m array instead of scalar {gains['inverse_mass_array']:.2f}x, "
-                  f"3-D kernel with z = 0 {gains['three_dimensional']:.2f}x")
-
-
-def _print_instruments(instruments: dict | None) -> None:
-    if not instruments:
-        return
-    rates, costs = instruments["steps_per_second"], instruments["cost"]
-    labels = {"periodic": "periodic rows", "absorbing": "absorbing walls",
-              "driven": "a force driver"}
-    parts = [f"{labels[name]} {rates[name]:.1f} ({costs[name]:.2f}x the time)" for name in costs]
-    print(f"\ninstruments (Verlet, Simulation.step steps/s): as is {rates['as_is']:.1f}; "
-          + "; ".join(parts))
-
-
-def main(arguments: argparse.Namespace) -> int:
-    from app.cli import parse_overrides
-
-    results = measure(
-        arguments.scene, parse_overrides(arguments.overrides), arguments.seconds,
-        threads=getattr(arguments, "threads", None),
-        c_reference=not getattr(arguments, "no_c", False),
-    )
-    if arguments.json:
-        print(json.dumps(results, indent=2))
-    else:
-        print_table(results)
-        _print_instruments(results.get("instruments"))
-    return 0

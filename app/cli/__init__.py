@@ -1,0 +1,86 @@
+"""The ``oscillators`` command: one entry point with subcommands.
+
+    oscillators scenes                      list the presets and their parameters
+    oscillators run SCENE --steps N         headless run with progress and an energy summary
+    oscillators bench                       kernel speed against plain numpy (interference scene)
+    oscillators serve [SCENE]               the web app (viser)
+    oscillators record SCENE                a rerun .rrd recording
+    oscillators accuracy / stability        the speed/accuracy study and stability map
+    oscillators response / reflection       a driven scene's resonance curve; the absorbing
+                                            walls' reflection against wavelength
+    oscillators movie SCENE -o FILE         an MP4, WebM or GIF movie of a run or a recording
+
+Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
+``--set nx=40 --set gravity=9.81 --set damping=0.5``; a driver with
+``--set driver=column=0,frequency=0.6,kind=force`` and absorbing walls with
+``--set boundary=absorbing``.
+
+Each command is one module of this package with ``register(subparsers)``, which adds its parser
+and sets its ``handler``; ``COMMANDS`` lists them in the order ``--help`` shows them, so a new
+command is one module and one entry there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from app.cli import (
+    accuracy,
+    bench,
+    dispersion,
+    movie,
+    record,
+    reflection,
+    response,
+    run,
+    scenes,
+    serve,
+    stability,
+)
+from app.cli.arguments import EPILOG, OneLineErrorParser
+
+COMMANDS = (scenes, run, bench, serve, record, accuracy, stability, dispersion, response,
+            reflection, movie)
+"""The command modules, in the order ``oscillators --help`` lists them."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``oscillators`` parser with every command of ``COMMANDS``."""
+    parser = OneLineErrorParser(
+        prog="oscillators",
+        description="Coupled oscillators: watch waves emerge from a lattice of masses and springs.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for command in COMMANDS:
+        command.register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Parse ``argv`` (default: the process's), run the command; returns the exit code."""
+    parser = build_parser()
+    arguments = parser.parse_args(argv)
+    if not getattr(arguments, "handler", None):
+        parser.print_help()
+        return 0
+    from sim import ModelError, SceneError
+
+    try:
+        return int(arguments.handler(arguments) or 0)
+    except (ModelError, SceneError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:  # unwritable output, missing directory, disk full
+        print(f"error: {error.strerror or error}: {error.filename or ''}".rstrip(": "),
+              file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: not enough memory for this lattice; try a smaller nx/ny", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,125 @@
+"""``oscillators accuracy``: speed against accuracy of every integrator on a scene (the
+work-precision study of ``app.study.accuracy``), as a table or JSON and a picture saved by
+default; the planned runs are checked against the limits of ``app.cli.limits`` first.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from app.cli.arguments import add_scene_arguments, positive_float, scene_from_arguments
+from app.cli.limits import check_plan
+from app.cli.study_output import (
+    add_output_arguments,
+    advance,
+    default_plot,
+    emit,
+    progress_bar,
+    save_picture,
+    scene_picture,
+)
+from sim.integrators import INTEGRATORS, most_accurate
+
+DESCRIPTION = """\
+Speed against accuracy.  Runs each integrator over a range of time steps on a scene, from its
+initial state to time T, and measures against a reference solution:
+
+  error      largest particle position error at T / size of the initial disturbance
+  energy     relative drift of the energy balance (kinetic + potential + dissipated)
+  phase      phase error (rad) of the dominant normal mode
+  wall time  of the stepping alone (compilation excluded; short runs repeated, fastest kept)
+
+Reference: the exact normal-mode solution when the springs are linearised (--set linear=true,
+lattices up to ~1500 particles); otherwise RK4 at (smallest dt)/8, whose own error is estimated
+by Richardson extrapolation against (smallest dt)/4 and printed.
+
+dt/limit is dt over the integrator's stability limit (Verlet: omega_max dt = 2, RK4: 2 sqrt 2;
+explicit Euler and Heun have none without damping: their energy grows at every dt).  The measured
+convergence order is the slope of log(error) against log(dt).  The recommendation is the fastest
+configuration whose error is within --tolerance; for each integrator the dt that should just meet
+the tolerance is also predicted from its measured order, run, and marked with *.
+"""
+
+EPILOG = """\
+examples:
+  oscillators accuracy grid --set linear=true           # exact reference, default steps
+  oscillators accuracy grid --until 5 --tolerance 1e-4 --plot docs/images/work_precision.png
+  oscillators accuracy chain --integrators verlet rk4 --dts 0.02 0.01 0.005 --json
+  oscillators accuracy grid --set nx=40 --set ny=30     # bigger lattice: wall time matters more
+
+Python: from app.study.accuracy import accuracy_study  (returns the data; .as_dict() for JSON)
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``accuracy`` command to ``oscillators``."""
+    parser = subparsers.add_parser(
+        "accuracy", help="error against wall time of every integrator (work-precision)",
+        description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_scene_arguments(parser, default_scene="grid")
+    parser.add_argument(
+        "--integrators", nargs="+", metavar="NAME", default=None, choices=INTEGRATORS,
+        help=f"integrators to compare (default: {' '.join(INTEGRATORS)})",
+    )
+    parser.add_argument(
+        "--dts", nargs="+", type=positive_float, metavar="DT",
+        help="time steps in seconds (default: 0.9 of the RK4 limit down to 1/400 of it)",
+    )
+    parser.add_argument(
+        "--until", type=positive_float, metavar="T",
+        help="time (s) at which the error is measured (default: 5 periods of the dominant mode)",
+    )
+    parser.add_argument(
+        "--tolerance", type=_fraction, default=1e-3,
+        help="target relative position error for the recommendation (default 1e-3)",
+    )
+    parser.add_argument("--no-refine", action="store_true",
+                        help="do not run the dt predicted to just meet the tolerance")
+    parser.add_argument(
+        "--precisions", nargs="+", choices=("float64", "float32"), default=None,
+        metavar="PRECISION",
+        help="precisions the compiled integrators run in (default: float64 float32; "
+        "the recommendation uses float64)",
+    )
+    add_output_arguments(parser, picture="SCENE-work-precision.png")
+    parser.set_defaults(handler=command_accuracy)
+
+
+def _fraction(text: str) -> float:
+    """argparse type of --tolerance: a number in (0, 1]."""
+    value = positive_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"must be a relative error in (0, 1], got {text!r}")
+    return value
+
+
+def command_accuracy(arguments: argparse.Namespace) -> int:
+    from app.study.accuracy import accuracy_study, default_until
+    from app.study.accuracy_report import format_report, plot_work_precision
+
+    scene = scene_from_arguments(arguments)
+    default_plot(arguments, scene_picture(scene, "work-precision"))
+    if arguments.integrator and not arguments.integrators:
+        arguments.integrators = [arguments.integrator]
+    integrators = arguments.integrators or list(INTEGRATORS)
+    dts = arguments.dts or ([arguments.dt] if arguments.dt else None)
+    if dts:
+        until = arguments.until or default_until(scene)
+        particles = scene.model.n_particles
+        runs = [(until / dt, particles, name) for name in integrators for dt in dts]
+        # the numerical reference, at (smallest dt) / 8
+        runs.append((8 * until / min(dts), particles, most_accurate(scene.model)))
+        check_plan(runs, "accuracy")
+    planned = 2 * len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
+    with progress_bar(planned, arguments.quiet) as bar:
+        study = accuracy_study(
+            scene, integrators=integrators, dts=dts, until=arguments.until,
+            tolerance=arguments.tolerance, refine=not arguments.no_refine,
+            progress=advance(bar), precisions=arguments.precisions or ("float64", "float32"),
+        )
+        bar.total = bar.n
+    data = study.as_dict()
+    save_picture(arguments, data, plot_work_precision, study)
+    emit(arguments, data, format_report(study))
+    return 0

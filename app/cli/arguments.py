@@ -1,0 +1,201 @@
+"""The command line's shared argument parsing: the parser class whose errors are one line,
+argparse types for numbers, the scene arguments every scene command takes (SCENE, --integrator,
+--dt, --precision, --threads, --set key=value) and the Scene / Simulation they name.
+
+Units are SI throughout: seconds for --dt and --duration, the scene's own units for --set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from sim.integrators import ALL_INTEGRATORS
+
+EPILOG = """examples:
+  oscillators scenes
+  oscillators run chain --integrator verlet --dt 0.01 --steps 2000
+  oscillators run grid --set nx=40 --set ny=30 --duration 20
+  oscillators run catenary --duration 30            # watch it settle under gravity
+  oscillators run resonance --probe 0,0             # driven at its 3rd mode: the probe finds it
+  oscillators run chain --set driver=column=0,frequency=0.6,amplitude=0.02,kind=force
+  oscillators run grid --set nx=120 --set ny=1 --set boundary=absorbing --set sponge_width=20
+  oscillators serve grid                            # the web app on http://127.0.0.1:8080
+  oscillators bench --seconds 1                     # steps per second of every integrator
+
+units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in N s/m.
+
+a driver (--set driver=...) takes column, row, direction (x, y, z), amplitude A (m), frequency
+f (Hz), kind (force: A k sin 2 pi f t; displacement: A sin 2 pi f t), start and ramp (s);
+boundary=absorbing adds a sponge sponge_width particles deep (sponge_sides=left,right,... or
+auto) that takes waves out instead of reflecting them (docs/instruments.md).
+"""
+"""The examples under ``oscillators --help`` and ``oscillators run --help``."""
+
+
+class OneLineErrorParser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage errors are one line on stderr (exit code 2), not the usage
+    block followed by the message."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (a time step, a duration, a scale)."""
+    value = _number(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive, finite number, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1 (a count of steps, frames, particles)."""
+    return bounded_int(1, None)(text)
+
+
+def bounded_int(smallest: int, largest: int | None) -> Callable[[str], int]:
+    """argparse type factory: a whole number in [smallest, largest] (largest None: no bound)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < smallest or (largest is not None and value > largest):
+            span = f"at least {smallest}" if largest is None else f"from {smallest} to {largest}"
+            raise argparse.ArgumentTypeError(f"must be {span}, got {text!r}")
+        return value
+
+    return parse
+
+
+def parse_overrides(pairs: Sequence[str] | None) -> dict[str, Any]:
+    """``["nx=40", "gravity=9.81", "linear=true", "gravity=0,-9.81"]`` -> keyword arguments."""
+    overrides: dict[str, Any] = {}
+    for pair in pairs or []:
+        if "=" not in pair:
+            raise ValueError(f"--set takes key=value, got {pair!r}")
+        key, text = (part.strip() for part in pair.split("=", 1))
+        if key == "driver":  # its own key=value list, read by sim.forcing.Driver
+            overrides[key] = None if text.lower() in ("none", "off", "") else text
+        elif key in ("boundary", "sponge_sides"):
+            overrides[key] = text
+        else:
+            overrides[key] = _parse_value(text)
+    return overrides
+
+
+def _parse_value(text: str) -> Any:
+    lowered = text.lower()
+    if lowered in ("true", "yes", "on"):
+        return True
+    if lowered in ("false", "no", "off"):
+        return False
+    if "," in text:
+        return tuple(float(part) for part in text.split(","))
+    try:
+        number = float(text)
+    except ValueError:
+        return text
+    return int(number) if number.is_integer() and "." not in text and "e" not in lowered else number
+
+
+class IntegratorChoices:
+    """The registered integrators' names (``sim.integrators.ALL_INTEGRATORS``), read when
+    argparse checks or lists them, so the command line never keeps its own list."""
+
+    def __contains__(self, name: object) -> bool:
+        return name in ALL_INTEGRATORS
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(tuple(ALL_INTEGRATORS))
+
+    def __len__(self) -> int:
+        return len(ALL_INTEGRATORS)
+
+
+def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | None = None) -> None:
+    """SCENE (preset name or scene file), --integrator, --dt, --precision, --threads,
+    --set key=value."""
+    if default_scene is None:
+        parser.add_argument(
+            "scene", help="preset name (see `oscillators scenes`) or a .toml or .zip scene file"
+        )
+    else:
+        parser.add_argument(
+            "scene", nargs="?", default=default_scene,
+            help=f"preset name or a .toml or .zip scene file (default: {default_scene})",
+        )
+    parser.add_argument(
+        "--integrator", choices=IntegratorChoices(),
+        help="time integrator (default: the scene's)",
+    )
+    parser.add_argument("--dt", type=positive_float,
+                        help="time step in seconds (default: the scene's)")
+    parser.add_argument(
+        "--precision", choices=("float64", "float32"),
+        help="floating-point precision of the state and the kernels (default: the scene's, "
+        "float64); float32 is faster, energies are still summed in float64",
+    )
+    parser.add_argument(
+        "--threads", type=positive_int, default=1,
+        help="threads the compiled sweeps run on, as row blocks (default: 1)",
+    )
+    parser.add_argument(
+        "--set", dest="overrides", action="append", metavar="KEY=VALUE",
+        help="override a scene parameter: nx, ny, spacing, mass, stiffness, rest_length, damping, "
+        "drag, gravity (g or gx,gy[,gz]), linear, dim; repeatable",
+    )
+
+
+def add_length_arguments(parser: argparse.ArgumentParser, steps_help: str) -> None:
+    """--steps N or --duration SECONDS (one of them): how long a command runs the scene."""
+    length = parser.add_mutually_exclusive_group()
+    length.add_argument("--steps", type=positive_int, help=steps_help)
+    length.add_argument("--duration", type=positive_float,
+                        help="simulated seconds instead of --steps")
+
+
+def scene_from_arguments(arguments: argparse.Namespace):
+    """Build the Scene named by the parsed arguments (preset + overrides, or a file)."""
+    from sim import scene_files, scenes
+
+    overrides = parse_overrides(arguments.overrides)
+    if arguments.scene.endswith((".toml", ".zip")):
+        scene = scene_files.load_file(arguments.scene)
+        if overrides:
+            raise ValueError("--set applies to presets; edit the scene file instead")
+    else:
+        scene = scenes.build(arguments.scene, **overrides)
+    return scene
+
+
+def simulation_from_arguments(arguments: argparse.Namespace):
+    """The Simulation of the scene, integrator, dt, precision and threads the arguments name."""
+    from sim import Simulation
+
+    scene = scene_from_arguments(arguments)
+    return Simulation(
+        scene, integrator=arguments.integrator, dt=arguments.dt,
+        precision=getattr(arguments, "precision", None), threads=getattr(arguments, "threads", 1),
+    )
+
+
+def check_output_file(output: Path, force: bool, suffix: str) -> None:
+    """Refuse a directory, and an existing file unless ``force`` (checked before anything runs);
+    ``suffix`` (".rrd", ".mp4") is the ending the message suggests."""
+    if output.is_dir():
+        raise ValueError(f"{output} is a directory; give a file name ending in {suffix}")
+    if output.exists() and not force:
+        raise ValueError(f"{output} already exists; use --force to replace it")

@@ -1,0 +1,74 @@
+"""``oscillators dispersion``: the continuum limit, the wave speed and the dispersion relation
+measured on long chains (``app.study.dispersion``), as a table or JSON and an optional picture.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from app.cli.arguments import bounded_int, positive_float
+from app.cli.limits import check_plan
+from app.cli.study_output import add_output_arguments, advance, check_plot_path, emit, progress_bar
+from sim.integrators import most_accurate
+
+DISPERSION_PARTICLES = (4, 6000)
+"""Range of --particles: the wave-speed chain has 3x as many, at most ``sim.model.MAX_SIDE``."""
+
+DISPERSION_SAMPLES = 2000
+"""Samples of each spectrum (200 s every 0.1 s), to estimate the run time."""
+
+DESCRIPTION = """\
+The continuum limit.  A long chain (one row, unstressed, linearised springs, fixed ends) is given
+a random displacement along the chain, integrated, and the space-time spectrum of its displacement
+is taken (sine transform in space, windowed FFT in time).  The frequency measured for each
+wavenumber q is compared with the discrete relation omega = 2 sqrt(k/m) |sin(q a / 2)| and the
+continuum line omega = c q, c = a sqrt(k/m).  The wave speed is also measured directly by tracking
+the front of a wide pulse.  For the ionic chain (masses M and m alternating) the acoustic and
+optical branches and the gap between sqrt(2k/M) and sqrt(2k/m) are measured.
+"""
+
+EPILOG = """\
+examples:
+  oscillators dispersion --plot docs/images/dispersion.png
+  oscillators dispersion --particles 2000 --json
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``dispersion`` command to ``oscillators``."""
+    parser = subparsers.add_parser(
+        "dispersion", help="wave speed and dispersion relation measured on long chains",
+        description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--particles", type=bounded_int(*DISPERSION_PARTICLES), default=400,
+                        help="particles in the chain (default 400; from {} to {})".format(
+                            *DISPERSION_PARTICLES))
+    parser.add_argument("--stiffness", type=positive_float, default=35.0,
+                        help="k in N/m (default 35)")
+    parser.add_argument("--mass", type=positive_float, default=1.0, help="m in kg (default 1)")
+    parser.add_argument("--heavy", type=positive_float, default=4.0,
+                        help="heavy mass M of the ionic chain in kg (default 4)")
+    add_output_arguments(parser)
+    parser.set_defaults(handler=command_dispersion)
+
+
+def command_dispersion(arguments: argparse.Namespace) -> int:
+    from app.study import dispersion
+
+    check_plot_path(arguments)
+    lightest = min(arguments.mass, arguments.heavy)
+    steps = DISPERSION_SAMPLES * math.ceil(2 * math.sqrt(arguments.stiffness / lightest))
+    particles = arguments.particles
+    integrator = most_accurate()  # the chains are run with the most accurate integrator
+    check_plan([(steps, particles, integrator), (steps, particles, integrator),
+                (steps, max(3 * particles, 1200), integrator)], "dispersion")
+    with progress_bar(None, arguments.quiet) as bar:
+        study = dispersion.dispersion_study(
+            particles=arguments.particles, stiffness=arguments.stiffness, mass=arguments.mass,
+            heavy=arguments.heavy, progress=advance(bar),
+        )
+    if arguments.plot:
+        dispersion.plot_dispersion(study, arguments.plot)
+    emit(arguments, study.as_dict(), dispersion.format_report(study))
+    return 0

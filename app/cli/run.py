@@ -1,0 +1,158 @@
+"""``oscillators run``: run a scene headless with a progress bar, then print its energy account
+(J, start and end, and the balance error) and, with ``--probe I,J``, the dominant frequencies
+(Hz) of probed particles with the nearest normal modes; ``--json`` prints the same as JSON.
+
+Exit codes: 0 done, 2 bad input, 3 the run blew up (the summary is still printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from app.cli.arguments import (
+    EPILOG,
+    add_length_arguments,
+    add_scene_arguments,
+    simulation_from_arguments,
+)
+from app.cli.limits import planned_steps
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``run`` command to ``oscillators``."""
+    parser = subparsers.add_parser(
+        "run", help="run a scene headless and print an energy summary",
+        description="Run a scene without a viewer; prints progress and the energy account.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_scene_arguments(parser)
+    add_length_arguments(parser, "number of steps (default: the scene's duration, see `scenes`)")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.add_argument(
+        "--probe", action="append", metavar="I,J",
+        help="record the displacement of the particle in column I, row J (from 0) and print the "
+        "dominant frequencies of its motion with the nearest normal modes; repeatable",
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(handler=command_run)
+
+
+def command_run(arguments: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from sim import BlowUpError
+
+    simulation = simulation_from_arguments(arguments)
+    steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
+    limit = simulation.stability()
+    print(f"{simulation.scene.summary()}")
+    print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}")
+    start_energy = simulation.energy()
+    chunk = max(1, steps // 200)
+    probes = None
+    if arguments.probe:
+        from app.recording.instruments import check_probes, parse_probe
+        from sim.observables import highest_frequency
+        from sim.probes import ProbeSeries
+
+        model = simulation.model
+        try:
+            pairs = check_probes([parse_probe(text) for text in arguments.probe], model)
+        except ValueError as error:
+            raise ValueError(f"--probe: {error}") from None
+        particles = [row * model.nx + column for column, row in pairs]
+        probes = ProbeSeries(model, particles, limit=steps + 1)
+        probes.add(simulation.time, simulation.state.particle_positions())
+        # sample four times per period of the fastest mode (twice the Nyquist rate)
+        chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
+    started = time.perf_counter()
+    status = 0
+    with tqdm(total=steps, unit="step", disable=arguments.quiet, dynamic_ncols=True) as bar:
+        done = 0
+        try:
+            while done < steps:
+                n = min(chunk, steps - done)
+                simulation.step(n)
+                done += n
+                bar.update(n)
+                if probes is not None:
+                    probes.add(simulation.time, simulation.state.particle_positions())
+        except BlowUpError as error:
+            bar.close()
+            print(f"\nstopped: {error}", file=sys.stderr)
+            status = 3
+    elapsed = time.perf_counter() - started
+    end_energy = simulation.energy()
+    summary = {
+        "scene": simulation.scene.name, "integrator": simulation.integrator, "dt": simulation.dt,
+        "steps": simulation.step_count, "time": simulation.time, "wall_seconds": elapsed,
+        "steps_per_second": simulation.step_count / elapsed if elapsed > 0 else None,
+        "energy_start": start_energy.as_dict(), "energy_end": end_energy.as_dict(),
+        "energy_balance_error": simulation.energy_balance_error(),
+        "energy_scale": simulation.energy_scale(),
+    }
+    if probes is not None:
+        summary["probes"] = _probe_report(probes)
+    if arguments.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_summary(simulation, summary, start_energy, end_energy, elapsed)
+    return status
+
+
+def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, end_energy: Any,
+                   elapsed: float) -> None:
+    """The run's summary as text: speed, the energy table, the balance error, the probes."""
+    print(f"ran {simulation.step_count} steps to t = {simulation.time:.4g} s in {elapsed:.2f} s "
+          f"({summary['steps_per_second'] or 0:.0f} steps/s)")
+    print(f"{'energy (J)':12s} {'start':>12s} {'end':>12s}")
+    driven = simulation.model.driver is not None
+    terms = ("kinetic", "spring", "gravity", "potential", "dissipated")
+    for key in terms + (("driven",) if driven else ()) + ("total",):
+        label = "driver work" if key == "driven" else key
+        print(f"{label:12s} {start_energy[key]:12.6g} {end_energy[key]:12.6g}")
+    balance_error = end_energy.balance - start_energy.balance
+    kept = "kinetic + potential + dissipated" + (" - driver work" if driven else "")
+    print(f"energy balance error: {summary['energy_balance_error']:+.3%} of the energy in play "
+          f"({balance_error:+.3g} J of {summary['energy_scale']:.4g} J; {kept} should stay "
+          "constant)")
+    if driven:
+        print(f"driver: {simulation.model.driver.describe()}")
+    for probe in summary.get("probes", []):
+        peaks = "; ".join(
+            f"{peak['frequency']:.4g} Hz" + (f" ({peak['nearest_mode']})"
+                                             if peak["nearest_mode"] else "")
+            for peak in probe["peaks"]
+        ) or "no motion"
+        print(f"probe particle {probe['particle']} (column {probe['column']}, row "
+              f"{probe['row']}), {probe['component']} motion: {peaks}")
+
+
+def _probe_report(probes: Any) -> list[dict[str, Any]]:
+    """Each probe's strongest motion component and its dominant frequencies, with the nearest
+    normal mode (equal masses)."""
+    from sim.modes import POLARISATION_NAMES
+    from sim.probes import nearest_modes
+
+    model = probes.model
+    displacements = probes.displacements
+    report = []
+    for index, particle in enumerate(probes.particles):
+        component = int(np.argmax(displacements[:, index, :].std(axis=0)))
+        peaks = []
+        if len(probes.times) > 2:
+            for frequency, amplitude in probes.dominant(index, component):
+                near = nearest_modes(model, frequency)
+                peaks.append({"frequency": frequency, "amplitude": amplitude,
+                              "nearest_mode": near[0].describe() if near else None})
+        row, column = divmod(particle, model.nx)
+        report.append({"particle": particle, "column": column, "row": row,
+                       "component": POLARISATION_NAMES[component], "peaks": peaks})
+    return report

@@ -1,0 +1,91 @@
+"""What the study commands (accuracy, stability, dispersion, response, reflection) share: the
+output options (--json, --plot PATH.png, --quiet and, where a picture is saved by default,
+--no-plot), the check of the picture's path before a long study runs, the progress bar on stderr
+and printing the report (a table, or JSON).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+
+def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = None) -> None:
+    """--json, --plot, --quiet; with ``picture`` (the default file name, as the help shows it,
+    e.g. ``SCENE-response.png``) also --no-plot."""
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument("--plot", metavar="PATH.png", help="save the picture to this PNG file")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    if picture is not None:
+        parser.add_argument("--no-plot", action="store_true",
+                            help=f"do not save the picture (by default it goes to {picture} "
+                            "here, or to --plot)")
+
+
+def scene_picture(scene: Any, kind: str) -> str:
+    """The default picture of a study of ``scene``: ``grid-response.png`` here (a scene file's
+    name without its suffix)."""
+    return f"{Path(scene.name).stem or 'scene'}-{kind}.png"
+
+
+def default_plot(arguments: argparse.Namespace, name: str) -> None:
+    """The picture goes to --plot, or to ``name`` here unless --no-plot; checked."""
+    if arguments.no_plot:
+        arguments.plot = None
+    elif not arguments.plot:
+        arguments.plot = name
+    check_plot_path(arguments)
+
+
+def check_plot_path(arguments: argparse.Namespace) -> None:
+    """--plot must name a PNG file in an existing directory: checked before a long study runs."""
+    if not arguments.plot:
+        return
+    path = Path(arguments.plot)
+    if path.suffix.lower() != ".png":
+        raise ValueError(f"--plot takes a .png file name, got {arguments.plot}")
+    if path.is_dir():
+        raise ValueError(f"--plot {arguments.plot} is a directory; give a .png file name")
+    if not path.parent.is_dir():
+        raise ValueError(f"--plot {arguments.plot}: the directory {path.parent} does not exist")
+
+
+def progress_bar(total: int | None, quiet: bool):
+    """A tqdm bar counting runs on stderr (``total`` None: unknown), off with ``quiet``."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="run", disable=quiet, dynamic_ncols=True, file=sys.stderr)
+
+
+def advance(bar) -> Callable[[str], None]:
+    """The ``progress(label)`` callback of a study: one more run done, labelled."""
+
+    def progress(label: str) -> None:
+        if bar.total is not None and bar.n >= bar.total:
+            bar.total = bar.n + 1
+        bar.set_description(label)
+        bar.update(1)
+
+    return progress
+
+
+def emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> None:
+    """Print the study: ``data`` as JSON with --json, else ``text`` and where the picture went."""
+    if arguments.json:
+        print(json.dumps(data, indent=2))
+    else:
+        print(text)
+        if arguments.plot:
+            print(f"picture saved to {Path(arguments.plot).resolve()}")
+
+
+def save_picture(arguments: argparse.Namespace, data: dict[str, Any],
+                  plot: Callable[[Any, str], None], study: Any) -> None:
+    """Draw ``study`` with ``plot`` to --plot, if any, and name the file in ``data``."""
+    if arguments.plot:
+        plot(study, arguments.plot)
+        data["picture"] = str(Path(arguments.plot).resolve())
