@@ -36,6 +36,8 @@ class CMethod:
     label: str
     precisions: tuple[str, ...]
     threaded: bool
+    runner: str
+    """The ``CReference`` method that builds its step function."""
 
     def configuration(self, precision: str, threads: int) -> tuple[str, str, int]:
         """(integrator, precision, threads) of the C kernel nearest to the integrator run in
@@ -50,8 +52,9 @@ class CMethod:
 
 
 METHODS = (
-    CMethod("verlet", "C fused leapfrog", ("float64", "float32"), threaded=True),
-    CMethod("rk4", "C fused RK4", ("float64",), threaded=False),
+    CMethod("verlet", "C fused leapfrog", ("float64", "float32"), threaded=True,
+            runner="_leapfrog_runner"),
+    CMethod("rk4", "C fused RK4", ("float64",), threaded=False, runner="_rk4_runner"),
 )
 """What the C kernels implement, in the order ``oscillators bench`` measures them."""
 _FLAGS = ("-O3", "-march=native", "-ffast-math", "-fopenmp", "-shared", "-fPIC", "-std=gnu11")
@@ -128,34 +131,42 @@ class CReference:
         """A function ``run(steps)`` advancing a C lattice; ``method`` is the integrator of one
         of ``METHODS``: "verlet" (the symplectic leapfrog step, f64 or f32, OpenMP row blocks
         when threads > 1) or "rk4" (f64, serial)."""
-        arrays = self._state(nx, ny, dtype)
-        pointers = [a.ctypes.data for a in arrays]
-        suffix = "f" if np.dtype(dtype) == np.float32 else "d"
-        real = np.dtype(dtype).type
-        k, k_rest = real(self.STIFFNESS), real(self.STIFFNESS * self.REST_LENGTH)
-        dt = real(0.01)
-        if method == "verlet":
-            serial = getattr(self.library, f"step_rowbuf_{suffix}")
-            parallel = getattr(self.library, f"step_rowbuf_omp_{suffix}")
-
-            def leapfrog(steps: int, arrays=arrays) -> None:  # arrays: keeps the memory alive
-                if threads == 1:
-                    serial(*pointers, nx + 2, ny + 2, k, k_rest, dt, steps)
-                else:
-                    parallel(*pointers, nx + 2, ny + 2, k, k_rest, dt, steps, threads)
-
-            return leapfrog
-        if method == "rk4":
-            stage = np.stack(arrays[:4]).copy()
-            accumulator = np.zeros_like(stage)
-            step = self.library.rk4_step_d
-
-            def run(steps: int, arrays=arrays) -> None:  # arrays: keeps the memory alive
-                step(*pointers, nx + 2, ny + 2, k, k_rest, dt, stage.ctypes.data,
-                     accumulator.ctypes.data, steps)
-
-            return run
+        for candidate in METHODS:
+            if candidate.integrator == method:
+                arrays = self._state(nx, ny, dtype)
+                return getattr(self, candidate.runner)(arrays, nx, ny, np.dtype(dtype).type, threads)
         raise ValueError(f"no C reference for {method!r}")
+
+    def _constants(self, real):
+        return real(self.STIFFNESS), real(self.STIFFNESS * self.REST_LENGTH), real(0.01)
+
+    def _leapfrog_runner(self, arrays, nx: int, ny: int, real, threads: int):
+        pointers = [a.ctypes.data for a in arrays]
+        suffix = "f" if real is np.float32 else "d"
+        k, k_rest, dt = self._constants(real)
+        serial = getattr(self.library, f"step_rowbuf_{suffix}")
+        parallel = getattr(self.library, f"step_rowbuf_omp_{suffix}")
+
+        def leapfrog(steps: int, arrays=arrays) -> None:  # arrays: keeps the memory alive
+            if threads == 1:
+                serial(*pointers, nx + 2, ny + 2, k, k_rest, dt, steps)
+            else:
+                parallel(*pointers, nx + 2, ny + 2, k, k_rest, dt, steps, threads)
+
+        return leapfrog
+
+    def _rk4_runner(self, arrays, nx: int, ny: int, real, threads: int):
+        pointers = [a.ctypes.data for a in arrays]
+        k, k_rest, dt = self._constants(real)
+        stage = np.stack(arrays[:4]).copy()
+        accumulator = np.zeros_like(stage)
+        step = self.library.rk4_step_d
+
+        def run(steps: int, arrays=arrays) -> None:  # arrays: keeps the memory alive
+            step(*pointers, nx + 2, ny + 2, k, k_rest, dt, stage.ctypes.data,
+                 accumulator.ctypes.data, steps)
+
+        return run
 
 
 def load() -> tuple[CReference | None, str]:
