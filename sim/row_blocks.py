@@ -30,6 +30,7 @@ from sim.row_updates import (
     force_rows,
     stage_update,
     stages,
+    sweep_buffers,
     verlet_drift,
 )
 from sim.wavefront import wavefront, write_deferred
@@ -129,11 +130,8 @@ def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, veloc
     dissipated power (W) as ``force_rows`` counts it."""
     xs, ys, zs = components(out_of_plane, source_position)
     vxs, vys, vzs = components(out_of_plane, source_velocity)
-    ny, nx = position.shape[1], position.shape[2]
-    below = np.empty((3, nx), position.dtype)
-    above = np.empty((3, nx), position.dtype)
-    horizontal = np.empty((3, nx + 1), position.dtype)
-    row = np.empty((3, nx), position.dtype)
+    ny = position.shape[1]
+    below, above, horizontal, row = sweep_buffers(position)
     power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot, below)
     if j0 > 0:
         power = 0.0

@@ -35,6 +35,16 @@ def components(out_of_plane, array):
 
 
 @njit(**_JIT)
+def sweep_buffers(position):
+    """Scratch of one force sweep over the rows of ``position`` (dim, ny, nx): the forces of the
+    vertical springs below and above the current row (3, nx) each, of its horizontal springs
+    (3, nx + 1), and its accelerations (3, nx)."""
+    nx = position.shape[2]
+    return (np.empty((3, nx), position.dtype), np.empty((3, nx), position.dtype),
+            np.empty((3, nx + 1), position.dtype), np.empty((3, nx), position.dtype))
+
+
+@njit(**_JIT)
 def store_acceleration(j, row, acceleration, kick, velocity):
     """Copy ``row`` into row j of ``acceleration`` (dim, ny, nx) and, with ``kick`` (s) not None,
     kick that row's velocities by kick * a."""
@@ -57,10 +67,7 @@ def force_rows(j0, j1, linear, out_of_plane, position, force_velocity, inverse_m
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, force_velocity)
     dim, ny, nx = acceleration.shape
-    below = np.empty((3, nx), x.dtype)
-    above = np.empty((3, nx), x.dtype)
-    horizontal = np.empty((3, nx + 1), x.dtype)
-    row = np.empty((3, nx), x.dtype)
+    below, above, horizontal, row = sweep_buffers(position)
     power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
     if j0 > 0:
         power = 0.0

@@ -129,49 +129,6 @@ class Euler(Integrator):
         state.advance_clock(n, dt)
 
 
-class Heun(Integrator):
-    name = "heun"
-    work_arrays = 3
-    ring_rows = 2
-
-    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
-        super().__init__(model, dtype, threads)
-        # Blocks of at least 4 rows run the wavefront with one halo row (one sweep per step);
-        # thinner lattices fall back to a parallel phase for the predictor and the corrector.
-        blocks = min(self.threads, model.ny // 4)
-        self._blocks: np.ndarray | None = None
-        self._block_work: list[np.ndarray] = []
-        if blocks >= 2:
-            self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
-            ring = (blocks, model.dim, wavefront.RK4_RING, model.nx)
-            edges = (blocks, model.dim, 2 * (wavefront.HEUN_HALO + 1), model.nx)
-            self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(3)] + [
-                np.zeros(edges, dtype=self.dtype) for _ in range(2)
-            ]
-
-    def advance(self, state: State, n: int, dt: float) -> None:
-        if self.parallel and self._blocks is not None:
-            self._start_threads()
-            first_acceleration, stage_position, stage_velocity, *deferred = self._block_work
-            state.dissipated += row_blocks.runge_kutta_blocks(
-                HEUN, n, self._dt(dt), *self._common(state), stage_position, stage_velocity,
-                stage_position, first_acceleration, *deferred, self._blocks,
-            )
-        elif self.parallel:
-            self._start_threads()
-            first_acceleration, stage_position, stage_velocity = self._full_arrays(3)
-            state.dissipated += row_blocks.runge_kutta_phases(
-                HEUN, n, self._dt(dt), *self._common(state), stage_position, stage_velocity,
-                stage_position, stage_velocity, stage_position, first_acceleration,
-                self._block_starts,
-            )
-        else:
-            state.dissipated += stepping.heun_steps(
-                n, self._dt(dt), *self._common(state), *self.work
-            )
-        state.advance_clock(n, dt)
-
-
 class Verlet(Integrator):
     name = "verlet"
     work_arrays = 2
@@ -236,39 +193,65 @@ class Verlet(Integrator):
         self._cached_for = (state.revision, state.time)
 
 
-class RungeKutta4(Integrator):
-    name = "rk4"
-    work_arrays = 4
-    ring_rows = 4
+class _RungeKutta(Integrator):
+    """Heun and RK4: one wavefront per step over the whole lattice on one thread; on several
+    threads one wavefront per row block (blocks of at least 2 (halo + 1) rows, one sweep per
+    step), or on lattices too thin for that one parallel phase per stage."""
+
+    method: ClassVar[int]
+    halo: ClassVar[int]
 
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
-        # Blocks of at least 8 rows run the wavefront with halo rows (one sweep per step); thinner
-        # lattices fall back to one parallel phase per stage.
-        blocks = min(self.threads, model.ny // 8)
+        blocks = min(self.threads, model.ny // (2 * (self.halo + 1)))
         self._blocks: np.ndarray | None = None
         self._block_work: list[np.ndarray] = []
         if blocks >= 2:
             self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
             ring = (blocks, model.dim, wavefront.RK4_RING, model.nx)
-            edges = (blocks, model.dim, 2 * (wavefront.RK4_HALO + 1), model.nx)
+            edges = (blocks, model.dim, 2 * (self.halo + 1), model.nx)
             self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(4)] + [
                 np.zeros(edges, dtype=self.dtype) for _ in range(2)
             ]
 
+    def _one_thread(self, n: int, dt: np.floating, state: State) -> float:
+        raise NotImplementedError
+
     def advance(self, state: State, n: int, dt: float) -> None:
-        if self.parallel and self._blocks is not None:
+        if self.parallel:
             self._start_threads()
+        if self.parallel and self._blocks is not None:
             state.dissipated += row_blocks.runge_kutta_blocks(
-                RK4, n, self._dt(dt), *self._common(state), *self._block_work, self._blocks
+                self.method, n, self._dt(dt), *self._common(state), *self._block_work,
+                self._blocks,
             )
         elif self.parallel:
-            self._start_threads()
             state.dissipated += row_blocks.runge_kutta_phases(
-                RK4, n, self._dt(dt), *self._common(state), *self._full_arrays(6), self._block_starts
+                self.method, n, self._dt(dt), *self._common(state), *self._full_arrays(6),
+                self._block_starts,
             )
         else:
-            state.dissipated += stepping.rk4_steps(
-                n, self._dt(dt), *self._common(state), *self.work
-            )
+            state.dissipated += self._one_thread(n, self._dt(dt), state)
         state.advance_clock(n, dt)
+
+
+class Heun(_RungeKutta):
+    name = "heun"
+    method = HEUN
+    halo = wavefront.HEUN_HALO
+    work_arrays = 3
+    ring_rows = 2
+
+    def _one_thread(self, n: int, dt: np.floating, state: State) -> float:
+        return stepping.heun_steps(n, dt, *self._common(state), *self.work)
+
+
+class RungeKutta4(_RungeKutta):
+    name = "rk4"
+    method = RK4
+    halo = wavefront.RK4_HALO
+    work_arrays = 4
+    ring_rows = 4
+
+    def _one_thread(self, n: int, dt: np.floating, state: State) -> float:
+        return stepping.rk4_steps(n, dt, *self._common(state), *self.work)

@@ -39,6 +39,7 @@ from sim.row_updates import (
     kick_drift_row,
     stages,
     store_acceleration,
+    sweep_buffers,
     verlet_drift,
 )
 from sim.wavefront import wavefront
@@ -66,10 +67,7 @@ def euler_steps(
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx), position.dtype)
-    above = np.empty((3, nx), position.dtype)
-    horizontal = np.empty((3, nx + 1), position.dtype)
-    row = np.empty((3, nx), position.dtype)
+    below, above, horizontal, row = sweep_buffers(position)
     row_as_array = row.reshape((3, 1, nx))
     dissipated = 0.0
     for _ in range(n):
@@ -166,10 +164,7 @@ def verlet_steps(
     else:
         vx, vy, vz = components(out_of_plane, velocity)
     dim, ny, nx = position.shape
-    below = np.empty((3, nx), position.dtype)
-    above = np.empty((3, nx), position.dtype)
-    horizontal = np.empty((3, nx + 1), position.dtype)
-    row = np.empty((3, nx), position.dtype)
+    below, above, horizontal, row = sweep_buffers(position)
     half = type(dt)(0.5) * dt
     dissipated = 0.0
     power = previous_power
