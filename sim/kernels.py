@@ -103,6 +103,9 @@ def _inverse_square_root(value, estimate_first):
 # A spring end is a tuple (x, y, z, vx, vy, vz) in m and m/s: a particle of the state, or a wall
 # anchor (a rest site of the lattice that never moves).  The force of a spring depends only on
 # its two ends, so the wall, ring and interior springs are one computation with different ends.
+# The per-spring functions take scalars and tuples only, never arrays: LLVM inlines them into the
+# row loops, which load the ends themselves (a call per spring that passes arrays would cost
+# reference counting and vectorisation).
 
 
 @njit(**_JIT)
@@ -117,29 +120,13 @@ def site(i, j, parameters):
 
 @njit(**_JIT)
 def particle(x, y, z, vx, vy, vz, r, i):
-    """The particle stored at row index r, column i of the (rows, nx) fields as a spring end; its
-    z and vz are zero in a planar scene (``z``, ``vz`` None)."""
+    """The particle stored at row index r, column i of the (rows, nx) fields as a spring end; z
+    and vz are zero in a planar scene (``z``, ``vz`` None).  For the ends of a row; the row loops
+    load their particles inline."""
     zero = type(x[r, i])(0.0)
     if z is None:
         return x[r, i], y[r, i], zero, vx[r, i], vy[r, i], zero
     return x[r, i], y[r, i], z[r, i], vx[r, i], vy[r, i], vz[r, i]
-
-
-@njit(**_JIT)
-def column(buffer, i, z):
-    """Column i (fx, fy, fz) of a (3, n) force buffer; fz is zero in a planar scene (``z`` None)."""
-    if z is None:
-        return buffer[0, i], buffer[1, i], type(buffer[0, i])(0.0)
-    return buffer[0, i], buffer[1, i], buffer[2, i]
-
-
-@njit(**_JIT)
-def _store(out, i, fx, fy, fz, z):
-    """Write a force (N) or acceleration into column i of a (3, n) buffer (fz only in 3-D)."""
-    out[0, i] = fx
-    out[1, i] = fy
-    if z is not None:
-        out[2, i] = fz
 
 
 @njit(**_JIT)
@@ -198,6 +185,30 @@ def spring_force(first, second, axis, linearised, parameters, dashpot):
     return _linear_law(dx, dy, dz, dvx, dvy, dvz, axis, parameters, dashpot)
 
 
+@njit(**_JIT)
+def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity):
+    """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
+    ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends of its four
+    springs) and of drag on its ``velocity`` (vx, vy, vz), times ``inverse_mass``, plus
+    ``gravity`` (gx, gy, gz).  ``drag``, ``gravity`` None: absent.  This is the one place where
+    the forces on a particle are summed."""
+    fx = right[0] - left[0] + above[0] - below[0]
+    fy = right[1] - left[1] + above[1] - below[1]
+    fz = right[2] - left[2] + above[2] - below[2]
+    if drag is not None:
+        fx -= drag * velocity[0]
+        fy -= drag * velocity[1]
+        fz -= drag * velocity[2]
+    ax = fx * inverse_mass
+    ay = fy * inverse_mass
+    az = fz * inverse_mass
+    if gravity is not None:
+        ax += gravity[0]
+        ay += gravity[1]
+        az += gravity[2]
+    return ax, ay, az
+
+
 # --- the springs of one row ---------------------------------------------------------------------
 
 
@@ -206,19 +217,29 @@ def _vertical_row(lower, upper, j, x, y, z, vx, vy, vz, linearised, parameters, 
     """Forces of the springs from row j - 1 (stored at index ``lower``) to row j (at ``upper``)
     into ``out`` (3, nx); ``lower`` None: the bottom wall's anchors instead (j = 0), ``upper``
     None: the top wall's anchors (j = ny).  Both are compile-time choices.  Returns the power."""
+    zero = type(parameters.spacing)(0.0)
     power = 0.0
     for i in range(x.shape[1]):
         if lower is None:
             first = site(i, j - 1, parameters)
+        elif z is None:
+            first = (x[lower, i], y[lower, i], zero, vx[lower, i], vy[lower, i], zero)
         else:
-            first = particle(x, y, z, vx, vy, vz, lower, i)
+            first = (x[lower, i], y[lower, i], z[lower, i], vx[lower, i], vy[lower, i],
+                     vz[lower, i])
         if upper is None:
             second = site(i, j, parameters)
+        elif z is None:
+            second = (x[upper, i], y[upper, i], zero, vx[upper, i], vy[upper, i], zero)
         else:
-            second = particle(x, y, z, vx, vy, vz, upper, i)
+            second = (x[upper, i], y[upper, i], z[upper, i], vx[upper, i], vy[upper, i],
+                      vz[upper, i])
         fx, fy, fz, p = spring_force(first, second, 1, linearised, parameters, dashpot)
         power += p
-        _store(out, i, fx, fy, fz, z)
+        out[0, i] = fx
+        out[1, i] = fy
+        if z is not None:
+            out[2, i] = fz
     return power
 
 
@@ -250,6 +271,15 @@ def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, ou
 
 
 @njit(**_JIT)
+def _store(out, i, force, z):
+    out[0, i] = force[0]
+    out[1, i] = force[1]
+    if z is not None:
+        out[2, i] = force[2]
+    return force[3]
+
+
+@njit(**_JIT)
 def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
     """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
     joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
@@ -260,9 +290,10 @@ def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, 
     zero = T(0.0)
     r = j % x.shape[0]
     nx = x.shape[1]
+    still = (zero, zero, zero, zero)
     power = 0.0
     if parameters.free_ends is not None:  # no spring to the left wall
-        _store(out, 0, zero, zero, zero, z)
+        _store(out, 0, still, z)
     else:
         if parameters.periodic is not None:  # the ring's closing spring, seen from particle 0
             last = particle(x, y, z, vx, vy, vz, r, nx - 1)
@@ -270,62 +301,34 @@ def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, 
                      last[5])
         else:
             first = site(-1, j, parameters)
-        fx, fy, fz, p = spring_force(first, particle(x, y, z, vx, vy, vz, r, 0), 0, linearised,
-                                     parameters, dashpot)
-        power += p
-        _store(out, 0, fx, fy, fz, z)
+        power += _store(out, 0, spring_force(first, particle(x, y, z, vx, vy, vz, r, 0), 0,
+                                             linearised, parameters, dashpot), z)
     for i in range(1, nx):
-        fx, fy, fz, p = spring_force(particle(x, y, z, vx, vy, vz, r, i - 1),
-                                     particle(x, y, z, vx, vy, vz, r, i), 0, linearised,
-                                     parameters, dashpot)
+        if z is None:
+            first = (x[r, i - 1], y[r, i - 1], zero, vx[r, i - 1], vy[r, i - 1], zero)
+            second = (x[r, i], y[r, i], zero, vx[r, i], vy[r, i], zero)
+        else:
+            first = (x[r, i - 1], y[r, i - 1], z[r, i - 1], vx[r, i - 1], vy[r, i - 1],
+                     vz[r, i - 1])
+            second = (x[r, i], y[r, i], z[r, i], vx[r, i], vy[r, i], vz[r, i])
+        fx, fy, fz, p = spring_force(first, second, 0, linearised, parameters, dashpot)
         power += p
-        _store(out, i, fx, fy, fz, z)
+        out[0, i] = fx
+        out[1, i] = fy
+        if z is not None:
+            out[2, i] = fz
     if parameters.periodic is not None:  # the right edge is the closing spring again
-        fx, fy, fz = column(out, 0, z)
+        _store(out, nx, (out[0, 0], out[1, 0], out[2, 0], zero), z)
     elif parameters.free_ends is not None:
-        fx, fy, fz = zero, zero, zero
+        _store(out, nx, still, z)
     else:
-        fx, fy, fz, p = spring_force(particle(x, y, z, vx, vy, vz, r, nx - 1), site(nx, j, parameters),
-                                     0, linearised, parameters, dashpot)
-        power += p
-    _store(out, nx, fx, fy, fz, z)
+        power += _store(out, nx, spring_force(particle(x, y, z, vx, vy, vz, r, nx - 1),
+                                              site(nx, j, parameters), 0, linearised, parameters,
+                                              dashpot), z)
     return power
 
 
 # --- accelerations ------------------------------------------------------------------------------
-
-
-@njit(**_JIT)
-def particle_acceleration(j, i, z, below, above, horizontal, velocity, inverse_mass,
-                          uniform_inverse_mass, drag, gravity):
-    """Acceleration (ax, ay, az) in m/s^2 of particle (row j, column i): the net force of its
-    springs (``horizontal`` (3, nx + 1) the row's horizontal springs, ``below`` and ``above`` the
-    forces (fx, fy, fz) of its vertical springs) and of drag on ``velocity`` (vx, vy, vz), over
-    its mass, plus gravity.  az is zero in a planar scene (``z`` None).  This is the one place
-    where the forces on a particle are summed."""
-    if uniform_inverse_mass is not None:
-        w = uniform_inverse_mass
-    else:
-        w = inverse_mass[j, i]
-    fx = horizontal[0, i + 1] - horizontal[0, i] + above[0] - below[0]
-    fy = horizontal[1, i + 1] - horizontal[1, i] + above[1] - below[1]
-    if drag is not None:
-        fx -= drag * velocity[0]
-        fy -= drag * velocity[1]
-    ax = fx * w
-    ay = fy * w
-    if gravity is not None:
-        ax += gravity[0]
-        ay += gravity[1]
-    az = type(ax)(0.0)
-    if z is not None:
-        fz = horizontal[2, i + 1] - horizontal[2, i] + above[2] - below[2]
-        if drag is not None:
-            fz -= drag * velocity[2]
-        az = fz * w
-        if gravity is not None:
-            az += gravity[2]
-    return ax, ay, az
 
 
 @njit(**_JIT)
@@ -334,17 +337,36 @@ def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse
     power = _vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                               above)
     power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
-                                 horizontal)
+                                horizontal)
+    zero = type(parameters.spacing)(0.0)
+    if gravity is None:
+        pull = None
+    else:
+        pull = (gravity[0], gravity[1], gravity[2])
     r = j % x.shape[0]
-    nx = x.shape[1]
-    for i in range(nx):
-        end = particle(x, y, z, vx, vy, vz, r, i)
-        ax, ay, az = particle_acceleration(j, i, z, column(below, i, z), column(above, i, z),
-                                           horizontal, (end[3], end[4], end[5]), inverse_mass,
-                                           uniform_inverse_mass, drag, gravity)
-        _store(out, i, ax, ay, az, z)
+    for i in range(x.shape[1]):
+        if uniform_inverse_mass is not None:
+            w = uniform_inverse_mass
+        else:
+            w = inverse_mass[j, i]
+        if z is None:
+            ax, ay, _ = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], zero),
+                (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                (below[0, i], below[1, i], zero), (above[0, i], above[1, i], zero),
+                (vx[r, i], vy[r, i], zero), w, drag, pull,
+            )
+        else:
+            ax, ay, out[2, i] = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                (below[0, i], below[1, i], below[2, i]), (above[0, i], above[1, i], above[2, i]),
+                (vx[r, i], vy[r, i], vz[r, i]), w, drag, pull,
+            )
+        out[0, i] = ax
+        out[1, i] = ay
     if drag is not None:
-        for i in range(nx):
+        for i in range(x.shape[1]):
             speed_squared = vx[r, i] * vx[r, i] + vy[r, i] * vy[r, i]
             if vz is not None:
                 speed_squared += vz[r, i] * vz[r, i]

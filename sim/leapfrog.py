@@ -13,14 +13,7 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from sim.kernels import (
-    column,
-    horizontal_springs,
-    particle,
-    particle_acceleration,
-    spring_force,
-    vertical_springs,
-)
+from sim.kernels import horizontal_springs, particle_acceleration, spring_force, vertical_springs
 from sim.row_updates import components, kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -39,29 +32,50 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     spring is computed here from positions that have not moved yet.
     """
     zero = type(dt)(0.0)
-    still = (zero, zero, zero)  # no drag: the velocity does not enter the forces
+    if gravity is None:
+        pull = None
+    else:
+        pull = (gravity[0], gravity[1], gravity[2])
     nx = x.shape[1]
     for j in range(j0, j1):
         horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
         given = j + 1 == j1
         for i in range(nx):
-            if given:
-                above = column(above_last, i, z)
+            if uniform_inverse_mass is not None:
+                w = uniform_inverse_mass
             else:
-                fx, fy, fz, _ = spring_force(particle(x, y, z, vx, vy, vz, j, i),
-                                             particle(x, y, z, vx, vy, vz, j + 1, i), 1, None,
-                                             parameters, None)
-                above = (fx, fy, fz)
-            ax, ay, az = particle_acceleration(j, i, z, column(below, i, z), above, horizontal,
-                                               still, inverse_mass, uniform_inverse_mass, None,
-                                               gravity)
+                w = inverse_mass[j, i]
+            if z is None:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], zero, 0.0)
+                else:  # no dashpot: the velocities do not enter the force
+                    above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
+                                         None, parameters, None)
+                ax, ay, _ = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], zero),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                    (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
+                )
+            else:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
+                else:
+                    above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
+                                          zero), 1, None, parameters, None)
+                ax, ay, az = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                    (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
+                    pull,
+                )
+                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
+                below[2, i] = above[2]
             x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
             y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
             below[0, i] = above[0]
             below[1, i] = above[1]
-            if z is not None:
-                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
-                below[2, i] = above[2]
 
 
 @njit(**_JIT)

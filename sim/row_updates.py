@@ -19,10 +19,15 @@ from numba import njit
 from sim.kernels import row_accelerations, vertical_springs
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+_ROW_UPDATE = dict(_JIT, inline="always")
+"""The row updates are inlined into their loops by numba itself: a call per row that passes a
+dozen arrays costs their reference counting, which the fused loops cannot afford."""
 
-RK4 = 0
-"""``method`` of the classic fourth-order Runge-Kutta stages (4 stages)."""
-HEUN = 1
+RK4 = None
+"""``method`` of the classic fourth-order Runge-Kutta stages (4 stages).  The method is a
+compile-time choice like the optional terms: None or True, so that numba compiles one version of
+the loops per method."""
+HEUN = True
 """``method`` of Heun's predictor-corrector (2 stages)."""
 
 
@@ -83,7 +88,7 @@ def force_rows(j0, j1, linear, out_of_plane, position, force_velocity, inverse_m
 # --- explicit Euler and velocity Verlet ---------------------------------------------------------
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def euler_update(j, dt, position, velocity, acceleration, k):
     """Explicit Euler on row j: x += dt v; v += dt a, with a in row k of ``acceleration``."""
     dim, _, nx = position.shape
@@ -100,7 +105,7 @@ def kick_drift(position, velocity, acceleration, kick, drift):
     return position + drift * velocity, velocity
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def kick_drift_row(j, dt, position, velocity, row):
     """Leapfrog on row j: v(t + dt/2) = v(t - dt/2) + dt a(t); x(t + dt) = x(t) + dt v."""
     dim, _, nx = position.shape
@@ -133,7 +138,7 @@ def verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, da
 # ``new_position``/``new_velocity`` (the state itself with k = j, or rows kept aside).
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def _rk4_first(j, slot, dt, position, velocity, row, next_position, next_velocity, sum_position,
                sum_velocity):
     dim, _, nx = position.shape
@@ -148,7 +153,7 @@ def _rk4_first(j, slot, dt, position, velocity, row, next_position, next_velocit
             next_velocity[c, slot, i] = v + half * row[c, i]
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def _rk4_middle(j, slot, dt, step_to_next, position, velocity, row, stage_velocity, next_position,
                 next_velocity, sum_position, sum_velocity):
     dim, _, nx = position.shape
@@ -162,7 +167,7 @@ def _rk4_middle(j, slot, dt, step_to_next, position, velocity, row, stage_veloci
             next_velocity[c, slot, i] = velocity[c, j, i] + step_to_next * row[c, i]
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def _rk4_last(slot, dt, row, stage_velocity, sum_position, sum_velocity, new_position,
               new_velocity, k):
     dim, _, nx = new_position.shape
@@ -173,7 +178,7 @@ def _rk4_last(slot, dt, row, stage_velocity, sum_position, sum_velocity, new_pos
             new_velocity[c, k, i] = sum_velocity[c, slot, i] + sixth * row[c, i]
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def _heun_predict(j, slot, dt, position, velocity, row, next_position, next_velocity,
                   first_acceleration):
     dim, _, nx = position.shape
@@ -184,7 +189,7 @@ def _heun_predict(j, slot, dt, position, velocity, row, next_position, next_velo
             next_velocity[c, slot, i] = velocity[c, j, i] + dt * row[c, i]
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def _heun_correct(j, slot, dt, position, velocity, row, stage_velocity, first_acceleration,
                   new_position, new_velocity, k):
     dim, _, nx = position.shape
@@ -202,10 +207,10 @@ def _heun_correct(j, slot, dt, position, velocity, row, stage_velocity, first_ac
 @njit(**_JIT)
 def stages(method):
     """Number of stages (force evaluations per step) of ``method`` (``RK4`` or ``HEUN``)."""
-    return 4 if method == RK4 else 2
+    return 4 if method is None else 2
 
 
-@njit(**_JIT)
+@njit(**_ROW_UPDATE)
 def stage_update(method, stage, j, slot, dt, position, velocity, row, stage_velocity,
                  next_position, next_velocity, sum_position, sum_velocity, new_position,
                  new_velocity, k):
@@ -217,7 +222,7 @@ def stage_update(method, stage, j, slot, dt, position, velocity, row, stage_velo
     a(x, v) in ``sum_velocity`` and forms the Euler prediction; the corrector writes the
     trapezoid x + dt/2 (v + v_p), v + dt/2 (a + a_p).  ``sum_position`` is unused by Heun.
     """
-    if method == RK4:
+    if method is None:  # RK4
         if stage == 0:
             _rk4_first(j, slot, dt, position, velocity, row, next_position, next_velocity,
                        sum_position, sum_velocity)
@@ -240,7 +245,7 @@ def stage_update(method, stage, j, slot, dt, position, velocity, row, stage_velo
 def dissipated_energy(method, dt, powers):
     """Energy (J) dissipated over one step from the power of each stage (``powers``, W), with
     the method's own quadrature weights (RK4: 1/6, 1/3, 1/3, 1/6; Heun: 1/2, 1/2)."""
-    if method == RK4:
+    if method is None:  # RK4
         sixth = dt / type(dt)(6.0)
         return sixth * (powers[0] + 2.0 * powers[1] + 2.0 * powers[2] + powers[3])
     half = type(dt)(0.5) * dt

@@ -62,6 +62,21 @@ def write_deferred(j0, j1, halo, position, velocity, deferred_position, deferred
 
 
 @njit(**_JIT)
+def _stage_forces(j, first, ny, x, y, z, vx, vy, vz, linear, inverse_mass, uniform_inverse_mass,
+                  parameters, dashpot, drag, gravity, below, above, horizontal, row, powers, stage):
+    """Accelerations of row j of a stage input into ``row``; on the stage's first row also the
+    springs below it (their power counted in ``powers`` when they are the bottom wall's).
+    Returns the power of the row's other springs and drag (W)."""
+    if j == first:
+        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        if j == 0:
+            powers[stage] += p
+    return row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
+                             dashpot, drag, gravity, below, above, horizontal, row,
+                             uniform_inverse_mass)
+
+
+@njit(**_JIT)
 def wavefront(
     method, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
     uniform_inverse_mass, parameters, dashpot, drag, gravity, stage_position, stage_velocity,
@@ -93,24 +108,21 @@ def wavefront(
             below = vertical[stage, j % 2]
             above = vertical[stage, (j + 1) % 2]
             if stage == 0:  # the stage input is the state itself
-                ix, iy, iz, ivx, ivy, ivz = x, y, z, vx, vy, vz
+                p = _stage_forces(j, first, ny, x, y, z, vx, vy, vz, linear, inverse_mass,
+                                  uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
+                                  above, horizontal, row, powers, stage)
             else:
-                ix, iy, iz, ivx, ivy, ivz = xs, ys, zs, vxs, vys, vzs
-            if j == first:
-                p = vertical_springs(j, ny, ix, iy, iz, ivx, ivy, ivz, linear, parameters,
-                                     dashpot, below)
-                if j == 0:
-                    powers[stage] += p
-            p = row_accelerations(j, ny, ix, iy, iz, ivx, ivy, ivz, inverse_mass, linear,
-                                  parameters, dashpot, drag, gravity, below, above, horizontal,
-                                  row, uniform_inverse_mass)
+                p = _stage_forces(j, first, ny, xs, ys, zs, vxs, vys, vzs, linear, inverse_mass,
+                                  uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
+                                  above, horizontal, row, powers, stage)
             if j >= j0 and j < j1:
                 powers[stage] += p
             deferred = deferred_slot(j, j0, j1, ny, halo)
             if deferred < 0:
-                new_position, new_velocity, k = position, velocity, j
+                stage_update(method, stage, j, j % ring, dt, position, velocity, row,
+                             stage_velocity, stage_position, stage_velocity, sum_position,
+                             sum_velocity, position, velocity, j)
             else:
-                new_position, new_velocity, k = deferred_position, deferred_velocity, deferred
-            stage_update(method, stage, j, j % ring, dt, position, velocity, row, stage_velocity,
-                         stage_position, stage_velocity, sum_position, sum_velocity,
-                         new_position, new_velocity, k)
+                stage_update(method, stage, j, j % ring, dt, position, velocity, row,
+                             stage_velocity, stage_position, stage_velocity, sum_position,
+                             sum_velocity, deferred_position, deferred_velocity, deferred)
