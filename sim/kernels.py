@@ -186,12 +186,21 @@ def spring_force(first, second, axis, linearised, parameters, dashpot):
 
 
 @njit(**_JIT)
+def gravity_vector(gravity, zero):
+    """The (3,) gravity array as a tuple (gx, gy, gz) in m/s^2 for ``particle_acceleration``;
+    (zero, zero, zero) when there is none (``gravity`` None), which compiles to nothing."""
+    if gravity is None:
+        return zero, zero, zero
+    return gravity[0], gravity[1], gravity[2]
+
+
+@njit(**_JIT)
 def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity):
     """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
     ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends of its four
     springs) and of drag on its ``velocity`` (vx, vy, vz), times ``inverse_mass``, plus
-    ``gravity`` (gx, gy, gz).  ``drag``, ``gravity`` None: absent.  This is the one place where
-    the forces on a particle are summed."""
+    ``gravity`` (gx, gy, gz) (``gravity_vector``).  ``drag`` None: no drag.  This is the one
+    place where the forces on a particle are summed."""
     fx = right[0] - left[0] + above[0] - below[0]
     fy = right[1] - left[1] + above[1] - below[1]
     fz = right[2] - left[2] + above[2] - below[2]
@@ -199,14 +208,8 @@ def particle_acceleration(left, right, below, above, velocity, inverse_mass, dra
         fx -= drag * velocity[0]
         fy -= drag * velocity[1]
         fz -= drag * velocity[2]
-    ax = fx * inverse_mass
-    ay = fy * inverse_mass
-    az = fz * inverse_mass
-    if gravity is not None:
-        ax += gravity[0]
-        ay += gravity[1]
-        az += gravity[2]
-    return ax, ay, az
+    return (fx * inverse_mass + gravity[0], fy * inverse_mass + gravity[1],
+            fz * inverse_mass + gravity[2])
 
 
 # --- the springs of one row ---------------------------------------------------------------------
@@ -339,10 +342,7 @@ def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse
     power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                                 horizontal)
     zero = type(parameters.spacing)(0.0)
-    if gravity is None:
-        pull = None
-    else:
-        pull = (gravity[0], gravity[1], gravity[2])
+    pull = gravity_vector(gravity, zero)
     r = j % x.shape[0]
     for i in range(x.shape[1]):
         if uniform_inverse_mass is not None:

@@ -13,7 +13,13 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from sim.kernels import horizontal_springs, particle_acceleration, spring_force, vertical_springs
+from sim.kernels import (
+    gravity_vector,
+    horizontal_springs,
+    particle_acceleration,
+    spring_force,
+    vertical_springs,
+)
 from sim.row_updates import components, kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -32,10 +38,7 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     spring is computed here from positions that have not moved yet.
     """
     zero = type(dt)(0.0)
-    if gravity is None:
-        pull = None
-    else:
-        pull = (gravity[0], gravity[1], gravity[2])
+    pull = gravity_vector(gravity, zero)
     nx = x.shape[1]
     for j in range(j0, j1):
         horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
