@@ -225,7 +225,7 @@ two the C reference also implements."""
 def _specialisation(scene, seconds: float) -> dict | None:
     """What each of the scene's specialisations buys, measured one at a time on RK4 and Verlet."""
     import sim
-    from sim.integrators import KernelArguments
+    from sim.steppers import KernelArguments
 
     model = scene.model
     arguments = KernelArguments.from_model(model)

@@ -1,4 +1,4 @@
-"""The time integrators, described as data, and the steppers that advance a ``State`` of a ``Model``.
+"""The time integrators, described as data: the one registry of what each integrator is.
 
 Every integrator is one ``IntegratorDescription`` in one registry: its name, labels, order, force
 evaluations per step, stability factor, amplification matrices (for the damped stability limit)
@@ -7,10 +7,8 @@ and the stepper class that runs it.  Every table elsewhere (``INTEGRATORS``, ``O
 dropdown, the studies' lists, the stability code in ``sim.observables``) is a live view of that
 registry, so adding an integrator is one ``register(...)`` call (``docs/api.md`` shows one).
 
-A stepper owns its work arrays (allocated once per model shape, in the simulation's precision)
-and calls the compiled step loops of ``sim.stepping``.  Switching integrator mid-run loses
-nothing: the state is (x, v, t) and only Verlet caches the current acceleration, which it
-recomputes whenever the state or the model may have changed (``invalidate``).
+The compiled steppers that the descriptions name are in ``sim.steppers``, the amplification
+matrices in ``sim.amplification``; ``make_integrator`` builds a description's stepper.
 
 An integrator need not be a compiled kernel stepper (``kernel=False``, e.g. a normal-mode solver
 for linear scenes), and it may apply to some models only (``applies_to``): ``INTEGRATORS`` lists
@@ -23,15 +21,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from typing import Any, ClassVar, NamedTuple, Protocol
+from typing import Any, Protocol
 
-import numba
 import numpy as np
 
-from sim import host_tuning, stepping
-from sim.kernels import SpringParameters
+from sim.amplification import AmplificationFunction, taylor_amplification, verlet_amplification
 from sim.model import Model
 from sim.state import State
+from sim.steppers import Euler, Heun, RungeKutta4, Verlet
 
 PRECISIONS: dict[str, type[np.floating]] = {"float64": np.float64, "float32": np.float32}
 """Floating-point precisions of the state and the kernels (energies always sum in float64)."""
@@ -47,11 +44,6 @@ class Stepper(Protocol):
     def advance(self, state: State, n: int, dt: float) -> None: ...
 
     def invalidate(self) -> None: ...
-
-
-AmplificationFunction = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
-"""(omega_squared (n_modes,), damping_rate (n_modes,), dt) -> (n_modes, s, s) matrices G with
-z_{n+1} = G z_n for u'' + beta u' + omega^2 u = 0, the integrator as implemented."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -224,301 +216,6 @@ FORCE_EVALUATIONS: Mapping[str, int] = _LiveField("force_evaluations")
 """Force evaluations per step (the cost of a step)."""
 STABILITY_FACTORS: Mapping[str, float | None] = _LiveField("stability_factor")
 """Largest stable omega_max * dt on an undamped lattice (None: no stable step)."""
-
-
-# --- amplification matrices of the integrators as implemented in sim.stepping --------------------
-
-
-def taylor_amplification(terms: int) -> AmplificationFunction:
-    """G = sum_{k <= terms} (dt A)^k / k! on z = (u, u'): explicit Euler (1), Heun (2) and RK4 (4)
-    reduce to this on a linear system."""
-
-    def amplification(omega_squared, damping_rate, dt: float) -> np.ndarray:
-        omega_squared = np.asarray(omega_squared, dtype=float)
-        count = omega_squared.shape[0]
-        system = np.zeros((count, 2, 2))
-        system[:, 0, 1] = 1.0
-        system[:, 1, 0] = -omega_squared
-        system[:, 1, 1] = -np.asarray(damping_rate, dtype=float)
-        step = dt * system
-        identity = np.broadcast_to(np.eye(2), step.shape)
-        result = identity.copy()
-        power = identity.copy()
-        for order in range(1, terms + 1):
-            power = power @ step / order
-            result = result + power
-        return result
-
-    return amplification
-
-
-def verlet_amplification(omega_squared, damping_rate, dt: float) -> np.ndarray:
-    """Velocity Verlet with the predicted velocity v + dt a in the damping force, on
-    z = (u, u', cached acceleration)."""
-    omega_squared = np.asarray(omega_squared, dtype=float)
-    beta = np.asarray(damping_rate, dtype=float)
-    count = omega_squared.shape[0]
-    h = dt
-    # v_pred = w + h a; w_half = w + h/2 a; u' = u + h w_half; a' = -omega^2 u' - beta v_pred;
-    # w' = w_half + h/2 a'
-    matrices = np.zeros((count, 3, 3))
-    u_new = np.stack([np.ones(count), np.full(count, h), np.full(count, h * h / 2)], axis=1)
-    v_pred = np.stack([np.zeros(count), np.ones(count), np.full(count, h)], axis=1)
-    a_new = -omega_squared[:, None] * u_new - beta[:, None] * v_pred
-    w_half = np.stack([np.zeros(count), np.ones(count), np.full(count, h / 2)], axis=1)
-    matrices[:, 0, :] = u_new
-    matrices[:, 1, :] = w_half + (h / 2) * a_new
-    matrices[:, 2, :] = a_new
-    return matrices
-
-
-# --- compiled kernel steppers --------------------------------------------------------------------
-
-
-class KernelArguments(NamedTuple):
-    """The model as the compiled kernels take it, in one precision (None marks an absent term).
-
-    ``inverse_mass`` (ny, nx) 1/kg; ``uniform_inverse_mass`` replaces it for equal masses;
-    ``parameters`` the spring constants; ``gravity`` (3,) m/s^2.
-    """
-
-    linear: bool
-    out_of_plane: object
-    inverse_mass: np.ndarray
-    uniform_inverse_mass: np.floating | None
-    parameters: SpringParameters
-    dashpot: np.floating | None
-    drag: np.floating | None
-    gravity: np.ndarray | None
-
-    @classmethod
-    def from_model(cls, model: Model, dtype: type[np.floating] = np.float64) -> KernelArguments:
-        scalar = np.dtype(dtype).type
-        return cls(
-            linear=model.linear,
-            out_of_plane=None if model.dim == 2 else True,
-            inverse_mass=np.ascontiguousarray(model.inverse_masses, dtype=dtype),
-            uniform_inverse_mass=(
-                scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
-            ),
-            parameters=model.kernel_parameters.as_type(
-                dtype, host_tuning.inverse_sqrt_estimate() if scalar is np.float64 else None
-            ),
-            dashpot=scalar(model.damping) if model.damping > 0 else None,
-            drag=scalar(model.drag) if model.drag > 0 else None,
-            gravity=np.array(model.gravity, dtype=dtype) if model.has_gravity else None,
-        )
-
-
-class Integrator:
-    """Base class of the compiled steppers: ``advance(state, n, dt)`` moves the state n steps.
-
-    ``dtype`` is the precision of the state and the arithmetic; ``threads`` the number of row
-    blocks the sweeps run on in parallel.
-    """
-
-    name: ClassVar[str]
-    work_arrays: ClassVar[int] = 1
-    ring_rows: ClassVar[int | None] = None
-    """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
-
-    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
-        self.model = model
-        self.dtype = np.dtype(dtype).type
-        self.threads = int(threads)
-        self.kernel = KernelArguments.from_model(model, self.dtype)
-        rows = model.ny if self.ring_rows is None else self.ring_rows
-        shape = (model.dim, rows, model.nx)
-        self.work = [np.zeros(shape, dtype=self.dtype) for _ in range(self.work_arrays)]
-        blocks = min(self.threads, model.ny)
-        self._block_starts = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
-        self._full_work: list[np.ndarray] = []
-
-    @property
-    def parallel(self) -> bool:
-        """Whether the sweeps run as row blocks on numba's threads (threads > 1, ny > 1)."""
-        return self._block_starts.size > 2
-
-    def _start_threads(self) -> None:
-        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
-
-    def _full_arrays(self, count: int) -> list[np.ndarray]:
-        """``count`` full (dim, ny, nx) work arrays for the parallel loops, allocated at first use."""
-        model = self.model
-        while len(self._full_work) < count:
-            self._full_work.append(np.zeros((model.dim, model.ny, model.nx), dtype=self.dtype))
-        return self._full_work[:count]
-
-    def invalidate(self) -> None:
-        """The state was changed from outside (a drag, a reset): drop any cached forces."""
-
-    def _common(self, state: State) -> tuple:
-        k = self.kernel
-        return (
-            k.linear, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
-            k.uniform_inverse_mass, k.parameters, k.dashpot, k.drag, k.gravity,
-        )
-
-    def _dt(self, dt: float) -> np.floating:
-        return self.dtype(dt)
-
-    def advance(self, state: State, n: int, dt: float) -> None:
-        raise NotImplementedError
-
-
-class Euler(Integrator):
-    name = "euler"
-    work_arrays = 0
-
-    def advance(self, state: State, n: int, dt: float) -> None:
-        if self.parallel:
-            self._start_threads()
-            state.dissipated += stepping.euler_steps_parallel(
-                n, self._dt(dt), *self._common(state), *self._full_arrays(1), self._block_starts
-            )
-        else:
-            state.dissipated += stepping.euler_steps(n, self._dt(dt), *self._common(state))
-        state.advance_clock(n, dt)
-
-
-class Heun(Integrator):
-    name = "heun"
-    work_arrays = 3
-    ring_rows = 2
-
-    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
-        super().__init__(model, dtype, threads)
-        # Blocks of at least 4 rows run the wavefront with one halo row (one sweep per step);
-        # thinner lattices fall back to a parallel phase for the predictor and the corrector.
-        blocks = min(self.threads, model.ny // 4)
-        self._blocks: np.ndarray | None = None
-        self._block_work: list[np.ndarray] = []
-        if blocks >= 2:
-            self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
-            ring = (blocks, model.dim, stepping.RK4_RING, model.nx)
-            edges = (blocks, model.dim, 2 * (stepping.HEUN_HALO + 1), model.nx)
-            self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(3)] + [
-                np.zeros(edges, dtype=self.dtype) for _ in range(2)
-            ]
-
-    def advance(self, state: State, n: int, dt: float) -> None:
-        if self.parallel and self._blocks is not None:
-            self._start_threads()
-            state.dissipated += stepping.heun_steps_blocks(
-                n, self._dt(dt), *self._common(state), *self._block_work, self._blocks
-            )
-        elif self.parallel:
-            self._start_threads()
-            state.dissipated += stepping.heun_steps_parallel(
-                n, self._dt(dt), *self._common(state), *self._full_arrays(3), self._block_starts
-            )
-        else:
-            state.dissipated += stepping.heun_steps(
-                n, self._dt(dt), *self._common(state), *self.work
-            )
-        state.advance_clock(n, dt)
-
-
-class Verlet(Integrator):
-    name = "verlet"
-    work_arrays = 2
-
-    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
-        super().__init__(model, dtype, threads)
-        self._cached_for: tuple[int, float] | None = None
-        self._power = 0.0
-
-        k = self.kernel
-        # Undamped nonlinear springs: the steps between the first and the last run as fused
-        # leapfrog sweeps over row blocks (one block per thread), the fastest loop shape.
-        self._leapfrog = k.dashpot is None and k.drag is None and not k.linear
-        blocks = self._block_starts.size - 1
-        self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
-        self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
-        self._horizontal = np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype)
-
-    def invalidate(self) -> None:
-        self._cached_for = None
-
-    def _accelerations(self, state: State) -> float:
-        """a(x, v) of the state into ``work[0]`` (on the row blocks' threads when parallel);
-        returns the dissipated power (W)."""
-        if self.parallel:
-            return stepping.accelerations_parallel(
-                *self._common(state), self.work[0], self._block_starts
-            )
-        return stepping.accelerations(*self._common(state), self.work[0])
-
-    def advance(self, state: State, n: int, dt: float) -> None:
-        stamp = (state.revision, state.time)
-        if self.parallel:
-            self._start_threads()
-        if self._cached_for != stamp:
-            self._power = self._accelerations(state)
-        step = self._dt(dt)
-        if self._leapfrog and n >= 2:
-            k = self.kernel
-            acceleration = self.work[0]
-            stepping.verlet_open(step, state.positions, state.velocities, acceleration)
-            leapfrog = stepping.leapfrog_steps_parallel if self.parallel else stepping.leapfrog_steps
-            leapfrog(
-                n - 1, step, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
-                k.uniform_inverse_mass, k.parameters, k.gravity, self._block_starts,
-                self._boundary, self._below, self._horizontal,
-            )
-            self._power = self._accelerations(state)
-            stepping.verlet_close(step, state.velocities, acceleration)
-        elif self.parallel:
-            dissipated, self._power = stepping.verlet_steps_parallel(
-                n, step, *self._common(state), self.work[0], self._power, self.work[1],
-                self._block_starts,
-            )
-            state.dissipated += dissipated
-        else:
-            dissipated, self._power = stepping.verlet_steps(
-                n, step, *self._common(state), self.work[0], self._power, self.work[1]
-            )
-            state.dissipated += dissipated
-        state.advance_clock(n, dt)
-        self._cached_for = (state.revision, state.time)
-
-
-class RungeKutta4(Integrator):
-    name = "rk4"
-    work_arrays = 4
-    ring_rows = 4
-
-    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
-        super().__init__(model, dtype, threads)
-        # Blocks of at least 8 rows run the wavefront with halo rows (one sweep per step); thinner
-        # lattices fall back to one parallel phase per stage.
-        blocks = min(self.threads, model.ny // 8)
-        self._blocks: np.ndarray | None = None
-        self._block_work: list[np.ndarray] = []
-        if blocks >= 2:
-            self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
-            ring = (blocks, model.dim, stepping.RK4_RING, model.nx)
-            edges = (blocks, model.dim, 2 * (stepping.RK4_HALO + 1), model.nx)
-            self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(4)] + [
-                np.zeros(edges, dtype=self.dtype) for _ in range(2)
-            ]
-
-    def advance(self, state: State, n: int, dt: float) -> None:
-        if self.parallel and self._blocks is not None:
-            self._start_threads()
-            state.dissipated += stepping.rk4_steps_blocks(
-                n, self._dt(dt), *self._common(state), *self._block_work, self._blocks
-            )
-        elif self.parallel:
-            self._start_threads()
-            state.dissipated += stepping.rk4_steps_parallel(
-                n, self._dt(dt), *self._common(state), *self._full_arrays(6), self._block_starts
-            )
-        else:
-            state.dissipated += stepping.rk4_steps(
-                n, self._dt(dt), *self._common(state), *self.work
-            )
-        state.advance_clock(n, dt)
 
 
 register(IntegratorDescription(

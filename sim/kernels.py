@@ -1,8 +1,9 @@
 """Numba kernels: the spring forces of the lattice, computed one row of particles at a time.
 
 Everything here is a pure function over arrays and scalars, compiled with ``@njit(cache=True)``;
-``sim.stepping`` builds the integrators' fused sweeps from these row functions and the Python
-layer (``sim.integrators``, ``sim.simulation``) orchestrates.
+the step loops (``sim.stepping``, ``sim.row_blocks``, ``sim.leapfrog``) fuse the integrators'
+updates into sweeps over these row functions, and the Python layer (``sim.steppers``,
+``sim.simulation``) orchestrates.
 
 Layout (chosen for speed, see the README's benchmark section):
 
@@ -10,7 +11,7 @@ Layout (chosen for speed, see the README's benchmark section):
   ``x, y`` (and ``z`` for out-of-plane motion) in m, ``vx, vy, vz`` in m/s;
 * particle ``(row j, column i)`` rests at ``(origin_x + i*spacing, origin_y + j*spacing)``; the wall
   anchors sit one spacing outside the lattice on all four sides and never move, so they are not
-  stored and the inner loops have no boundary branches (walls are handled by peeled iterations);
+  stored: a spring to a wall is the same spring computation with an anchor (``site``) as one end;
 * ``SpringParameters.periodic`` joins the ends of every row into a ring (the left and right
   wall springs become one spring between the last and the first particle of the row), again
   chosen at compile time; rows stay independent sweeps, so the wavefronts are unchanged;
@@ -23,9 +24,12 @@ Layout (chosen for speed, see the README's benchmark section):
   that lets the integrators fuse their updates into the force sweep.
 
 Specialisation: optional terms are passed as ``None`` when a scene does not have them (``z, vz``
-for a planar scene, ``dashpot``, ``drag``, ``gravity``).  Numba compiles one machine-code version
-per combination of argument types and prunes the ``is None`` branches at compile time, so an
-undamped planar scene runs code with no damping, drag, gravity or out-of-plane arithmetic at all.
+for a planar scene, ``dashpot``, ``drag``, ``gravity``), and so are the compile-time choices of
+the spring law (``linearised``) and of a row's ends (wall anchors or particles).  Numba compiles
+one machine-code version per combination of argument types and prunes the ``is None`` branches
+at compile time, so an undamped planar scene runs code with no damping, drag, gravity or
+out-of-plane arithmetic at all.  A force term is added in one place: the spring law
+(``spring_force``) or the sum of the forces on a particle (``particle_acceleration``).
 
 Spring law: force on the first end F = k (|d| - L) d / |d| with d = r_second - r_first (the
 paper's equation (11) with the sign kept: a compressed spring pushes); a dashpot beside it adds
@@ -33,7 +37,6 @@ c ((v_second - v_first) . d) d / |d|^2.  The linearised law (``linear=True``) us
 along the rest direction of the spring and T/a across it (``tension_stiffness``), T = k (a - L).
 A spring squeezed to zero length exerts no force instead of producing NaN.
 """
-
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -95,16 +98,45 @@ def _inverse_square_root(value, estimate_first):
     return estimate * (1.5 - 0.5 * value * estimate * estimate)
 
 
-@njit(**_JIT)
-def _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny, estimate_first):
-    """Force factor of one spring (and its dashpot) and the power the dashpot dissipates.
+# --- one spring: its two ends and its law -------------------------------------------------------
+#
+# A spring end is a tuple (x, y, z, vx, vy, vz) in m and m/s: a particle of the state, or a wall
+# anchor (a rest site of the lattice that never moves).  The force of a spring depends only on
+# its two ends, so the wall, ring and interior springs are one computation with different ends.
+# The per-spring functions take scalars and tuples only, never arrays: LLVM inlines them into the
+# row loops, which load the ends themselves (a call per spring that passes arrays would cost
+# reference counting and vectorisation).
 
-    (dx, dy, dz) = r_second - r_first and (dvx, dvy, dvz) the same for velocities; the force on
-    the first end is factor * (dx, dy, dz).  ``dashpot`` is None for an undamped scene;
-    ``tiny`` the smallest squared length (m^2).
-    """
-    squared = max(dx * dx + dy * dy + dz * dz, tiny)
-    inverse_length = _inverse_square_root(squared, estimate_first)
+
+@njit(**_JIT)
+def site(i, j, parameters):
+    """The rest site of column i, row j as a spring end at rest; i = -1 or nx, j = -1 or ny are
+    the wall anchors."""
+    T = type(parameters.spacing)
+    zero = T(0.0)
+    return (parameters.origin_x + T(i) * parameters.spacing,
+            parameters.origin_y + T(j) * parameters.spacing, zero, zero, zero, zero)
+
+
+@njit(**_JIT)
+def particle(x, y, z, vx, vy, vz, r, i):
+    """The particle stored at row index r, column i of the (rows, nx) fields as a spring end; z
+    and vz are zero in a planar scene (``z``, ``vz`` None).  For the ends of a row; the row loops
+    load their particles inline."""
+    zero = type(x[r, i])(0.0)
+    if z is None:
+        return x[r, i], y[r, i], zero, vx[r, i], vy[r, i], zero
+    return x[r, i], y[r, i], z[r, i], vx[r, i], vy[r, i], vz[r, i]
+
+
+@njit(**_JIT)
+def _nonlinear_law(dx, dy, dz, dvx, dvy, dvz, parameters, dashpot):
+    """Force (fx, fy, fz) on the first end of a spring with d = r_second - r_first and
+    dv = v_second - v_first: k (|d| - L) d / |d|, plus the dashpot's c (dv . d) d / |d|^2; and the
+    power the dashpot dissipates (W).  A spring shorter than the smallest length has no force."""
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    squared = max(dx * dx + dy * dy + dz * dz, parameters.smallest_squared_length)
+    inverse_length = _inverse_square_root(squared, parameters.inverse_sqrt_estimate)
     factor = stiffness - stiffness * rest_length * inverse_length
     power = 0.0
     if dashpot is not None:
@@ -112,276 +144,118 @@ def _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, t
         damping_factor = dashpot * rate * inverse_length * inverse_length
         factor += damping_factor
         power = damping_factor * rate
-    return factor, power
+    return factor * dx, factor * dy, factor * dz, power
 
 
 @njit(**_JIT)
-def _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
-    T = type(parameters.spacing)
-    stiffness, rest_length = parameters.stiffness, parameters.rest_length
-    spacing, origin_x, origin_y = parameters.spacing, parameters.origin_x, parameters.origin_y
-    tiny, estimate_first = parameters.smallest_squared_length, parameters.inverse_sqrt_estimate
-    rows, nx = x.shape
-    upper = j % rows
-    lower = (j - 1) % rows
+def _linear_law(dx, dy, dz, dvx, dvy, dvz, axis, parameters, dashpot):
+    """The linearised law: stiffness k along the spring's rest direction (``axis`` 0: x, 1: y),
+    T/a across it, the dashpot along it; same arguments and results as ``_nonlinear_law``."""
+    stiffness, tension_stiffness = parameters.stiffness, parameters.tension_stiffness
+    spacing = parameters.spacing
     power = 0.0
-    dz = T(0.0)
-    dvx = T(0.0)
-    dvy = T(0.0)
-    dvz = T(0.0)
-    if j == 0:
-        for i in range(nx):
-            dx = x[upper, i] - (origin_x + T(i) * spacing)
-            dy = y[upper, i] - (origin_y - spacing)
-            if z is not None:
-                dz = z[upper, i]
-            if dashpot is not None:
-                dvx = vx[upper, i]
-                dvy = vy[upper, i]
-                if vz is not None:
-                    dvz = vz[upper, i]
-            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
-                              estimate_first)
-            power += p
-            out[0, i] = f * dx
-            out[1, i] = f * dy
-            if z is not None:
-                out[2, i] = f * dz
-    elif j == ny:
-        top = origin_y + T(ny) * spacing
-        for i in range(nx):
-            dx = (origin_x + T(i) * spacing) - x[lower, i]
-            dy = top - y[lower, i]
-            if z is not None:
-                dz = -z[lower, i]
-            if dashpot is not None:
-                dvx = -vx[lower, i]
-                dvy = -vy[lower, i]
-                if vz is not None:
-                    dvz = -vz[lower, i]
-            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
-                              estimate_first)
-            power += p
-            out[0, i] = f * dx
-            out[1, i] = f * dy
-            if z is not None:
-                out[2, i] = f * dz
+    if axis == 0:
+        fx = stiffness * (dx - spacing)
+        fy = tension_stiffness * dy
+        if dashpot is not None:
+            fx += dashpot * dvx
+            power = dashpot * dvx * dvx
     else:
-        for i in range(nx):
-            dx = x[upper, i] - x[lower, i]
-            dy = y[upper, i] - y[lower, i]
-            if z is not None:
-                dz = z[upper, i] - z[lower, i]
-            if dashpot is not None:
-                dvx = vx[upper, i] - vx[lower, i]
-                dvy = vy[upper, i] - vy[lower, i]
-                if vz is not None:
-                    dvz = vz[upper, i] - vz[lower, i]
-            f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
-                              estimate_first)
-            power += p
-            out[0, i] = f * dx
-            out[1, i] = f * dy
-            if z is not None:
-                out[2, i] = f * dz
-    return power
+        fx = tension_stiffness * dx
+        fy = stiffness * (dy - spacing)
+        if dashpot is not None:
+            fy += dashpot * dvy
+            power = dashpot * dvy * dvy
+    return fx, fy, tension_stiffness * dz, power
 
 
 @njit(**_JIT)
-def _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out):
-    T = type(parameters.spacing)
-    stiffness, rest_length = parameters.stiffness, parameters.rest_length
-    spacing, origin_x, origin_y = parameters.spacing, parameters.origin_x, parameters.origin_y
-    tiny, estimate_first = parameters.smallest_squared_length, parameters.inverse_sqrt_estimate
-    r = j % x.shape[0]
-    nx = x.shape[1]
+def spring_force(first, second, axis, linearised, parameters, dashpot):
+    """Force (fx, fy, fz) in N on the first end of the spring between two ends, and the power its
+    dashpot dissipates (W).  ``axis`` 0 for a horizontal spring, 1 for a vertical one;
+    ``linearised`` None for the nonlinear law, True for the linearised one (compile-time)."""
+    dx = second[0] - first[0]
+    dy = second[1] - first[1]
+    dz = second[2] - first[2]
+    dvx = second[3] - first[3]
+    dvy = second[4] - first[4]
+    dvz = second[5] - first[5]
+    if linearised is None:
+        return _nonlinear_law(dx, dy, dz, dvx, dvy, dvz, parameters, dashpot)
+    return _linear_law(dx, dy, dz, dvx, dvy, dvz, axis, parameters, dashpot)
+
+
+@njit(**_JIT)
+def gravity_vector(gravity, zero):
+    """The (3,) gravity array as a tuple (gx, gy, gz) in m/s^2 for ``particle_acceleration``;
+    (zero, zero, zero) when there is none (``gravity`` None), which compiles to nothing."""
+    if gravity is None:
+        return zero, zero, zero
+    return gravity[0], gravity[1], gravity[2]
+
+
+@njit(**_JIT)
+def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity):
+    """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
+    ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends of its four
+    springs) and of drag on its ``velocity`` (vx, vy, vz), times ``inverse_mass``, plus
+    ``gravity`` (gx, gy, gz) (``gravity_vector``).  ``drag`` None: no drag.  This is the one
+    place where the forces on a particle are summed."""
+    fx = right[0] - left[0] + above[0] - below[0]
+    fy = right[1] - left[1] + above[1] - below[1]
+    fz = right[2] - left[2] + above[2] - below[2]
+    if drag is not None:
+        fx -= drag * velocity[0]
+        fy -= drag * velocity[1]
+        fz -= drag * velocity[2]
+    return (fx * inverse_mass + gravity[0], fy * inverse_mass + gravity[1],
+            fz * inverse_mass + gravity[2])
+
+
+# --- the springs of one row ---------------------------------------------------------------------
+
+
+@njit(**_JIT)
+def _vertical_row(lower, upper, j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+    """Forces of the springs from row j - 1 (stored at index ``lower``) to row j (at ``upper``)
+    into ``out`` (3, nx); ``lower`` None: the bottom wall's anchors instead (j = 0), ``upper``
+    None: the top wall's anchors (j = ny).  Both are compile-time choices.  Returns the power."""
+    zero = type(parameters.spacing)(0.0)
     power = 0.0
-    dz = T(0.0)
-    dvx = T(0.0)
-    dvy = T(0.0)
-    dvz = T(0.0)
-    row_y_rest = origin_y + T(j) * spacing
-    if parameters.periodic is None:
-        # left wall anchor to particle 0
-        dx = x[r, 0] - (origin_x - spacing)
-        dy = y[r, 0] - row_y_rest
-        if z is not None:
-            dz = z[r, 0]
-        if dashpot is not None:
-            dvx = vx[r, 0]
-            dvy = vy[r, 0]
-            if vz is not None:
-                dvz = vz[r, 0]
-    else:
-        # the ring's closing spring: particle nx - 1, one period to the left, to particle 0
-        dx = x[r, 0] - (x[r, nx - 1] - T(nx) * spacing)
-        dy = y[r, 0] - y[r, nx - 1]
-        if z is not None:
-            dz = z[r, 0] - z[r, nx - 1]
-        if dashpot is not None:
-            dvx = vx[r, 0] - vx[r, nx - 1]
-            dvy = vy[r, 0] - vy[r, nx - 1]
-            if vz is not None:
-                dvz = vz[r, 0] - vz[r, nx - 1]
-    f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
-                              estimate_first)
-    if parameters.free_ends is not None:  # no wall spring at a free end
-        f = T(0.0) * f
-        p = 0.0
-    power += p
-    out[0, 0] = f * dx
-    out[1, 0] = f * dy
-    if z is not None:
-        out[2, 0] = f * dz
-    for i in range(1, nx):
-        dx = x[r, i] - x[r, i - 1]
-        dy = y[r, i] - y[r, i - 1]
-        if z is not None:
-            dz = z[r, i] - z[r, i - 1]
-        if dashpot is not None:
-            dvx = vx[r, i] - vx[r, i - 1]
-            dvy = vy[r, i] - vy[r, i - 1]
-            if vz is not None:
-                dvz = vz[r, i] - vz[r, i - 1]
-        f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
-                              estimate_first)
+    for i in range(x.shape[1]):
+        if lower is None:
+            first = site(i, j - 1, parameters)
+        elif z is None:
+            first = (x[lower, i], y[lower, i], zero, vx[lower, i], vy[lower, i], zero)
+        else:
+            first = (x[lower, i], y[lower, i], z[lower, i], vx[lower, i], vy[lower, i],
+                     vz[lower, i])
+        if upper is None:
+            second = site(i, j, parameters)
+        elif z is None:
+            second = (x[upper, i], y[upper, i], zero, vx[upper, i], vy[upper, i], zero)
+        else:
+            second = (x[upper, i], y[upper, i], z[upper, i], vx[upper, i], vy[upper, i],
+                      vz[upper, i])
+        fx, fy, fz, p = spring_force(first, second, 1, linearised, parameters, dashpot)
         power += p
-        out[0, i] = f * dx
-        out[1, i] = f * dy
+        out[0, i] = fx
+        out[1, i] = fy
         if z is not None:
-            out[2, i] = f * dz
-    if parameters.periodic is not None:  # the right edge is the closing spring again
-        out[0, nx] = out[0, 0]
-        out[1, nx] = out[1, 0]
-        if z is not None:
-            out[2, nx] = out[2, 0]
-        return power
-    if parameters.free_ends is not None:
-        out[0, nx] = T(0.0)
-        out[1, nx] = T(0.0)
-        if z is not None:
-            out[2, nx] = T(0.0)
-        return power
-    # particle nx - 1 to the right wall anchor
-    dx = (origin_x + T(nx) * spacing) - x[r, nx - 1]
-    dy = row_y_rest - y[r, nx - 1]
-    if z is not None:
-        dz = -z[r, nx - 1]
-    if dashpot is not None:
-        dvx = -vx[r, nx - 1]
-        dvy = -vy[r, nx - 1]
-        if vz is not None:
-            dvz = -vz[r, nx - 1]
-    f, p = _spring_factor(dx, dy, dz, dvx, dvy, dvz, stiffness, rest_length, dashpot, tiny,
-                              estimate_first)
-    power += p
-    out[0, nx] = f * dx
-    out[1, nx] = f * dy
-    if z is not None:
-        out[2, nx] = f * dz
+            out[2, i] = fz
     return power
 
 
 @njit(**_JIT)
-def _linear_vertical(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing, origin_x,
-                     origin_y, dashpot, out):
-    T = type(spacing)
-    rows, nx = x.shape
-    upper = j % rows
-    lower = (j - 1) % rows
-    power = 0.0
+def _vertical_springs(j, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+    rows = x.shape[0]
     if j == 0:
-        for i in range(nx):
-            out[0, i] = tension_stiffness * (x[upper, i] - (origin_x + T(i) * spacing))
-            out[1, i] = stiffness * (y[upper, i] - origin_y)
-            if z is not None:
-                out[2, i] = tension_stiffness * z[upper, i]
-            if dashpot is not None:
-                out[1, i] += dashpot * vy[upper, i]
-                power += dashpot * vy[upper, i] * vy[upper, i]
-    elif j == ny:
-        top_stretch_base = origin_y + T(ny) * spacing - spacing
-        for i in range(nx):
-            out[0, i] = tension_stiffness * ((origin_x + T(i) * spacing) - x[lower, i])
-            out[1, i] = stiffness * (top_stretch_base - y[lower, i])
-            if z is not None:
-                out[2, i] = -tension_stiffness * z[lower, i]
-            if dashpot is not None:
-                out[1, i] -= dashpot * vy[lower, i]
-                power += dashpot * vy[lower, i] * vy[lower, i]
-    else:
-        for i in range(nx):
-            out[0, i] = tension_stiffness * (x[upper, i] - x[lower, i])
-            out[1, i] = stiffness * (y[upper, i] - y[lower, i] - spacing)
-            if z is not None:
-                out[2, i] = tension_stiffness * (z[upper, i] - z[lower, i])
-            if dashpot is not None:
-                relative = vy[upper, i] - vy[lower, i]
-                out[1, i] += dashpot * relative
-                power += dashpot * relative * relative
-    return power
-
-
-@njit(**_JIT)
-def _linear_horizontal(j, ny, x, y, z, vx, vy, stiffness, tension_stiffness, spacing, origin_x,
-                       origin_y, dashpot, out, periodic=None, free_ends=None):
-    T = type(spacing)
-    r = j % x.shape[0]
-    nx = x.shape[1]
-    power = 0.0
-    row_y_rest = origin_y + T(j) * spacing
-    if periodic is not None:
-        # the ring's closing spring, from particle nx - 1 (one period to the left) to particle 0
-        out[0, 0] = stiffness * (x[r, 0] - x[r, nx - 1] + T(nx - 1) * spacing)
-        out[1, 0] = tension_stiffness * (y[r, 0] - y[r, nx - 1])
-        if z is not None:
-            out[2, 0] = tension_stiffness * (z[r, 0] - z[r, nx - 1])
-        if dashpot is not None:
-            relative = vx[r, 0] - vx[r, nx - 1]
-            out[0, 0] += dashpot * relative
-            power += dashpot * relative * relative
-    elif free_ends is not None:
-        out[0, 0] = T(0.0)
-        out[1, 0] = T(0.0)
-        if z is not None:
-            out[2, 0] = T(0.0)
-    else:
-        out[0, 0] = stiffness * (x[r, 0] - origin_x)
-        out[1, 0] = tension_stiffness * (y[r, 0] - row_y_rest)
-        if z is not None:
-            out[2, 0] = tension_stiffness * z[r, 0]
-        if dashpot is not None:
-            out[0, 0] += dashpot * vx[r, 0]
-            power += dashpot * vx[r, 0] * vx[r, 0]
-    for i in range(1, nx):
-        out[0, i] = stiffness * (x[r, i] - x[r, i - 1] - spacing)
-        out[1, i] = tension_stiffness * (y[r, i] - y[r, i - 1])
-        if z is not None:
-            out[2, i] = tension_stiffness * (z[r, i] - z[r, i - 1])
-        if dashpot is not None:
-            relative = vx[r, i] - vx[r, i - 1]
-            out[0, i] += dashpot * relative
-            power += dashpot * relative * relative
-    if periodic is not None:
-        out[0, nx] = out[0, 0]
-        out[1, nx] = out[1, 0]
-        if z is not None:
-            out[2, nx] = out[2, 0]
-        return power
-    if free_ends is not None:
-        out[0, nx] = T(0.0)
-        out[1, nx] = T(0.0)
-        if z is not None:
-            out[2, nx] = T(0.0)
-        return power
-    out[0, nx] = stiffness * ((origin_x + T(nx - 1) * spacing) - x[r, nx - 1])
-    out[1, nx] = tension_stiffness * (row_y_rest - y[r, nx - 1])
-    if z is not None:
-        out[2, nx] = -tension_stiffness * z[r, nx - 1]
-    if dashpot is not None:
-        out[0, nx] -= dashpot * vx[r, nx - 1]
-        power += dashpot * vx[r, nx - 1] * vx[r, nx - 1]
-    return power
+        return _vertical_row(None, 0, j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out)
+    if j == ny:
+        return _vertical_row((j - 1) % rows, None, j, x, y, z, vx, vy, vz, linearised, parameters,
+                             dashpot, out)
+    return _vertical_row((j - 1) % rows, j % rows, j, x, y, z, vx, vy, vz, linearised,
+                         parameters, dashpot, out)
 
 
 @njit(**_JIT)
@@ -395,63 +269,130 @@ def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, ou
     Returns the power dissipated by the dashpots of those springs (W).
     """
     if linear:
-        return _linear_vertical(j, ny, x, y, z, vx, vy, parameters.stiffness,
-                                parameters.tension_stiffness, parameters.spacing,
-                                parameters.origin_x, parameters.origin_y, dashpot, out)
-    return _nonlinear_vertical(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, out)
+        return _vertical_springs(j, ny, x, y, z, vx, vy, vz, True, parameters, dashpot, out)
+    return _vertical_springs(j, ny, x, y, z, vx, vy, vz, None, parameters, dashpot, out)
 
 
 @njit(**_JIT)
-def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters, dashpot, drag,
-                      gravity, below, above, horizontal, out, uniform_inverse_mass=None):
-    """Accelerations (3, nx) of the particles of row j, written into ``out``.
+def _store(out, i, force, z):
+    out[0, i] = force[0]
+    out[1, i] = force[1]
+    if z is not None:
+        out[2, i] = force[2]
+    return force[3]
 
-    ``below`` must hold ``vertical_springs(j)``; this function fills ``above`` with
-    ``vertical_springs(j + 1)`` (so the caller swaps the two buffers for the next row) and uses
-    ``horizontal`` (3, nx + 1) as scratch.  ``uniform_inverse_mass`` (1/kg), when given, replaces
-    the (ny, nx) ``inverse_mass`` array for lattices of equal masses (one memory stream less).
-    Returns the power dissipated in row j by the
-    horizontal springs, the springs above it and drag (W).
-    """
-    power = vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, above)
-    if linear:
-        power += _linear_horizontal(j, ny, x, y, z, vx, vy, parameters.stiffness,
-                                    parameters.tension_stiffness, parameters.spacing,
-                                    parameters.origin_x, parameters.origin_y, dashpot, horizontal,
-                                    parameters.periodic, parameters.free_ends)
-    else:
-        power += _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, dashpot, horizontal)
+
+@njit(**_JIT)
+def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+    """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
+    joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
+    goes to the right one (on a ring both are the closing spring; at free ends both are zero).
+    ``linearised`` None: the nonlinear law, True: the linearised one.  Arrays as for
+    ``vertical_springs``; returns the power dissipated by their dashpots (W)."""
+    T = type(parameters.spacing)
+    zero = T(0.0)
     r = j % x.shape[0]
     nx = x.shape[1]
-    for i in range(nx):
+    still = (zero, zero, zero, zero)
+    power = 0.0
+    if parameters.free_ends is not None:  # no spring to the left wall
+        _store(out, 0, still, z)
+    else:
+        if parameters.periodic is not None:  # the ring's closing spring, seen from particle 0
+            last = particle(x, y, z, vx, vy, vz, r, nx - 1)
+            first = (last[0] - T(nx) * parameters.spacing, last[1], last[2], last[3], last[4],
+                     last[5])
+        else:
+            first = site(-1, j, parameters)
+        power += _store(out, 0, spring_force(first, particle(x, y, z, vx, vy, vz, r, 0), 0,
+                                             linearised, parameters, dashpot), z)
+    for i in range(1, nx):
+        if z is None:
+            first = (x[r, i - 1], y[r, i - 1], zero, vx[r, i - 1], vy[r, i - 1], zero)
+            second = (x[r, i], y[r, i], zero, vx[r, i], vy[r, i], zero)
+        else:
+            first = (x[r, i - 1], y[r, i - 1], z[r, i - 1], vx[r, i - 1], vy[r, i - 1],
+                     vz[r, i - 1])
+            second = (x[r, i], y[r, i], z[r, i], vx[r, i], vy[r, i], vz[r, i])
+        fx, fy, fz, p = spring_force(first, second, 0, linearised, parameters, dashpot)
+        power += p
+        out[0, i] = fx
+        out[1, i] = fy
+        if z is not None:
+            out[2, i] = fz
+    if parameters.periodic is not None:  # the right edge is the closing spring again
+        _store(out, nx, (out[0, 0], out[1, 0], out[2, 0], zero), z)
+    elif parameters.free_ends is not None:
+        _store(out, nx, still, z)
+    else:
+        power += _store(out, nx, spring_force(particle(x, y, z, vx, vy, vz, r, nx - 1),
+                                              site(nx, j, parameters), 0, linearised, parameters,
+                                              dashpot), z)
+    return power
+
+
+# --- accelerations ------------------------------------------------------------------------------
+
+
+@njit(**_JIT)
+def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass, linearised,
+                       parameters, dashpot, drag, gravity, below, above, horizontal, out):
+    power = _vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
+                              above)
+    power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
+                                horizontal)
+    zero = type(parameters.spacing)(0.0)
+    pull = gravity_vector(gravity, zero)
+    r = j % x.shape[0]
+    for i in range(x.shape[1]):
         if uniform_inverse_mass is not None:
             w = uniform_inverse_mass
         else:
             w = inverse_mass[j, i]
-        fx = horizontal[0, i + 1] - horizontal[0, i] + above[0, i] - below[0, i]
-        fy = horizontal[1, i + 1] - horizontal[1, i] + above[1, i] - below[1, i]
-        if drag is not None:
-            fx -= drag * vx[r, i]
-            fy -= drag * vy[r, i]
-        out[0, i] = fx * w
-        out[1, i] = fy * w
-        if gravity is not None:
-            out[0, i] += gravity[0]
-            out[1, i] += gravity[1]
-        if z is not None:
-            fz = horizontal[2, i + 1] - horizontal[2, i] + above[2, i] - below[2, i]
-            if drag is not None:
-                fz -= drag * vz[r, i]
-            out[2, i] = fz * w
-            if gravity is not None:
-                out[2, i] += gravity[2]
+        if z is None:
+            ax, ay, _ = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], zero),
+                (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                (below[0, i], below[1, i], zero), (above[0, i], above[1, i], zero),
+                (vx[r, i], vy[r, i], zero), w, drag, pull,
+            )
+        else:
+            ax, ay, out[2, i] = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                (below[0, i], below[1, i], below[2, i]), (above[0, i], above[1, i], above[2, i]),
+                (vx[r, i], vy[r, i], vz[r, i]), w, drag, pull,
+            )
+        out[0, i] = ax
+        out[1, i] = ay
     if drag is not None:
-        for i in range(nx):
+        for i in range(x.shape[1]):
             speed_squared = vx[r, i] * vx[r, i] + vy[r, i] * vy[r, i]
             if vz is not None:
                 speed_squared += vz[r, i] * vz[r, i]
             power += drag * speed_squared
     return power
+
+
+@njit(**_JIT)
+def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters, dashpot, drag,
+                      gravity, below, above, horizontal, out, uniform_inverse_mass):
+    """Accelerations (3, nx) of the particles of row j, written into ``out``.
+
+    ``below`` must hold ``vertical_springs(j)``; this function fills ``above`` with
+    ``vertical_springs(j + 1)`` (so the caller swaps the two buffers for the next row) and uses
+    ``horizontal`` (3, nx + 1) as scratch.  ``uniform_inverse_mass`` (1/kg), when not None,
+    replaces the (ny, nx) ``inverse_mass`` array for lattices of equal masses (one memory stream
+    less).  Returns the power dissipated in row j by the horizontal springs, the springs above it
+    and drag (W).
+    """
+    if linear:
+        return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                                  True, parameters, dashpot, drag, gravity, below, above,
+                                  horizontal, out)
+    return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                              None, parameters, dashpot, drag, gravity, below, above, horizontal,
+                              out)
 
 
 @njit(**_JIT)
@@ -543,68 +484,3 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
     return kinetic, spring
 
 
-@njit(**_JIT)
-def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                  parameters, gravity, below, above_last, horizontal):
-    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
-    nonlinear springs, with each row's forces and update fused into one pass over it.
-
-    ``below`` (3, nx) holds the forces of the springs below row j0 on entry (it is reused as the
-    running buffer); ``above_last`` (3, nx) those of the springs above row j1 - 1, computed before
-    the sweep moved anything (the top wall springs, or a block boundary when the lattice is swept
-    as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
-    spring is computed here from positions that have not moved yet, so the result does not
-    depend on how the rows are split into blocks.
-    """
-    T = type(dt)
-    zero = T(0.0)
-    stiffness, rest_length = parameters.stiffness, parameters.rest_length
-    tiny, estimate_first = parameters.smallest_squared_length, parameters.inverse_sqrt_estimate
-    nx = x.shape[1]
-    dz = zero
-    tz = zero
-    for j in range(j0, j1):
-        _nonlinear_horizontal(j, ny, x, y, z, vx, vy, vz, parameters, None, horizontal)
-        given = j + 1 == j1
-        for i in range(nx):
-            if given:
-                tx = above_last[0, i]
-                ty = above_last[1, i]
-                if z is not None:
-                    tz = above_last[2, i]
-            else:
-                dx = x[j + 1, i] - x[j, i]
-                dy = y[j + 1, i] - y[j, i]
-                if z is not None:
-                    dz = z[j + 1, i] - z[j, i]
-                f, _ = _spring_factor(dx, dy, dz, zero, zero, zero, stiffness, rest_length, None,
-                                      tiny, estimate_first)
-                tx = f * dx
-                ty = f * dy
-                if z is not None:
-                    tz = f * dz
-            if uniform_inverse_mass is not None:
-                w = uniform_inverse_mass
-            else:
-                w = inverse_mass[j, i]
-            ax = (horizontal[0, i + 1] - horizontal[0, i] + tx - below[0, i]) * w
-            ay = (horizontal[1, i + 1] - horizontal[1, i] + ty - below[1, i]) * w
-            if gravity is not None:
-                ax += gravity[0]
-                ay += gravity[1]
-            u = vx[j, i] + dt * ax
-            v = vy[j, i] + dt * ay
-            vx[j, i] = u
-            vy[j, i] = v
-            x[j, i] += dt * u
-            y[j, i] += dt * v
-            below[0, i] = tx
-            below[1, i] = ty
-            if z is not None:
-                az = (horizontal[2, i + 1] - horizontal[2, i] + tz - below[2, i]) * w
-                if gravity is not None:
-                    az += gravity[2]
-                s = vz[j, i] + dt * az
-                vz[j, i] = s
-                z[j, i] += dt * s
-                below[2, i] = tz

@@ -20,7 +20,7 @@ import pytest
 
 import sim
 from app.cli.arguments import IntegratorChoices
-from sim import integrators, stepping
+from sim import integrators, steppers, stepping
 from sim.integrators import IntegratorDescription
 
 K = 35.0
@@ -245,7 +245,7 @@ def test_precision_from_scene_files_and_cli(tmp_path):
 # --- the one description of the integrators ---------------------------------------------------
 
 
-class SymplecticEuler(integrators.Integrator):
+class SymplecticEuler(steppers.Integrator):
     """The docs/api.md example: kick with a(x), then drift with the new velocity."""
 
     name = "symplectic-euler"

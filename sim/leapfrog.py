@@ -1,0 +1,148 @@
+"""Numba loops of the undamped leapfrog (velocity Verlet between its first and last step), the
+fastest loop shape: each row's forces and its kick and drift fused into one pass over the row.
+
+Undamped nonlinear springs only (``sim.steppers.Verlet`` picks this loop for them).  The lattice
+is cut into row blocks (``block_starts`` (blocks + 1,) int64: block b is rows block_starts[b] ..
+block_starts[b + 1] - 1); each step first computes the springs across every block boundary (and
+the wall springs at the bottom and top) from the unmoved positions, then sweeps the blocks
+independently, so the result does not depend on how the rows are split into blocks.  Arrays as in
+``sim.stepping``.
+"""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+from sim.kernels import (
+    gravity_vector,
+    horizontal_springs,
+    particle_acceleration,
+    spring_force,
+    vertical_springs,
+)
+from sim.row_updates import components, kick_drift
+
+_JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+
+@njit(**_JIT)
+def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                  parameters, gravity, below, above_last, horizontal):
+    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
+    nonlinear springs, with each row's forces and update fused into one pass over it.
+
+    ``below`` (3, nx) holds the forces of the springs below row j0 on entry (it is reused as the
+    running buffer); ``above_last`` (3, nx) those of the springs above row j1 - 1, computed before
+    the sweep moved anything (the top wall springs, or a block boundary when the lattice is swept
+    as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
+    spring is computed here from positions that have not moved yet.
+    """
+    zero = type(dt)(0.0)
+    pull = gravity_vector(gravity, zero)
+    nx = x.shape[1]
+    for j in range(j0, j1):
+        horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
+        given = j + 1 == j1
+        for i in range(nx):
+            if uniform_inverse_mass is not None:
+                w = uniform_inverse_mass
+            else:
+                w = inverse_mass[j, i]
+            if z is None:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], zero, 0.0)
+                else:  # no dashpot: the velocities do not enter the force
+                    above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
+                                         None, parameters, None)
+                ax, ay, _ = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], zero),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                    (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
+                )
+            else:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
+                else:
+                    above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
+                                          zero), 1, None, parameters, None)
+                ax, ay, az = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                    (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
+                    pull,
+                )
+                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
+                below[2, i] = above[2]
+            x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
+            y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
+            below[0, i] = above[0]
+            below[1, i] = above[1]
+
+
+@njit(**_JIT)
+def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                   parameters, gravity, block_starts, boundary, below, horizontal):
+    """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
+
+    The springs below each block (and the top wall springs) go into ``boundary``
+    (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below``
+    (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.  This one runs
+    the blocks one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them
+    on numba's threads and computes the same numbers.
+    """
+    x, y, z = components(out_of_plane, position)
+    vx, vy, vz = components(out_of_plane, velocity)
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    for _ in range(n):
+        for b in range(blocks + 1):
+            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
+                             boundary[b])
+        for b in range(blocks):
+            below[b, :, :] = boundary[b]
+            leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
+                          inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                          boundary[b + 1], horizontal[b])
+
+
+@njit(parallel=True, **_JIT)
+def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mass,
+                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
+                            below, horizontal):
+    """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
+    threads (``prange``; ``numba.set_num_threads`` sets how many).  The loop bodies are
+    functions of their own: numba's parallel transformation of the inlined 3-D body read stale
+    out-of-plane components (runs differed from one thread and blew up)."""
+    blocks = block_starts.size - 1
+    for _ in range(n):
+        for b in prange(blocks + 1):
+            _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
+                              boundary)
+        for b in prange(blocks):
+            _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
+                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
+                            below, horizontal)
+
+
+@njit(**_JIT)
+def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts, boundary):
+    """The springs below row block_starts[b] into boundary[b] (a function of its own, so that
+    numba's parallel transformation leaves its body alone)."""
+    x, y, z = components(out_of_plane, position)
+    vx, vy, vz = components(out_of_plane, velocity)
+    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, False, parameters,
+                     None, boundary[b])
+
+
+@njit(**_JIT)
+def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                    parameters, gravity, block_starts, boundary, below, horizontal):
+    """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
+    x, y, z = components(out_of_plane, position)
+    vx, vy, vz = components(out_of_plane, velocity)
+    below[b, :, :] = boundary[b]
+    leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
+                  vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                  boundary[b + 1], horizontal[b])
