@@ -1,0 +1,70 @@
+"""Adding an integrator touches ``sim/integrators.py`` and nothing else: a throw-away method,
+registered here and nowhere else, appears in the command line's ``--integrator`` choices, runs
+from the command line, is offered by the web page's Method menu and is measured by the accuracy
+sweep.  Its physics (bounded energy of a symplectic method) is checked in
+``tests/test_precision_threads.py``."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+import sim
+from app.cli import build_parser, main
+from sim import integrators
+from tests.helpers import free_port, wait_for
+from tests.test_precision_threads import SymplecticEuler
+
+NAME = "throwaway-euler"
+
+
+@pytest.fixture
+def throwaway():
+    description = integrators.register(integrators.IntegratorDescription(
+        name=NAME, label="throw-away symplectic Euler", short_label="throw-away", order=1,
+        force_evaluations=1, stability_factor=2.0, stepper=SymplecticEuler, symplectic=True,
+    ))
+    try:
+        yield description
+    finally:
+        integrators.unregister(NAME)
+    assert NAME not in sim.INTEGRATORS
+
+
+def _choices(parser: argparse.ArgumentParser, command: str, option: str) -> list[str]:
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    action = next(a for a in subparsers.choices[command]._actions if option in a.option_strings)
+    return list(action.choices)
+
+
+def test_the_command_line_offers_and_runs_a_new_integrator(throwaway, capsys):
+    parser = build_parser()
+    assert NAME in _choices(parser, "run", "--integrator")
+    assert NAME in _choices(parser, "accuracy", "--integrators")
+    assert main(["run", "single", "--integrator", NAME, "--steps", "50", "--quiet"]) == 0
+    capsys.readouterr()
+
+
+def test_the_page_menu_offers_a_new_integrator(throwaway):
+    from app.web.app import WebApp
+
+    app = WebApp(sim.Simulation(sim.scenes.build("chain")), port=free_port())
+    app.start()
+    try:
+        assert wait_for(lambda: app.view.last_positions is not None)
+        assert NAME in app.panel.integrator.method.options
+    finally:
+        app.stop()
+
+
+def test_the_accuracy_sweep_measures_a_new_integrator(throwaway):
+    from app.study.accuracy import accuracy_study
+
+    scene = sim.scenes.build("chain")
+    study = accuracy_study(scene, dts=[0.02, 0.01], until=1.0, refine=False,
+                           precisions=("float64",), minimum_seconds=0.0)
+    measured = {run.integrator for run in study.runs}
+    assert NAME in measured
+    assert measured >= {"verlet", "rk4"}
+    assert NAME in study.limits
