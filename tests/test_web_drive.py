@@ -19,18 +19,8 @@ from app.web.folders.drive import mode_frequencies
 from sim.forcing import Driver
 from sim.modes import ModalBasis
 from sim.probes import mode_table
-from tests.helpers import free_port, wait_for
+from tests.helpers import wait_for
 from tests.test_web_safety import press, send, settle
-
-
-@pytest.fixture
-def web_app(tmp_path):
-    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port(),
-                 scenes_dir=tmp_path / "scenes", recordings_dir=tmp_path / "recordings")
-    app.start()
-    assert wait_for(lambda: app.view.last_positions is not None)
-    yield app
-    app.stop()
 
 
 def driven_work(app: WebApp) -> float:

@@ -9,23 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
-import pytest
-
 import sim
-from app.web.app import WebApp
 from app.web.folders.accuracy import explanation, has_time_step_error
-from tests.helpers import free_port, wait_for
+from tests.helpers import wait_for
 from tests.test_web_safety import press, send, settle
-
-
-@pytest.fixture
-def web_app(tmp_path):
-    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port(),
-                 scenes_dir=tmp_path / "scenes", recordings_dir=tmp_path / "recordings")
-    app.start()
-    assert wait_for(lambda: app.view.last_positions is not None)
-    yield app
-    app.stop()
 
 
 def test_a_failing_folder_is_reported_and_the_rest_of_the_page_goes_on(web_app, monkeypatch):
