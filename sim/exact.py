@@ -130,7 +130,6 @@ EXACT = register(IntegratorDescription(
     colour=(160, 90, 200),
     step_cost=(2.4e-6, 1 / 6.2e7),
     drift_when_gaining="The exact solver has no time-step error; the drift is round-off.",
-    drift_when_losing="The exact solver has no time-step error; the drift is round-off.",
 ))
 """The exact integrator's description: order 0 means "no time-step error" (not a convergence
 order), force evaluations 0 (its cost is a few sine transforms per call, whatever dt is)."""

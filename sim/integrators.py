@@ -80,15 +80,18 @@ class IntegratorDescription:
     """Steps per timed burst in ``oscillators bench`` (long enough to hide the call overhead)."""
     drift_when_gaining: str = "The integrator does not conserve the energy at this dt."
     """Why the energy balance drifts upwards with this integrator, in plain words (the page)."""
-    drift_when_losing: str = "The integrator does not conserve the energy at this dt."
-    """Why it drifts downwards (energy lost although nothing in the physics removes it)."""
+    drift_when_losing: str | None = None
+    """Why it drifts downwards (energy lost although nothing in the physics removes it); None:
+    the same words as upwards."""
 
     def reason_not_applicable(self, model: Model) -> str | None:
         return None if self.applies_to is None else self.applies_to(model)
 
     def drift_explanation(self, error: float) -> str:
         """Why the energy balance is off by the relative ``error`` (signed) with this integrator."""
-        return self.drift_when_losing if error < 0 else self.drift_when_gaining
+        if error < 0 and self.drift_when_losing is not None:
+            return self.drift_when_losing
+        return self.drift_when_gaining
 
     def seconds_per_step(self, n_particles: int) -> float:
         """Rough wall time (s) of one step on ``n_particles`` particles."""
@@ -226,10 +229,6 @@ register(IntegratorDescription(
         "Explicit Euler adds energy at every step (each mode by 1 + (ω·dt)² per step): "
         "the motion grows without bound at any dt."
     ),
-    drift_when_losing=(
-        "Explicit Euler adds energy at every step (each mode by 1 + (ω·dt)² per step): "
-        "the motion grows without bound at any dt."
-    ),
 ))
 register(IntegratorDescription(
     name="heun", label="Heun (predictor-corrector)", short_label="Heun", order=2,
@@ -249,10 +248,6 @@ register(IntegratorDescription(
     aliases=("velocity-verlet",), colour=(30, 150, 60), step_cost=(1.0e-6, 1 / 3.4e8),
     bench_burst=100,
     drift_when_gaining=(
-        "Velocity Verlet keeps a nearby energy exactly, so its error stays bounded, but short "
-        "waves travel at the wrong speed (phase error); the error shown is that wobble."
-    ),
-    drift_when_losing=(
         "Velocity Verlet keeps a nearby energy exactly, so its error stays bounded, but short "
         "waves travel at the wrong speed (phase error); the error shown is that wobble."
     ),
