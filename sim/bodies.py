@@ -32,23 +32,33 @@ from typing import Any
 
 import numpy as np
 
+from sim.integrators import describe
 from sim.model import Model, ModelError
+from sim.modes import sine_transform
 from sim.scenes import Scene
+
+DEFAULT_COURANT = 0.1
+"""c dt / a of the first step tried: for velocity Verlet the time-stepping phase error is this
+squared (1 %) of the lattice's dispersion error, mode by mode."""
 
 BODY_KINDS = ("string", "membrane")
 SHAPE_KINDS = ("gaussian", "sine", "pluck")
 """Initial shapes: a smooth Gaussian bump, one sine mode, a pluck (a triangle with a kink)."""
 
-_GAUSS_NODES = 400
-"""Gauss-Legendre nodes per unit of the Gaussian's coefficient integral (smooth: exact to
-round-off for the few dozen terms a Gaussian needs)."""
+GAUSSIAN_WIDTHS = 4
+"""A Gaussian's centre must be at least this many widths from each end (there it is below
+exp(-8) of its peak; the straight line through its end values is taken off, so it is 0 there)."""
+
+_FINE_POINTS = 4096
+"""Fewest intervals of the grid the Gaussian's coefficients are summed on (and 4 per term)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class Shape:
     """An initial displacement along one side, as a function of s / L0 in [0, 1].
 
-    ``kind``: "gaussian" (exp(-(s - centre)^2 / (2 width^2)), lengths as fractions of L0),
+    ``kind``: "gaussian" (exp(-(s - centre)^2 / (2 width^2)), lengths as fractions of L0, less
+    the straight line through its values at the ends),
     "sine" (sin(mode pi s / L0)) or "pluck" (a triangle rising from both ends to its peak at
     ``centre``).  ``amplitude`` (m) is the largest displacement.  A membrane's shape is the
     product of the shape along x and the same shape along y (its mode is (mode, mode)).
@@ -70,6 +80,10 @@ class Shape:
                              f"got {self.centre!r}")
         if not 0.0 < self.width <= 0.25:
             raise ModelError(f"width must be a fraction of the length in (0, 0.25], got {self.width!r}")
+        if self.kind == "gaussian" and not (GAUSSIAN_WIDTHS * self.width <= self.centre
+                                            <= 1.0 - GAUSSIAN_WIDTHS * self.width):
+            raise ModelError(f"a Gaussian must lie {GAUSSIAN_WIDTHS} widths inside the ends: "
+                             f"centre {self.centre:g} and width {self.width:g} do not fit")
         if isinstance(self.mode, bool) or int(self.mode) != self.mode or self.mode < 1:
             raise ModelError(f"mode must be a whole number >= 1, got {self.mode!r}")
 
@@ -86,7 +100,9 @@ class Shape:
         if self.kind == "pluck":
             c = self.centre
             return self.amplitude * np.where(x <= c, x / c, (1.0 - x) / (1.0 - c))
-        return self.amplitude * np.exp(-((x - self.centre) ** 2) / (2.0 * self.width**2))
+        bump = np.exp(-((x - self.centre) ** 2) / (2.0 * self.width**2))
+        ends = np.exp(-(np.array([self.centre, 1.0 - self.centre]) ** 2) / (2.0 * self.width**2))
+        return self.amplitude * (bump - ends[0] * (1.0 - x) - ends[1] * x)  # exactly 0 at the ends
 
     def coefficients(self, terms: int) -> np.ndarray:
         """(terms,) sine-series coefficients b_1..b_terms (m): shape(s) = sum_n b_n sin(n pi s /
@@ -97,10 +113,12 @@ class Shape:
         if self.kind == "pluck":
             c = self.centre
             return 2.0 * self.amplitude * np.sin(n * math.pi * c) / (n**2 * math.pi**2 * c * (1 - c))
-        nodes, weights = np.polynomial.legendre.leggauss(max(_GAUSS_NODES, 2 * terms))
-        x = 0.5 * (nodes + 1.0)
-        integrand = self.values(x)[None, :] * np.sin(np.outer(n, x) * math.pi)
-        return integrand @ weights  # 2 * (1/2) * sum w f sin: the factor 2 and dx = dnode / 2
+        # smooth and (to round-off) vanishing with its derivatives at the ends: the trapezoidal
+        # rule of the discrete sine transform on a much finer grid is exact to round-off
+        points = max(_FINE_POINTS, 4 * terms)
+        x = np.arange(1, points) / points
+        fine = sine_transform(self.values(x), 0) * math.sqrt(2.0 / points)
+        return fine[:terms]
 
     def describe(self) -> str:
         if self.kind == "sine":
@@ -207,13 +225,24 @@ class Body:
         values = np.asarray(positions)[:, self.component] - model.rest_positions[:, self.component]
         return values.reshape(model.ny, model.nx)
 
+    def first_step(self, particles: int, integrator: str = "verlet",
+                   courant: float = DEFAULT_COURANT) -> float:
+        """The first dt to try (s): courant * a / c, at most half the integrator's stability
+        limit on the lattice's fastest mode (``app.study.continuum`` verifies it)."""
+        dt = courant * self.spacing(particles) / self.speed
+        limit = describe(integrator).stability_factor
+        if limit is not None and math.isfinite(limit):
+            omega_max = 2.0 * self.speed / self.spacing(particles) * math.sqrt(self.dimensions)
+            dt = min(dt, 0.5 * limit / omega_max)
+        return dt
+
     def scene(self, particles: int, integrator: str = "verlet", dt: float | None = None) -> Scene:
         """The body at ``particles`` per side as a scene, released at rest from its shape; the
-        default dt is a tenth of a / c, its duration one crossing time."""
+        default dt is ``first_step``, its duration one crossing time."""
         model = self.model(particles)
         positions = model.rest_positions.copy()
         positions[:, self.component] += self.initial_field(particles).ravel()
-        step = dt if dt is not None else 0.1 * self.spacing(particles) / self.speed
+        step = dt if dt is not None else self.first_step(particles, integrator)
         return Scene(name=f"{self.kind}-{particles}", model=model, integrator=integrator, dt=step,
                      description=f"{self.describe()}; {particles} particles per side",
                      initial_positions=positions, duration=self.crossing_time)

@@ -5,8 +5,9 @@ solution of the wave equation (``app.study.continuum``), as a table or JSON and 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from app.cli.arguments import IntegratorChoices, positive_float
+from app.cli.arguments import IntegratorChoices, bounded_int, positive_float
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -45,6 +46,7 @@ EPILOG = """\
 examples:
   oscillators continuum string --particles 4,16,64,256,1024 --plot string.png
   oscillators continuum string --shape pluck --json
+  oscillators continuum string --particles 4,16,64,256 --record string.rrd
   oscillators continuum membrane --particles 8,16,32,64 --shape sine --mode 2
 """
 
@@ -67,6 +69,16 @@ def fraction(text: str) -> float:
     if value >= 1.0:
         raise argparse.ArgumentTypeError(f"must be between 0 and 1, got {text!r}")
     return value
+
+
+def check_recording_path(path: Path, force: bool) -> None:
+    """--record must name a new .rrd file in an existing directory: checked before the study."""
+    if path.suffix != ".rrd":
+        raise ValueError(f"--record takes a .rrd file name, got {path}")
+    if path.is_dir() or not path.parent.is_dir():
+        raise ValueError(f"--record {path}: give a .rrd file in an existing directory")
+    if path.exists() and not force:
+        raise ValueError(f"{path} already exists; use --force to replace it")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -99,6 +111,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--courant", type=positive_float, default=0.1,
                         help="first try of c dt / a (default 0.1; halved while the step is not "
                         "accurate enough)")
+    parser.add_argument("--record", metavar="PATH.rrd",
+                        help="also record every N and the continuum solution on one timeline "
+                        "(a rerun .rrd; open it with `rerun PATH.rrd`)")
+    parser.add_argument("--frames", type=bounded_int(2, 5000), default=200,
+                        help="frames of the recording over one crossing time (default 200)")
+    parser.add_argument("--force", action="store_true", help="replace an existing recording")
     add_output_arguments(parser)
     parser.set_defaults(handler=command_continuum)
 
@@ -108,6 +126,8 @@ def command_continuum(arguments: argparse.Namespace) -> int:
     from sim.bodies import Body
 
     check_plot_path(arguments)
+    if arguments.record:
+        check_recording_path(Path(arguments.record), arguments.force)
     particles = arguments.particles or particle_list(DEFAULT_PARTICLES[arguments.body])
     if max(particles) > LARGEST[arguments.body]:
         raise ValueError(f"a {arguments.body} takes at most {LARGEST[arguments.body]:,} particles "
@@ -123,5 +143,19 @@ def command_continuum(arguments: argparse.Namespace) -> int:
                                           arguments.courant, progress=advance(bar))
     data = study.as_dict()
     save_picture(arguments, data, continuum_report.plot_continuum, study)
+    if arguments.record:
+        from app.recording.continuum import record_continuum
+        from app.recording.destination import RecordingError
+
+        with progress_bar(arguments.frames + 1, arguments.quiet) as bar:
+            try:
+                path = record_continuum(body, particles, arguments.record,
+                                        frames=arguments.frames, integrator=arguments.integrator,
+                                        overwrite=arguments.force, progress=advance(bar))
+            except RecordingError as error:
+                raise ValueError(str(error)) from None
+        data["recording"] = str(path.resolve())
     emit(arguments, data, continuum_report.format_report(study))
+    if arguments.record and not arguments.json:
+        print(f"recording saved to {data['recording']}")
     return 0

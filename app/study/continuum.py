@@ -27,19 +27,15 @@ from typing import Any
 
 import numpy as np
 
-from sim.bodies import Body
+from sim.bodies import DEFAULT_COURANT, Body
 from sim.continuum import ContinuumSolution
 from sim.exact import ExactSolver
-from sim.integrators import describe
 from sim.simulation import Simulation
 from sim.state import State
 
 TIMES = (0.25, 0.5, 0.75, 1.0)
 """Comparison times as fractions of the crossing time 2 L0 / c."""
 
-DEFAULT_COURANT = 0.1
-"""c dt / a of the first try: for velocity Verlet the time-stepping phase error is this squared
-(1 %) of the lattice's dispersion error, mode by mode."""
 
 TIME_ERROR_SHARE = 0.1
 """Largest accepted ratio of time-stepping error to discretisation error."""
@@ -165,11 +161,7 @@ def run_particles(body: Body, particles: int, integrator: str = "verlet",
     norm = float(np.linalg.norm(continuum.at(0.0)))
     exact = exact_lattice(body, particles, times)
     discretisation = [_relative(e, r, norm) for e, r in zip(exact, reference, strict=True)]
-    dt = courant * body.spacing(particles) / body.speed
-    limit = describe(integrator).stability_factor
-    if limit is not None and math.isfinite(limit):  # stay well inside the stability limit
-        omega_max = 2.0 * body.speed / body.spacing(particles) * math.sqrt(body.dimensions)
-        dt = min(dt, 0.5 * limit / omega_max)
+    dt = body.first_step(particles, integrator, courant)
     for halvings in range(MAX_HALVINGS + 1):
         fields = lattice_run(body, particles, integrator, dt, times)
         time_errors = [_relative(f, e, norm) for f, e in zip(fields, exact, strict=True)]

@@ -127,6 +127,7 @@ def plot_continuum(study: ContinuumStudy, path: str) -> None:
     try:
         with handle:
             figure.savefig(handle, format="png", dpi=110)
+        os.chmod(handle.name, 0o644)  # a picture others may read, like any saved file
         os.replace(handle.name, target)
     except BaseException:
         Path(handle.name).unlink(missing_ok=True)
