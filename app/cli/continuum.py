@@ -23,6 +23,8 @@ from sim.model import MAX_SIDE
 DEFAULT_PARTICLES = {"string": "4,16,64,256,1024", "membrane": "4,8,16,32,64"}
 LARGEST = {"string": MAX_SIDE, "membrane": 1024}
 """Most particles per side of each body."""
+PAGE_PARTICLES = 65_536
+"""Most particles of one lattice the page runs live (a 256x256 membrane, a 65,536-bead string)."""
 
 DESCRIPTION = """\
 The continuum limit (the paper's eqs. 1-10).  A body given in physical units (length L0, mass
@@ -47,6 +49,7 @@ examples:
   oscillators continuum string --particles 4,16,64,256,1024 --plot string.png
   oscillators continuum string --shape pluck --json
   oscillators continuum string --particles 4,16,64,256 --record string.rrd
+  oscillators continuum string --particles 4,16,64,256 --serve   # the page, on one clock
   oscillators continuum membrane --particles 8,16,32,64 --shape sine --mode 2
 """
 
@@ -79,6 +82,36 @@ def check_recording_path(path: Path, force: bool) -> None:
         raise ValueError(f"--record {path}: give a .rrd file in an existing directory")
     if path.exists() and not force:
         raise ValueError(f"{path} already exists; use --force to replace it")
+
+
+def serve_page(body, particles: list[int], arguments: argparse.Namespace) -> int:
+    """Serve the 'Continuum limit' page until Ctrl+C or SIGTERM."""
+    import signal
+    import time
+
+    from app.web.continuum import ContinuumPage
+
+    if max(particles) ** body.dimensions > PAGE_PARTICLES:
+        raise ValueError(f"the page shows at most {PAGE_PARTICLES:,} particles per lattice; "
+                         f"use smaller --particles")
+    page = ContinuumPage(body, particles, arguments.integrator, port=arguments.port)
+
+    def terminate(number: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        page.start()
+        print(f"continuum limit of the {body.describe()}", flush=True)
+        print(f"serving on {page.url}  (Ctrl+C to stop)", flush=True)
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        print("stopping", flush=True)
+    finally:
+        page.stop()
+        signal.signal(signal.SIGTERM, previous)
+    return 0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -117,6 +150,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--frames", type=bounded_int(2, 5000), default=200,
                         help="frames of the recording over one crossing time (default 200)")
     parser.add_argument("--force", action="store_true", help="replace an existing recording")
+    parser.add_argument("--serve", action="store_true",
+                        help="show the body at every N in the browser on one clock, the continuum "
+                        "solution drawn over each (the 'Continuum limit' page), instead of measuring")
+    parser.add_argument("--port", type=bounded_int(0, 65535), default=8080,
+                        help="port of the page with --serve (default 8080; 127.0.0.1 only)")
     add_output_arguments(parser)
     parser.set_defaults(handler=command_continuum)
 
@@ -136,6 +174,8 @@ def command_continuum(arguments: argparse.Namespace) -> int:
                        centre=arguments.centre, width=arguments.width, mode=arguments.mode,
                        length=arguments.length, density=arguments.density,
                        tension=arguments.tension)
+    if arguments.serve:
+        return serve_page(body, particles, arguments)
     check_plan(continuum.planned_runs(body, particles, arguments.integrator, arguments.courant),
                "continuum")
     with progress_bar(len(set(particles)), arguments.quiet) as bar:

@@ -116,7 +116,7 @@ def record_continuum(body: Body, particles: Sequence[int], path: str | Path, fra
                                              media_type=rr.MediaType.MARKDOWN), static=True)
         for n in counts:
             stream.log(distance_entity(n), rr.SeriesLines(names=f"N = {n}"), static=True)
-        runs = [_Lattice(body, n, integrator) for n in counts]
+        runs = [BodyRun(body, n, integrator) for n in counts]
         curve = ContinuumSolution(body, CURVE_POINTS - 1) if body.kind == "string" else None
         for frame in range(frames + 1):
             time = duration * frame / frames
@@ -136,8 +136,9 @@ def record_continuum(body: Body, particles: Sequence[int], path: str | Path, fra
     return path
 
 
-class _Lattice:
-    """One particle count: its simulation, its continuum solution and how it is drawn."""
+class BodyRun:
+    """One particle count: its simulation (``advance_to`` a time), its continuum solution,
+    the distance between them (``distance``) and how a recording draws it (``log``)."""
 
     def __init__(self, body: Body, particles: int, integrator: str) -> None:
         self.body = body
@@ -155,12 +156,20 @@ class _Lattice:
         self.simulation.dt = remaining / steps
         self.simulation.step(steps)
 
+    def fields(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """(lattice, continuum) (ny, nx) displacements (m) now, the continuum at ``time``."""
+        field = self.body.field(self.simulation.model, self.simulation.peek_positions())
+        return field, self.continuum.at(time)
+
+    def distance(self, field: np.ndarray, reference: np.ndarray) -> float:
+        """Relative L2 distance of the lattice from the continuum at its particles."""
+        return float(np.linalg.norm(field - reference)) / self.norm
+
     def log(self, stream: rr.RecordingStream, time: float, exaggeration: float,
             curve: ContinuumSolution | None) -> None:
         body, n = self.body, self.particles
-        field = body.field(self.simulation.model, self.simulation.peek_positions())
-        reference = self.continuum.at(time)
-        stream.log(distance_entity(n), rr.Scalars(float(np.linalg.norm(field - reference)) / self.norm))
+        field, reference = self.fields(time)
+        stream.log(distance_entity(n), rr.Scalars(self.distance(field, reference)))
         if curve is not None:
             s = np.concatenate([[0.0], body.coordinates(n), [body.length]])
             u = np.concatenate([[0.0], field[0], [0.0]]) * exaggeration
