@@ -55,6 +55,16 @@ def distance_entity(particles: int) -> str:
     return f"/distance/N{particles:04d}"
 
 
+def estimated_bytes(body: Body, particles: Sequence[int], frames: int) -> float:
+    """A generous size (bytes) of the recording: per frame and N, a string's beads, line and
+    curve in float32 (and their overhead), a membrane's two RGB images."""
+    if body.kind == "string":
+        per_frame = sum(24 * (n + 2) + 8 * (CURVE_POINTS + 1) + 2000 for n in particles)
+    else:
+        per_frame = sum(2 * 3 * n * n + 2000 for n in particles)
+    return float(per_frame) * (frames + 1)
+
+
 def drawn_exaggeration(body: Body) -> float:
     """How many times a string's displacement is enlarged when drawn: its amplitude becomes
     12 % of its length."""
@@ -105,7 +115,7 @@ def record_continuum(body: Body, particles: Sequence[int], path: str | Path, fra
     path = Path(path)
     counts = sorted(set(int(n) for n in particles))
     duration = body.crossing_time if duration is None else float(duration)
-    destination.check_destination(path, overwrite)
+    destination.check_destination(path, overwrite, estimated_bytes(body, counts, frames))
     partial = destination.partial_path(path)
     try:
         stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
