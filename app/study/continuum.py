@@ -30,7 +30,7 @@ import numpy as np
 from sim.bodies import DEFAULT_COURANT, Body
 from sim.continuum import ContinuumSolution
 from sim.exact import ExactSolver
-from sim.simulation import Simulation
+from sim.simulation import BlowUpError, Simulation
 from sim.state import State
 
 TIMES = (0.25, 0.5, 0.75, 1.0)
@@ -83,11 +83,17 @@ class ContinuumRun:
     def time_error(self) -> float:
         return max(self.time_errors)
 
+    @property
+    def step_verified(self) -> bool:
+        """Whether the time-stepping error is at most ``TIME_ERROR_SHARE`` of the lattice's."""
+        return self.time_error <= TIME_ERROR_SHARE * self.discretisation_error
+
     def as_dict(self) -> dict[str, Any]:
         return dict(particles=self.particles, spacing=self.spacing, error=self.error,
                     errors=self.errors, discretisation_error=self.discretisation_error,
                     time_error=self.time_error, integrator=self.integrator, dt=self.dt,
-                    steps=self.steps, halvings=self.halvings, series_terms=self.series_terms,
+                    steps=self.steps, halvings=self.halvings, step_verified=self.step_verified,
+                    series_terms=self.series_terms,
                     series_change=self.series_change)
 
 
@@ -163,7 +169,13 @@ def run_particles(body: Body, particles: int, integrator: str = "verlet",
     discretisation = [_relative(e, r, norm) for e, r in zip(exact, reference, strict=True)]
     dt = body.first_step(particles, integrator, courant)
     for halvings in range(MAX_HALVINGS + 1):
-        fields = lattice_run(body, particles, integrator, dt, times)
+        try:
+            fields = lattice_run(body, particles, integrator, dt, times)
+        except BlowUpError as error:  # a smaller step may be stable; the last one says why not
+            if halvings == MAX_HALVINGS:
+                raise ValueError(f"{particles} particles: {error}") from None
+            dt /= 2.0
+            continue
         time_errors = [_relative(f, e, norm) for f, e in zip(fields, exact, strict=True)]
         if max(time_errors) <= TIME_ERROR_SHARE * max(discretisation) or halvings == MAX_HALVINGS:
             break

@@ -56,6 +56,11 @@ def format_report(study: ContinuumStudy) -> str:
     if study.order is not None:
         lines.append(f"measured order in a: {study.order:.2f} (expected {study.expected_order:g}: "
                      f"{study.why})")
+    unverified = [run.particles for run in study.runs if not run.step_verified]
+    if unverified:
+        lines.append(f"the time step could not be made accurate enough (time-stepping error above a "
+                     f"tenth of the lattice's) at {', '.join(map(str, unverified))} particles: "
+                     "these errors are the integrator's, not the continuum limit's")
     loose = [run.particles for run in study.runs if run.series_change > 1e-3 * run.error]
     if loose:
         lines.append("the continuum series is not converged well below the error at "
