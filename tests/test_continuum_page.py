@@ -38,6 +38,7 @@ def test_the_page_runs_every_n_on_one_clock_and_shows_the_distances(kind, browse
     particles = (4, 16, 64) if kind == "string" else (4, 16)
     page_app = ContinuumPage(Body(kind=kind, shape=Shape("gaussian")), particles,
                              port=free_port(), play=True)
+    page_app.seconds_per_crossing = 2.0  # faster than a class would watch it, for the test
     page_app.start()
     try:
         assert page_app.time == 0.0  # no page open: the clock waits

@@ -4,8 +4,12 @@ period), and the distances falling with N."""
 
 from __future__ import annotations
 
+import subprocess
+from pathlib import Path
+
 import numpy as np
 import pytest
+import rerun_cli
 from rerun.chunk import RrdReader
 
 from app.cli import main
@@ -80,6 +84,9 @@ def test_cli_records_and_refuses_an_existing_file(tmp_path, capsys):
     arguments = ["continuum", "membrane", "--particles", "4,8", "--shape", "sine", "--quiet",
                  "--record", str(path), "--frames", "4"]
     assert main(arguments) == 0
+    verified = subprocess.run([str(Path(rerun_cli.__file__).parent / "rerun"), "rrd", "verify",
+                               str(path)], capture_output=True, text=True, timeout=120)
+    assert verified.returncode == 0, verified.stderr
     chunks = RrdReader(path).stream().to_chunks()
     assert _rows(chunks, entity(8, "continuum"), "Image:buffer")
     capsys.readouterr()
