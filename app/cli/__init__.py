@@ -9,6 +9,7 @@
     oscillators response / reflection       a driven scene's resonance curve; the absorbing
                                             walls' reflection against wavelength
     oscillators movie SCENE -o FILE         an MP4, WebM or GIF movie of a run or a recording
+    oscillators continuum [string|membrane] one body at several N against the wave equation
 
 Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
 ``--set nx=40 --set gravity=9.81 --set damping=0.5``; a driver with
@@ -29,6 +30,7 @@ from collections.abc import Sequence
 from app.cli import (
     accuracy,
     bench,
+    continuum,
     dispersion,
     movie,
     record,
@@ -41,8 +43,8 @@ from app.cli import (
 )
 from app.cli.arguments import EPILOG, OneLineErrorParser
 
-COMMANDS = (scenes, run, bench, serve, record, accuracy, stability, dispersion, response,
-            reflection, movie)
+COMMANDS = (scenes, run, bench, serve, record, accuracy, stability, dispersion, continuum,
+            response, reflection, movie)
 """The command modules, in the order ``oscillators --help`` lists them."""
 
 

@@ -1,0 +1,65 @@
+"""The "Continuum limit" page in a real headless Chromium (Playwright): every N stacked on one
+clock, the distances shown per N and falling with N, Play and the slow motion driven from the
+page; the picture is kept as ``continuum-page.png`` in the test's folder to be looked at."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from app.web.continuum import ContinuumPage
+from sim.bodies import Body, Shape
+from tests.helpers import free_port, wait_for
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+                 "--no-first-run"]
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no Chromium at {CHROMIUM}"),
+]
+
+
+@pytest.fixture
+def browser():
+    playwright_api = pytest.importorskip("playwright.sync_api")
+    with playwright_api.sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield chromium
+        finally:
+            chromium.close()
+
+
+@pytest.mark.parametrize("kind", ["string", pytest.param("membrane", marks=pytest.mark.slow)])
+def test_the_page_runs_every_n_on_one_clock_and_shows_the_distances(kind, browser, tmp_path):
+    particles = (4, 16, 64) if kind == "string" else (4, 16)
+    page_app = ContinuumPage(Body(kind=kind, shape=Shape("gaussian")), particles,
+                             port=free_port(), play=True)
+    page_app.seconds_per_crossing = 2.0  # faster than a class would watch it, for the test
+    page_app.start()
+    try:
+        assert page_app.time == 0.0  # no page open: the clock waits
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page.goto(page_app.url)
+        page.get_by_text("Connected").wait_for(timeout=30_000)
+        crossing = page_app.body.crossing_time
+        assert wait_for(lambda: page_app.time > 0.5 * crossing, timeout=60)
+        page.get_by_text("relative L2 distance", exact=False).wait_for(timeout=10_000)
+        for n in particles:  # the table's row of each N: its spacing
+            spacing = f"{page_app.body.spacing(n):.3g}"
+            page.get_by_role("cell", name=spacing, exact=True).wait_for(timeout=10_000)
+        page.get_by_text("crossing times", exact=False).wait_for(timeout=10_000)
+        distances = [page_app.distances[n] for n in particles]
+        assert distances[-1] < 0.5 * distances[0]  # the finer lattice follows the continuum
+        page.get_by_label("Play", exact=True).uncheck()
+        assert wait_for(lambda: not page_app.playing, timeout=10)
+        stopped = page_app.time
+        page.screenshot(path=str(tmp_path / "continuum-page.png"))
+        assert wait_for(lambda: page_app.time == stopped, timeout=2)
+        all_runs_at_the_clock = [abs(run.simulation.time - stopped) < 1e-12 for run in page_app.runs]
+        assert all(all_runs_at_the_clock)  # one clock
+    finally:
+        page_app.stop()
