@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from sim.files import AtomicFile, write_bytes
 from sim.model import Model, ModelError, _whole_number, check_size
 from sim.scenes import OVERRIDES, Scene, SceneError
 
@@ -105,18 +106,19 @@ def _scene_text(scene: Scene, array_file_name: str) -> tuple[str, dict[str, np.n
 
 
 
-def save(scene: Scene, path: str | Path) -> Path:
+def save(scene: Scene, path: str | Path, overwrite: bool = True) -> Path:
     """Write ``scene`` to ``path`` (.toml).  Non-uniform masses and any displacement or velocity
-    that is not sparse go to ``<path stem>.npz`` beside it (named in the TOML).  Returns the TOML
-    path."""
+    that is not sparse go to ``<path stem>.npz`` beside it (named in the TOML).  Both are written
+    through ``sim.files.AtomicFile`` (the folder must exist).  Returns the TOML path."""
     path = Path(path)
     if path.suffix != ".toml":
         path = path.with_suffix(".toml")
     array_path = path.with_suffix(".npz")
     text, arrays = _scene_text(scene, array_path.name)
     if arrays:
-        np.savez_compressed(array_path, **arrays)
-    path.write_text(text, encoding="utf-8")
+        with AtomicFile(array_path, overwrite) as output:
+            np.savez_compressed(output.file, **arrays)
+    write_bytes(path, text.encode("utf-8"), overwrite)
     return path
 
 
