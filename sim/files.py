@@ -77,8 +77,9 @@ def check_target(path: str | os.PathLike, overwrite: bool, suffix: str | None = 
         raise OutputError(f"{path} already exists; use --force to replace it")
     folder = path.parent
     if not folder.is_dir():
-        raise OutputError(f"the folder {folder} does not exist; create it first "
-                          "(folders are not created on the way)")
+        what = "is not a folder" if folder.exists() else "does not exist"
+        raise OutputError(f"cannot write {path}: {folder} {what} (folders are not created on "
+                          "the way; create it first)")
     return path
 
 

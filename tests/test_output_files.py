@@ -62,7 +62,8 @@ def test_a_symlinked_partial_stops_a_movie(tmp_path, capsys):
 def test_missing_folders_are_an_error_not_created(tmp_path, capsys):
     output = tmp_path / "new" / "dir" / "x.rrd"
     assert main(["record", "grid", "--steps", "4", "--quiet", "-o", str(output)]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    error = capsys.readouterr().err
+    assert "does not exist" in error and error.strip().count("\n") == 0
     assert not (tmp_path / "new").exists()
 
 

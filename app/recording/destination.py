@@ -12,11 +12,15 @@ the file up to it.
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import struct
 from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
+
+import rerun as rr
 
 from sim.files import AtomicFile, OutputError, partial_path
 
@@ -26,6 +30,10 @@ RESERVE_BYTES = 1 * 2**20
 """Free bytes a recording keeps in hand besides its own estimated size: room for the last
 messages, the ERROR entry and the footer.  During the run it stops when less than this (or
 three times what one flush interval writes, if more) is left."""
+
+STATIC_BYTES = 250e3
+"""What a recording holds besides its frames: the read-me, colour bars, blueprint (measured:
+about 250 kB)."""
 
 _HEADER = struct.Struct("<QQ")
 _STREAM_HEADER_BYTES = 12
@@ -49,7 +57,9 @@ def open_destination(path: Path, overwrite: bool, needed_bytes: float = 0.0) -> 
     try:
         output = AtomicFile(path, overwrite, suffix=".rrd")
     except OutputError as error:
-        raise RecordingError(str(error)) from None
+        hint = (f"; `oscillators record {partial_path(path)}` keeps its readable part"
+                if "interrupted run" in str(error) else "")
+        raise RecordingError(f"{error}{hint}") from None
     needed = RESERVE_BYTES + int(needed_bytes)
     free = free_bytes(path.parent)
     if free < needed:
@@ -118,10 +128,14 @@ def readable_part(path: str | os.PathLike) -> ReadablePart:
 def salvage(partial: str | os.PathLike, output: str | os.PathLike, overwrite: bool = False
             ) -> ReadablePart:
     """Copy the readable part of ``partial`` (a recording cut off by a kill or a crash) to
-    ``output`` (written atomically); returns what was readable."""
+    ``output`` (written atomically), or, when ``partial`` is ``output``'s own ``.partial``, cut
+    it there and give it its final name; returns what was readable."""
     part = readable_part(partial)
     if part.messages == 0:
         raise RecordingError(part.describe(Path(partial)))
+    if partial_path(output) == Path(partial):
+        _salvage_in_place(Path(partial), Path(output), part, overwrite)
+        return part
     try:
         with AtomicFile(output, overwrite, suffix=".rrd") as target, open(partial, "rb") as source:
             remaining = part.readable_bytes
@@ -134,3 +148,57 @@ def salvage(partial: str | os.PathLike, output: str | os.PathLike, overwrite: bo
     except OutputError as error:
         raise RecordingError(str(error)) from None
     return part
+
+
+def _salvage_in_place(partial: Path, output: Path, part: ReadablePart, overwrite: bool) -> None:
+    if (output.exists() or output.is_symlink()) and not overwrite:
+        raise RecordingError(f"{output} already exists; use --force to replace it")
+    descriptor = os.open(partial, os.O_RDWR | getattr(os, "O_NOFOLLOW", 0))
+    try:
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise RecordingError(f"another program is writing {partial} now") from None
+        os.truncate(descriptor, part.readable_bytes)
+        os.fsync(descriptor)
+        if overwrite:
+            os.replace(partial, output)
+        else:
+            os.link(partial, output)
+            os.unlink(partial)
+    finally:
+        os.close(descriptor)
+
+
+def _messages(data: bytes) -> bytes:
+    """The messages of one encoded stream, without its stream header, end message and footer."""
+    position, kept = _STREAM_HEADER_BYTES, []
+    while position + _HEADER.size <= len(data):
+        kind, length = _HEADER.unpack_from(data, position)
+        if kind == 0:
+            break
+        kept.append(data[position: position + _HEADER.size + length])
+        position += _HEADER.size + length
+    return b"".join(kept)
+
+
+def end_readably(output: AtomicFile, application_id: str, recording_id: str, text: str,
+                 entries: Sequence[tuple[str, int | None, float | None]]) -> None:
+    """Make a recording whose writer failed readable: cut it after its last whole message and,
+    if it has no end message, append ``text`` as an ERROR entry at each of ``entries``
+    (entity, step, sim_time), encoded by rerun as messages of the same recording."""
+    part = readable_part(output.library_path)
+    if part.complete:
+        return
+    os.truncate(output.descriptor, part.readable_bytes)
+    stream = rr.RecordingStream(application_id, recording_id=recording_id,
+                                send_properties=False)
+    encoded = stream.binary_stream()
+    for entity, step, time in entries:
+        if step is not None:
+            stream.set_time("step", sequence=step)
+            stream.set_time("sim_time", duration=time or 0.0)
+        stream.log(entity, rr.TextLog(text, level="ERROR"))
+    data = encoded.read(flush=True) or b""
+    stream.disconnect()
+    os.pwrite(output.descriptor, _messages(data), part.readable_bytes)

@@ -122,7 +122,8 @@ class Recorder:
         self.partial_path = destination.partial_path(self.path)
         per_frame = self.plan.estimated_bytes_per_frame(self.model, self.options.jpeg_quality)
         self._bytes_per_flush = per_frame * self.options.flush_every * len(self.trees)
-        self.estimated_bytes = per_frame * (expected_frames or 0) * len(self.trees)
+        self.estimated_bytes = (destination.STATIC_BYTES
+                                + per_frame * (expected_frames or 0) * len(self.trees))
         """The size the file is expected to reach (0 without ``expected_frames``)."""
         self._output = destination.open_destination(self.path, overwrite, self.estimated_bytes)
         integrator = integrator or scene.integrator
@@ -147,7 +148,8 @@ class Recorder:
         self.frame_interval = (max(DEFAULT_FRAME_INTERVAL, scene.duration / 1000)
                                if interval is None else float(interval))
 
-        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4(),
+        self.recording_id = str(uuid.uuid4())
+        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
                                          batcher_config=_SMALL_CHUNKS)
         legends = colour_legends(self.plan, self.scales, self.field_scale, self.exaggeration)
         bp = blueprint(
@@ -344,11 +346,13 @@ class Recorder:
             self._log_failure()
         try:
             self.stream.flush(timeout_sec=120.0)
-        except Exception:  # noqa: BLE001 - the file keeps what reached the disk
+        except Exception as error:  # noqa: BLE001 - a write failed: the file is ended below
             if self._failure is None:
-                raise
+                self._failure = error
         finally:
             self.stream.disconnect()
+        if self._failure is not None:
+            self._end_readably()
         self._output.commit()
         if self._failure is not None:
             raise RecordingError(
@@ -380,6 +384,17 @@ class Recorder:
             if not self.tracks:
                 self.stream.log("/log", rr.TextLog(text, level="ERROR"))
         except Exception:  # noqa: BLE001 - the disk may be full: the file ends where it ends
+            pass
+
+    def _end_readably(self) -> None:
+        """After a failed write (a full disk) rerun's file may end inside a message: cut it at
+        its last whole message and append the ERROR entries, so that it reads back."""
+        try:
+            entries = [(track.paths.log, track.last_step, track.last_time)
+                       for track in self.tracks.values()] or [("/log", None, None)]
+            destination.end_readably(self._output, APPLICATION_ID, self.recording_id,
+                                     f"recording stopped: {self._failure}", entries)
+        except Exception:  # noqa: BLE001 - no room at all: the file ends where it ends
             pass
 
     def _interrupted_event(self, tree: str | None, reason: str | None = None) -> None:
