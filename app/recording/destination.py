@@ -16,8 +16,8 @@ import fcntl
 import os
 import shutil
 import struct
-from dataclasses import dataclass
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import rerun as rr
