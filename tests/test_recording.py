@@ -345,8 +345,11 @@ def test_help_teaches_with_examples(capsys):
 
 def test_cli_duration_and_output(tmp_path):
     path = tmp_path / "sub" / "chain.rrd"
-    assert main(["record", "chain", "--duration", "0.5", "--dt", "0.01", "-o", str(path),
-                 "--quiet"]) == 0
+    arguments = ["record", "chain", "--duration", "0.5", "--dt", "0.01", "-o", str(path),
+                 "--quiet"]
+    assert main(arguments) == 2  # the folder is not created on the way
+    path.parent.mkdir()
+    assert main(arguments) == 0
     steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     assert max(steps) == 50
 
