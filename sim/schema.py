@@ -119,6 +119,25 @@ def check_depth(document: Any, label: str, limit: int = MAX_DEPTH, *,
             pending.extend((child, depth + 1) for child in item)
 
 
+_INVISIBLE = {0x2028, 0x2029, *range(0x202A, 0x202F), *range(0x2066, 0x206A), 0x200E, 0x200F}
+
+
+def printable(text: str, keep: str = "\n\t") -> str:
+    """``text`` safe to print on a terminal: control characters (escape sequences that would
+    retitle or clear it, carriage returns, bidirectional overrides) are shown as ``\\xNN`` /
+    ``\\uNNNN``; the characters in ``keep`` stay."""
+    out = []
+    for character in str(text):
+        code = ord(character)
+        if character in keep or not (code < 0x20 or 0x7F <= code < 0xA0 or code in _INVISIBLE):
+            out.append(character)
+        elif code < 0x100:
+            out.append(f"\\x{code:02x}")
+        else:
+            out.append(f"\\u{code:04x}")
+    return "".join(out)
+
+
 def shown(value: Any, limit: int = 60) -> str:
     """``repr(value)`` cut to ``limit`` characters, control characters escaped."""
     text = repr(value)

@@ -60,7 +60,7 @@ class Page:
         while time.monotonic() < end:
             try:
                 raw = await asyncio.wait_for(self.connection.recv(), end - time.monotonic())
-            except (asyncio.TimeoutError, TimeoutError):
+            except TimeoutError:
                 return
             for message in decode_window(raw, self.decompressor):
                 label = message.get("props", {}).get("label") if isinstance(

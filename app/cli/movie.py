@@ -12,6 +12,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from app.cli.arguments import (
@@ -21,6 +22,7 @@ from app.cli.arguments import (
     positive_float,
     scene_from_arguments,
 )
+from app.cli.limits import planned_steps
 from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
 from sim.files import PARTIAL_SUFFIX
 
@@ -127,6 +129,10 @@ def command_movie(arguments: argparse.Namespace) -> int:
                 source = _readable_copy(source, cleanup)
         else:
             source = scene_from_arguments(arguments)
+            planned_steps(SimpleNamespace(  # the same planned-work limit as run and record
+                scene=source, model=source.model, dt=arguments.dt or source.dt,
+                integrator=arguments.integrator or source.integrator),
+                duration=arguments.duration)
         started = time.perf_counter()
         path = render_movie(source, output, options)
     elapsed = time.perf_counter() - started

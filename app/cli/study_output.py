@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from sim.files import AtomicFile, safe_name
+from sim.schema import printable
 
 
 def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = None) -> None:
@@ -80,7 +81,7 @@ def emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> None
     if arguments.json:
         print(json.dumps(data, indent=2))
     else:
-        print(text)
+        print(printable(text))
         if arguments.plot:
             print(f"picture saved to {Path(arguments.plot).resolve()}")
 
