@@ -235,3 +235,27 @@ def test_uploads_are_capped_while_they_arrive(served):
             assert grown < 60 * 2**20, f"server grew by {grown / 2**20:.0f} MB"
 
     run(scenario())
+
+
+def test_a_stalled_upload_is_dropped_with_what_it_holds(web_app):
+    web_app.gate.upload_seconds = 1.0
+    states = web_app.server.gui._current_file_upload_states
+
+    async def scenario() -> None:
+        async with Page(web_app.server.get_port()) as uploader:
+            await uploader.camera()
+            await uploader.listen(2.0)
+            button = uploader.uuid("Open a scene file…")
+            await uploader.send(type="FileTransferStartUpload", source_component_uuid=button,
+                                transfer_uuid="slow", filename="a.toml", mime_type="text/plain",
+                                part_count=8, size_bytes=8 * 2**20)
+            for index in range(3):
+                await uploader.send(type="FileTransferPart", source_component_uuid=button,
+                                    transfer_uuid="slow", part_index=index, content=b"x" * 2**20)
+            await uploader.listen(0.5)
+            assert "slow" in states  # arriving: held
+            await uploader.listen(2.5)  # the client stays connected and sends nothing more
+            assert "slow" not in states  # dropped, with its parts
+
+    run(scenario())
+    assert web_app.gate.refused >= 1
