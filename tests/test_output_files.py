@@ -77,6 +77,7 @@ def test_a_second_writer_to_one_path_is_refused(tmp_path):
     assert path.is_file() and not (tmp_path / "same.rrd.partial").exists()
 
 
+@pytest.mark.slow
 def test_two_record_processes_one_refused_and_the_file_readable(tmp_path):
     import subprocess
     import sys

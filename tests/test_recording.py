@@ -15,7 +15,7 @@ from rerun.chunk import RrdReader
 
 import sim
 from app.cli import build_parser, main
-from app.recording import Recorder, RecordingError, RecordingOptions
+from app.recording import Recorder, RecordingError, RecordingOptions, destination
 from app.recording.explain import table_rows
 from app.recording.field import video_available
 from app.recording.layout import ENERGY_TERMS
@@ -267,6 +267,7 @@ def test_signal_leaves_a_readable_file(tmp_path, signal_number):
     out, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
     assert path.exists() and not partial.exists()
+    assert destination.readable_part(path).complete  # ends with its end message and footer
     chunks = read_chunks(path)
     steps = temporal(chunks, "/energy/total", "Scalars:scalars")
     assert len(steps) > 10

@@ -1,6 +1,7 @@
 """Recordings survive: a write that fails (a file-size limit standing in for a full disk), a
-disk that fills during the run, SIGTERM and SIGKILL all leave a file that rerun's own reader
-(``rerun.chunk.RrdReader``) reads back; the disk-space estimate is within 2x of the real size."""
+disk that fills during the run and SIGKILL leave a file that rerun's own reader
+(``rerun.chunk.RrdReader``) reads back (SIGTERM: ``test_recording.test_signal_leaves_a_readable_file``);
+the disk-space estimate is within 2x of the real size."""
 
 from __future__ import annotations
 
@@ -35,6 +36,7 @@ def errors_in(chunks: list) -> list:
     return [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
 
 
+@pytest.mark.slow
 def test_a_write_that_fails_mid_run_leaves_a_readable_file_ending_in_an_error(tmp_path):
     path = tmp_path / "limited.rrd"
     command = [sys.executable, "-c", LIMITED.format(limit=400_000), "record", "grid",
@@ -76,26 +78,7 @@ def test_a_disk_that_fills_during_the_run_ends_the_file_with_footer_and_error(tm
     assert errors and "disk nearly full" in errors[-1][1]
 
 
-@pytest.mark.parametrize("signal_number", [signal.SIGTERM])
-def test_sigterm_ends_the_file_with_an_error_entry_saying_why(tmp_path, signal_number):
-    path = tmp_path / "terminated.rrd"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "record", "grid", "--steps", "100000000", "--every",
-         "20", "-o", str(path), "--quiet"], cwd=REPO, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
-    partial = Path(str(path) + ".partial")
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and (not partial.exists() or partial.stat().st_size < 100_000):
-        time.sleep(0.2)
-    process.send_signal(signal_number)
-    _, err = process.communicate(timeout=60)
-    assert process.returncode == 130, err
-    part = destination.readable_part(path)
-    assert part.complete
-    errors = errors_in(read_chunks(path))
-    assert errors and "stopped by SIGTERM" in errors[-1][1]
-
-
+@pytest.mark.slow
 def test_a_sigkilled_recorder_leaves_a_partial_that_reads_back(tmp_path, capsys):
     path = tmp_path / "killed.rrd"
     process = subprocess.Popen(

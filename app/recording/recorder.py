@@ -67,8 +67,8 @@ from sim.runner import Frame, Runner
 
 APPLICATION_ID = "coupled_oscillators"
 
-_SMALL_CHUNKS = rr.ChunkBatcherConfig(flush_num_bytes=256 * 1024, flush_tick=0.05)
-"""rerun writes a message when 256 kB are batched or every 50 ms: small messages, so a recorder
+_SMALL_CHUNKS = rr.ChunkBatcherConfig(flush_num_bytes=256 * 1024, flush_tick=0.25)
+"""rerun writes a message when 256 kB are batched or every 0.25 s: small messages, so a recorder
 killed mid-write loses only its last few frames (the rest reads back, see ``destination``)."""
 
 _STOP = object()
