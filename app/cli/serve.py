@@ -155,4 +155,8 @@ def command_serve(arguments: argparse.Namespace) -> int:
     finally:
         app.stop()  # closes a running recording so that its file verifies
         signal.signal(signal.SIGTERM, previous)
-    return 0
+    # everything is closed: skip the interpreter's own teardown, where the libraries' threads
+    # can take seconds to wind down (one SIGTERM stops the server within 5 s)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
