@@ -134,6 +134,7 @@ def run(coroutine: Any) -> Any:
     return asyncio.run(coroutine)
 
 
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
 def test_handle_attributes_unknown_ids_and_buttons_cannot_be_tampered_with(served):
     _, port = served
 
@@ -161,6 +162,7 @@ def test_handle_attributes_unknown_ids_and_buttons_cannot_be_tampered_with(serve
         assert not {"update_cb", "removed"} & set(update["updates"]), update
 
 
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
 def test_a_client_without_a_camera_message_is_checked_like_any_other(served):
     _, port = served
 
@@ -179,6 +181,7 @@ def test_a_client_without_a_camera_message_is_checked_like_any_other(served):
     assert math.isfinite(late.value("Time step dt (s)"))
 
 
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
 def test_wrong_types_are_dropped_and_the_sender_shown_the_value_in_use(served):
     _, port = served
 
@@ -205,6 +208,7 @@ def test_wrong_types_are_dropped_and_the_sender_shown_the_value_in_use(served):
     assert isinstance(late.value("Time step dt (s)"), float)
 
 
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
 def test_uploads_are_capped_while_they_arrive(served):
     process, port = served
     server = psutil.Process(process.pid)
