@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import psutil
 
-from sim import boundaries
+from sim import boundaries, schema
 from sim.boundaries import Boundary
 
 
@@ -95,29 +95,28 @@ def check_size(nx: int, ny: int, dim: int) -> None:
 
 
 def _finite_positive(name: str, value: Any, allow_zero: bool = False) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ModelError(f"{name} must be finite, got {number}")
+    """A lattice parameter: a number (not a string) within ``sim.schema.BOUNDS``."""
+    number = schema.number(value, name, error=ModelError)
     if number < 0 or (number == 0 and not allow_zero):
         bound = "zero or positive" if allow_zero else "positive"
         raise ModelError(f"{name} must be {bound}, got {number}")
-    return number
+    return schema.parameter(number, name, error=ModelError)
 
 
 def _whole_number(name: str, value: Any, smallest: int = 1) -> int:
+    """A size or count: a whole number (not a string, never rounded) of at least ``smallest``."""
+    return schema.whole_number(value, name, smallest, error=ModelError)
+
+
+def _numeric_array(value: Any, name: str, wanted: str) -> np.ndarray:
+    """``value`` as a float array if it holds numbers only (strings and booleans refused)."""
     try:
-        whole = not isinstance(value, bool) and float(value).is_integer()
-    except (TypeError, ValueError, OverflowError):
-        whole = False
-    if not whole:
-        raise ModelError(f"{name} must be a whole number, got {value!r}")
-    number = int(value)
-    if number < smallest:
-        raise ModelError(f"{name} must be at least {smallest}, got {number}")
-    return number
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.dtype.kind not in "fiu":
+        raise ModelError(f"{name} must be {wanted}, got {schema.shown(value)}")
+    return array.astype(float)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -202,8 +201,7 @@ class Model:
         drag = _finite_positive("drag", drag, allow_zero=True)
         masses = _mass_array(mass, nx, ny)
         gravity_vector = _gravity_vector(gravity)
-        if not isinstance(linear, (bool, np.bool_)):
-            raise ModelError(f"linear must be true or false, got {linear!r}")
+        linear = schema.flag(linear, "linear", error=ModelError)
         from sim import forcing
 
         if sponge_strength is None:
@@ -422,9 +420,7 @@ class Model:
 
 
 def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
-    array = np.asarray(mass, dtype=float) if not isinstance(mass, str) else None
-    if array is None or array.dtype.kind not in "fiu":
-        raise ModelError(f"mass must be a number or an (ny, nx) array of numbers, got {mass!r}")
+    array = _numeric_array(mass, "mass", "a number or an (ny, nx) array of numbers")
     if array.ndim == 0:
         array = np.full((ny, nx), float(array))
     elif array.shape == (ny * nx,):
@@ -440,17 +436,16 @@ def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
     if np.any(array <= 0):
         worst = float(array.min())
         raise ModelError(f"every mass must be positive, found {worst:g}")
+    low, high = schema.BOUNDS["mass"]
+    if array.min() < low or array.max() > high:
+        raise ModelError(f"every mass must be in [{low:g}, {high:g}] kg, found "
+                         f"{array.min():g} to {array.max():g}")
     array.setflags(write=False)
     return array
 
 
 def _gravity_vector(gravity: float | tuple[float, ...] | np.ndarray) -> tuple[float, float, float]:
-    try:
-        array = np.asarray(gravity, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(
-            f"gravity must be a number (downwards) or a 2- or 3-vector, got {gravity!r}"
-        ) from None
+    array = _numeric_array(gravity, "gravity", "a number (downwards) or a 2- or 3-vector")
     if array.ndim == 0:
         vector = (0.0, -float(array), 0.0)
     elif array.shape in ((2,), (3,)):
@@ -459,4 +454,6 @@ def _gravity_vector(gravity: float | tuple[float, ...] | np.ndarray) -> tuple[fl
         raise ModelError(f"gravity must be a number (downwards) or a 2- or 3-vector, got {gravity!r}")
     if not all(math.isfinite(component) for component in vector):
         raise ModelError(f"gravity must be finite, got {vector}")
+    for component in vector:
+        schema.parameter(component, "gravity", error=ModelError)
     return vector  # type: ignore[return-value]

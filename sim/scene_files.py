@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from sim import schema
+from sim.files import AtomicFile, write_bytes
 from sim.model import Model, ModelError, _whole_number, check_size
 from sim.scenes import OVERRIDES, Scene, SceneError
 
@@ -105,18 +107,19 @@ def _scene_text(scene: Scene, array_file_name: str) -> tuple[str, dict[str, np.n
 
 
 
-def save(scene: Scene, path: str | Path) -> Path:
+def save(scene: Scene, path: str | Path, overwrite: bool = True) -> Path:
     """Write ``scene`` to ``path`` (.toml).  Non-uniform masses and any displacement or velocity
-    that is not sparse go to ``<path stem>.npz`` beside it (named in the TOML).  Returns the TOML
-    path."""
+    that is not sparse go to ``<path stem>.npz`` beside it (named in the TOML).  Both are written
+    through ``sim.files.AtomicFile`` (the folder must exist).  Returns the TOML path."""
     path = Path(path)
     if path.suffix != ".toml":
         path = path.with_suffix(".toml")
     array_path = path.with_suffix(".npz")
     text, arrays = _scene_text(scene, array_path.name)
     if arrays:
-        np.savez_compressed(array_path, **arrays)
-    path.write_text(text, encoding="utf-8")
+        with AtomicFile(array_path, overwrite) as output:
+            np.savez_compressed(output.file, **arrays)
+    write_bytes(path, text.encode("utf-8"), overwrite)
     return path
 
 
@@ -378,9 +381,14 @@ def _parse_toml(content: bytes, label: str) -> dict[str, Any]:
     except UnicodeDecodeError:
         raise SceneError(f"{label} is not a text (TOML) scene file") from None
     try:
-        return tomllib.loads(text)
+        document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{label} is not valid TOML: {error}") from None
+    except RecursionError:  # tomllib reads nested arrays recursively
+        raise SceneError(f"{label} is nested more than {schema.MAX_DEPTH} levels "
+                         "deep") from None
+    schema.check_depth(document, label, error=SceneError)
+    return document
 
 
 def _scene_from_document(
@@ -420,23 +428,32 @@ def _scene_from_document(
         if not isinstance(rows, list):
             raise SceneError(f"{label}: [initial] displacements must be a list of rows")
         for row in rows:
-            if (not isinstance(row, list) or len(row) < 2
-                    or not 0 <= int(row[0]) < model.n_particles):
+            if not isinstance(row, list) or not 2 <= len(row) <= 1 + model.dim:
                 raise SceneError(
-                    f"{label}: bad displacement entry {row!r} (want [particle, dx, dy])"
+                    f"{label}: bad displacement entry {schema.shown(row)} (want [particle, dx, "
+                    "dy])"
                 )
-            values = [float(v) for v in row[1 : 1 + model.dim]]
-            positions[int(row[0]), : len(values)] += values
+            index = schema.whole_number(row[0], "a displacement's particle index", 0,
+                                        model.n_particles - 1, error=SceneError)
+            values = [schema.number(v, "a displacement", -1e6, 1e6, error=SceneError)
+                      for v in row[1:]]
+            positions[index, : len(values)] += values
         velocities = arrays.get("velocities")
-        dt = float(document.get("dt", 0.01))
-        duration = float(document.get("duration", 20.0))
+        dt = schema.number(document.get("dt", 0.01), "dt", 0.0, 1e6, low_open=True,
+                           error=SceneError)
+        duration = schema.number(document.get("duration", 20.0), "duration", 0.0, 1e12,
+                                 low_open=True, error=SceneError)
+        texts = {key: document.get(key, default) for key, default in (
+            ("name", default_name), ("description", ""), ("integrator", "rk4"),
+            ("precision", "float64"))}
+        for key, value in texts.items():
+            if not isinstance(value, str):
+                raise SceneError(f"{key} must be text, got {schema.shown(value)}")
         return Scene(
-            name=str(document.get("name", default_name)), model=model,
-            description=str(document.get("description", "")),
-            integrator=str(document.get("integrator", "rk4")),
-            dt=dt, duration=duration, initial_positions=positions,
-            initial_velocities=velocities,
-            precision=str(document.get("precision", "float64")),
+            name=texts["name"], model=model, description=texts["description"],
+            integrator=texts["integrator"], dt=dt, duration=duration,
+            initial_positions=positions, initial_velocities=velocities,
+            precision=texts["precision"],
         )
     except (ValueError, TypeError, OverflowError) as error:
         raise SceneError(f"{label}: {error}") from None

@@ -17,6 +17,7 @@ import numpy as np
 from sim.integrators import check_integrator_name, check_precision
 from sim.model import Model, ModelError
 from sim.presets import MASS_PATTERNS, PRESETS
+from sim.schema import printable
 
 
 class SceneError(ValueError):
@@ -76,7 +77,9 @@ class Scene:
         return dataclasses.replace(self, initial_positions=positions)
 
     def summary(self) -> str:
-        return f"{self.name}: {self.model.describe()}; {self.integrator}, dt={self.dt:g} s"
+        """One line for a terminal (control characters in the name escaped)."""
+        return printable(f"{self.name}: {self.model.describe()}; {self.integrator}, "
+                         f"dt={self.dt:g} s", keep="")
 
 
 def _checked_array(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:

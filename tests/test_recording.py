@@ -15,7 +15,7 @@ from rerun.chunk import RrdReader
 
 import sim
 from app.cli import build_parser, main
-from app.recording import Recorder, RecordingError, RecordingOptions
+from app.recording import Recorder, RecordingError, RecordingOptions, destination
 from app.recording.explain import table_rows
 from app.recording.field import video_available
 from app.recording.layout import ENERGY_TERMS
@@ -267,11 +267,15 @@ def test_signal_leaves_a_readable_file(tmp_path, signal_number):
     out, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
     assert path.exists() and not partial.exists()
+    assert destination.readable_part(path).complete  # ends with its end message and footer
     chunks = read_chunks(path)
     steps = temporal(chunks, "/energy/total", "Scalars:scalars")
     assert len(steps) > 10
-    warnings = [entry for entry in texts(chunks, "/log") if entry[2] == "WARN"]
-    assert warnings and "interrupted" in warnings[0][1]
+    # Ctrl-C is the user's stop (a WARN); SIGTERM stops it from outside (an ERROR saying so)
+    level, text = ("WARN", "interrupted") if signal_number == signal.SIGINT else (
+        "ERROR", "stopped by SIGTERM")
+    warnings = [entry for entry in texts(chunks, "/log") if entry[2] == level]
+    assert warnings and text in warnings[0][1]
     assert warnings[0][0] == max(steps)
     # The stop request is honoured between frames: every recorded frame is complete.
     assert set(temporal(chunks, "/lattice/springs", "strain")) == set(steps)
@@ -342,8 +346,11 @@ def test_help_teaches_with_examples(capsys):
 
 def test_cli_duration_and_output(tmp_path):
     path = tmp_path / "sub" / "chain.rrd"
-    assert main(["record", "chain", "--duration", "0.5", "--dt", "0.01", "-o", str(path),
-                 "--quiet"]) == 0
+    arguments = ["record", "chain", "--duration", "0.5", "--dt", "0.01", "-o", str(path),
+                 "--quiet"]
+    assert main(arguments) == 2  # the folder is not created on the way
+    path.parent.mkdir()
+    assert main(arguments) == 0
     steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     assert max(steps) == 50
 

@@ -70,11 +70,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     from sim import ModelError, SceneError
+    from sim.schema import printable
 
     try:
         return int(arguments.handler(arguments) or 0)
     except (ModelError, SceneError, ValueError) as error:
-        print(f"error: {error}", file=sys.stderr)
+        print(printable(f"error: {error}", keep=""), file=sys.stderr)
         return 2
     except OSError as error:  # unwritable output, missing directory, disk full
         print(f"error: {error.strerror or error}: {error.filename or ''}".rstrip(": "),

@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from sim.files import check_target
 from sim.integrators import ALL_INTEGRATORS
 
 EPILOG = """examples:
@@ -193,9 +194,9 @@ def simulation_from_arguments(arguments: argparse.Namespace):
 
 
 def check_output_file(output: Path, force: bool, suffix: str) -> None:
-    """Refuse a directory, and an existing file unless ``force`` (checked before anything runs);
-    ``suffix`` (".rrd", ".mp4") is the ending the message suggests."""
-    if output.is_dir():
+    """Refuse a directory, an existing file unless ``force``, and a folder that does not exist
+    (checked before anything runs, see ``sim.files.check_target``); ``suffix`` (".rrd", ".mp4")
+    is the ending the message suggests."""
+    check_target(output, force)
+    if output.is_dir():  # check_target says so too; kept for the suffix in the message
         raise ValueError(f"{output} is a directory; give a file name ending in {suffix}")
-    if output.exists() and not force:
-        raise ValueError(f"{output} already exists; use --force to replace it")

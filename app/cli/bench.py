@@ -9,6 +9,7 @@ import json
 
 from app.benchmark import measure
 from app.cli.arguments import parse_overrides, positive_float, positive_int
+from app.cli.limits import check_measurement_seconds
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,6 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def command_bench(arguments: argparse.Namespace) -> int:
+    check_measurement_seconds(arguments.seconds)
     results = measure(
         arguments.scene, parse_overrides(arguments.overrides), arguments.seconds,
         threads=arguments.threads, c_reference=not arguments.no_c,

@@ -9,7 +9,14 @@ import math
 
 from app.cli.arguments import bounded_int, positive_float
 from app.cli.limits import check_plan
-from app.cli.study_output import add_output_arguments, advance, check_plot_path, emit, progress_bar
+from app.cli.study_output import (
+    add_output_arguments,
+    advance,
+    check_plot_path,
+    emit,
+    progress_bar,
+    write_picture,
+)
 from sim.integrators import most_accurate
 
 DISPERSION_PARTICLES = (4, 6000)
@@ -69,6 +76,6 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
             heavy=arguments.heavy, progress=advance(bar),
         )
     if arguments.plot:
-        dispersion.plot_dispersion(study, arguments.plot)
+        write_picture(arguments.plot, dispersion.plot_dispersion, study)
     emit(arguments, study.as_dict(), dispersion.format_report(study))
     return 0

@@ -17,6 +17,19 @@ MAX_ESTIMATED_SECONDS = 6 * 3600.0
 """Longest estimated wall time of a planned run; longer ones are refused before they start."""
 
 
+MAX_MEASUREMENT_SECONDS = 600.0
+"""Longest time ``bench`` may spend on one measurement (it makes a few dozen)."""
+
+
+def check_measurement_seconds(seconds: float) -> float:
+    """Refuse a benchmark whose measurements would together exceed the wall-time limit."""
+    if not seconds <= MAX_MEASUREMENT_SECONDS:
+        raise ValueError(f"--seconds {seconds:g} is over the limit of "
+                         f"{describe_seconds(MAX_MEASUREMENT_SECONDS)} a measurement (a benchmark "
+                         "makes a few dozen)")
+    return seconds
+
+
 def describe_seconds(seconds: float) -> str:
     """``5400`` -> ``"1.5 hours"``: a wall time a person can read."""
     for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600),

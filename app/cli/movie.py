@@ -7,9 +7,12 @@ with ``--force``), 3 the run blew up (the frames before it are kept in the movie
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
+import tempfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from app.cli.arguments import (
@@ -19,7 +22,9 @@ from app.cli.arguments import (
     positive_float,
     scene_from_arguments,
 )
+from app.cli.limits import planned_steps
 from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
+from sim.files import PARTIAL_SUFFIX
 
 EPILOG = f"""examples:
   oscillators movie interference -o interference.mp4         # the paper's 150 s, 1000 frames, 720p
@@ -84,6 +89,21 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(handler=command_movie)
 
 
+def _readable_copy(partial: Path, cleanup: contextlib.ExitStack) -> Path:
+    """The readable part of a recording cut off by a kill, copied to a temporary file (said on
+    stderr)."""
+    from app.recording.destination import RecordingError, salvage
+
+    folder = Path(cleanup.enter_context(tempfile.TemporaryDirectory(prefix="partial-")))
+    copy = folder / "readable.rrd"
+    try:
+        part = salvage(partial, copy)
+    except RecordingError as error:
+        raise ValueError(str(error)) from None
+    print(part.describe(partial), file=sys.stderr)
+    return copy
+
+
 def command_movie(arguments: argparse.Namespace) -> int:
     from app.movie import encode
     from app.movie.render import render_movie
@@ -93,22 +113,28 @@ def command_movie(arguments: argparse.Namespace) -> int:
     if not encode.available(kind):
         raise ValueError(f"this PyAV build cannot write .{kind}; try .mp4 or .gif")
     check_output_file(output, arguments.force, f".{kind}")
-    output.parent.mkdir(parents=True, exist_ok=True)
     options = MovieOptions(
         fps=arguments.fps, frames=arguments.frames, duration=arguments.duration,
         size=arguments.size, colour=arguments.colour, exaggeration=arguments.exaggerate,
         integrator=arguments.integrator, dt=arguments.dt, progress=not arguments.quiet,
     )
-    if arguments.scene.endswith(".rrd"):
-        if arguments.overrides or arguments.integrator or arguments.dt:
-            raise ValueError("--set, --integrator and --dt apply to scenes, not to recordings")
-        source: Any = Path(arguments.scene)
-        if not source.is_file():
-            raise ValueError(f"no recording {source}")
-    else:
-        source = scene_from_arguments(arguments)
-    started = time.perf_counter()
-    path = render_movie(source, output, options)
+    with contextlib.ExitStack() as cleanup:
+        if arguments.scene.endswith((".rrd", PARTIAL_SUFFIX)):
+            if arguments.overrides or arguments.integrator or arguments.dt:
+                raise ValueError("--set, --integrator and --dt apply to scenes, not to recordings")
+            source: Any = Path(arguments.scene)
+            if not source.is_file():
+                raise ValueError(f"no recording {source}")
+            if source.name.endswith(PARTIAL_SUFFIX):
+                source = _readable_copy(source, cleanup)
+        else:
+            source = scene_from_arguments(arguments)
+            planned_steps(SimpleNamespace(  # the same planned-work limit as run and record
+                scene=source, model=source.model, dt=arguments.dt or source.dt,
+                integrator=arguments.integrator or source.integrator),
+                duration=arguments.duration)
+        started = time.perf_counter()
+        path = render_movie(source, output, options)
     elapsed = time.perf_counter() - started
     print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB, {elapsed:.1f} s)", file=sys.stderr
           if arguments.quiet else sys.stdout)

@@ -30,13 +30,17 @@ from app.cli.arguments import (
     scene_from_arguments,
 )
 from app.cli.limits import planned_steps
-from app.recording import instruments
+from app.recording import destination, instruments
 from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo, command_from_arguments
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.options import DETAIL_LIMIT, RecordingOptions
 from app.recording.recorder import Recorder
 from app.recording.scales import QUANTITIES
+from sim.files import PARTIAL_SUFFIX, default_output
+
+DEFAULT_FOLDER = Path("recordings")
+"""Where a recording goes without -o: DEFAULT_FOLDER/<scene name, made a plain file name>.rrd."""
 
 MAX_DEFAULT_FRAMES = 1000
 """Frames a recording gets by default (--every is chosen to stay within it)."""
@@ -95,8 +99,10 @@ def register(subparsers: Any) -> None:
     add_scene_arguments(parser)
     parser.add_argument(
         "-o", "--output", type=Path,
-        help="the .rrd file to write (default: recordings/SCENE.rrd, or SCENE-compare.rrd); "
-        "an existing file is replaced only with --force",
+        help="the .rrd file to write (default: recordings/SCENE.rrd, or SCENE-compare.rrd, "
+        "SCENE being the scene's name made a plain file name); an existing file is replaced "
+        "only with --force; its folder must exist. `record NAME.rrd.partial` says how much of a "
+        "recording cut off by a kill is readable and copies that part to NAME.rrd",
     )
     parser.add_argument("--force", action="store_true",
                         help="replace the output file if it exists")
@@ -250,6 +256,23 @@ def _integrators(text: str | None) -> list[str]:
     return names
 
 
+def _salvage(arguments: argparse.Namespace) -> int:
+    """``record NAME.rrd.partial``: say how much of a recording cut off by a kill is readable
+    and copy that part to NAME.rrd (or -o)."""
+    partial = Path(arguments.scene)
+    if not partial.is_file():
+        raise ValueError(f"no file {partial}")
+    output = arguments.output or partial.with_name(partial.name[: -len(PARTIAL_SUFFIX)])
+    if output.suffix != ".rrd":
+        output = output.with_suffix(".rrd")
+    try:
+        part = destination.salvage(partial, output, overwrite=arguments.force)
+    except RecordingError as error:
+        raise ValueError(str(error)) from None
+    print(f"{part.describe(partial)}; wrote {output}")
+    return 0
+
+
 def default_every(steps: int, runs: int, options: RecordingOptions, model: Any) -> int:
     """Steps between recorded frames: at most MAX_DEFAULT_FRAMES frames, and an estimated file
     of at most SIZE_BUDGET_BYTES for ``runs`` trees together (mode energies included)."""
@@ -269,6 +292,8 @@ def command_record(arguments: argparse.Namespace) -> int:
     from sim import BlowUpError, Simulation
     from sim.runner import Runner
 
+    if arguments.scene.endswith(PARTIAL_SUFFIX):
+        return _salvage(arguments)
     compare = _integrators(arguments.compare)
     if compare and arguments.integrator:
         raise ValueError("give either --integrator or --compare, not both")
@@ -293,9 +318,11 @@ def command_record(arguments: argparse.Namespace) -> int:
     dt = first.dt
     steps = planned_steps(first, steps=arguments.steps, duration=arguments.duration,
                           runs=len(simulations))
-    output = arguments.output or Path("recordings") / (
-        f"{scene.name}-compare.rrd" if compare else f"{scene.name}.rrd"
-    )
+    output = arguments.output
+    if output is None:
+        DEFAULT_FOLDER.mkdir(exist_ok=True)  # the default folder only, never its parents
+        output = default_output(DEFAULT_FOLDER, scene.name + ("-compare" if compare else ""),
+                                ".rrd")
     check_output_file(output, arguments.force, ".rrd")
     options = RecordingOptions(
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
@@ -366,7 +393,8 @@ def command_record(arguments: argparse.Namespace) -> int:
             print(f"{stop.signal_name}: stopped, keeping what was recorded", file=sys.stderr)
         with _signals_ignored():
             try:
-                path = recorder.close(interrupted=interrupted)
+                path = recorder.close(interrupted=interrupted, reason=(
+                    None if stop.signal_name in (None, "SIGINT") else stop.signal_name))
             except RecordingError as error:  # writing failed: the file is kept, readable
                 print(f"error: {error}", file=sys.stderr)
                 return 2

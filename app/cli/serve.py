@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
+import os
 import signal
 import socket
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -99,6 +101,22 @@ def _loopback(host: str) -> bool:
         return False
 
 
+SHUTDOWN_SECONDS = 4.5
+"""Longest a stop (Ctrl+C, SIGTERM) may take before the process exits anyway: a running
+recording is closed first; one whose closing takes longer keeps its readable ``.partial``."""
+
+
+def _exit_if_stuck(seconds: float) -> None:
+    """Exit the process ``seconds`` from now if stopping has not finished by then."""
+
+    def watchdog() -> None:
+        time.sleep(seconds)
+        print(f"stopping took more than {seconds:g} s; exiting now", file=sys.stderr, flush=True)
+        os._exit(1)
+
+    threading.Thread(target=watchdog, name="shutdown-watchdog", daemon=True).start()
+
+
 def command_serve(arguments: argparse.Namespace) -> int:
     from app.web.app import WebApp
     from app.web.security import check_origins, network_warning
@@ -133,7 +151,12 @@ def command_serve(arguments: argparse.Namespace) -> int:
             time.sleep(1.0)
     except KeyboardInterrupt:
         print("stopping", flush=True)
+        _exit_if_stuck(SHUTDOWN_SECONDS)
     finally:
         app.stop()  # closes a running recording so that its file verifies
         signal.signal(signal.SIGTERM, previous)
-    return 0
+    # everything is closed: skip the interpreter's own teardown, where the libraries' threads
+    # can take seconds to wind down (one SIGTERM stops the server within 5 s)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)

@@ -8,7 +8,14 @@ from __future__ import annotations
 import argparse
 
 from app.cli.arguments import bounded_int, positive_float, scene_from_arguments
-from app.cli.study_output import add_output_arguments, advance, check_plot_path, emit, progress_bar
+from app.cli.study_output import (
+    add_output_arguments,
+    advance,
+    check_plot_path,
+    emit,
+    progress_bar,
+    write_picture,
+)
 from sim.integrators import INTEGRATORS
 
 STABILITY_STEPS = (10, 100_000)
@@ -100,6 +107,6 @@ def command_stability(arguments: argparse.Namespace) -> int:
             precision=arguments.precision, progress=advance(bar),
         )
     if arguments.plot:
-        stability.plot_stability(study, arguments.plot)
+        write_picture(arguments.plot, stability.plot_stability, study)
     emit(arguments, study.as_dict(), stability.format_report(study))
     return 0

@@ -13,6 +13,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from sim.files import AtomicFile, safe_name
+from sim.schema import printable
+
 
 def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = None) -> None:
     """--json, --plot, --quiet; with ``picture`` (the default file name, as the help shows it,
@@ -29,7 +32,7 @@ def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = 
 def scene_picture(scene: Any, kind: str) -> str:
     """The default picture of a study of ``scene``: ``grid-response.png`` here (a scene file's
     name without its suffix)."""
-    return f"{Path(scene.name).stem or 'scene'}-{kind}.png"
+    return f"{safe_name(Path(str(scene.name)).stem)}-{kind}.png"
 
 
 def default_plot(arguments: argparse.Namespace, name: str) -> None:
@@ -78,14 +81,24 @@ def emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> None
     if arguments.json:
         print(json.dumps(data, indent=2))
     else:
-        print(text)
+        print(printable(text))
         if arguments.plot:
             print(f"picture saved to {Path(arguments.plot).resolve()}")
+
+
+def write_picture(path: str, plot: Callable[[Any, str], None], study: Any) -> None:
+    """Draw ``study`` with ``plot`` into ``path`` (a PNG) through ``sim.files.AtomicFile``: an
+    exclusive temporary file beside it, renamed when the picture is complete."""
+    import matplotlib
+
+    with AtomicFile(path, overwrite=True) as output, \
+            matplotlib.rc_context({"savefig.format": "png"}):
+        plot(study, output.library_path)
 
 
 def save_picture(arguments: argparse.Namespace, data: dict[str, Any],
                   plot: Callable[[Any, str], None], study: Any) -> None:
     """Draw ``study`` with ``plot`` to --plot, if any, and name the file in ``data``."""
     if arguments.plot:
-        plot(study, arguments.plot)
+        write_picture(arguments.plot, plot, study)
         data["picture"] = str(Path(arguments.plot).resolve())

@@ -24,6 +24,7 @@ from app.movie.options import MovieOptions, default_colour
 from app.movie.painter import Painter
 from app.movie.recorded import RecordingSource
 from app.movie.simulated import SimulationSource
+from sim.files import AtomicFile
 
 
 def _encode_in_background(writer: Any, frames: queue.Queue, errors: list[BaseException]) -> None:
@@ -111,12 +112,8 @@ def render_movie(
     path = Path(path)
     kind = kind_of(path)
     source = _source(scene_or_simulation, options)
-    partial = path.with_name(path.name + ".partial")
-    try:
-        _render(source, partial, kind, options)
-        partial.replace(path)
-    finally:
-        partial.unlink(missing_ok=True)
+    with AtomicFile(path, overwrite=True) as output:  # the caller refuses an existing file
+        _render(source, output.library_path, kind, options)
     return path
 
 

@@ -1,57 +1,204 @@
-"""The file a recording is written to: its name, the ``.partial`` name it has while being
-written, and the checks of the path and the free disk space (before the first step and during
-the run)."""
+"""The file a recording is written to: opening it safely (``sim.files.AtomicFile``: an exclusive
+``NAME.rrd.partial`` beside the target, renamed when complete), the free disk space it needs
+(checked before the first step and during the run), and how much of a ``.partial`` file left by
+a killed recorder can be read back.
+
+An ``.rrd`` file is a 12-byte stream header followed by messages, each a 16-byte header (kind and
+payload length, little-endian u64) and its payload; a complete file ends with an end message and
+a 32-byte footer.  rerun's reader refuses a file whose last message is cut, but reads a file cut
+at a message boundary, so ``readable_part`` finds the last whole message and ``salvage`` copies
+the file up to it.
+"""
 
 from __future__ import annotations
 
+import fcntl
+import os
 import shutil
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
-MIN_FREE_BYTES = 16 * 2**20
-"""Free bytes a recording needs besides its own estimated size; during the run it stops when
-less than a quarter of this is left."""
+import rerun as rr
+
+from sim.files import AtomicFile, OutputError, partial_path
+
+__all__ = ["AtomicFile", "RecordingError", "partial_path"]
+
+RESERVE_BYTES = 1 * 2**20
+"""Free bytes a recording keeps in hand besides its own estimated size: room for the last
+messages, the ERROR entry and the footer.  During the run it stops when less than this (or
+three times what one flush interval writes, if more) is left."""
+
+STATIC_BYTES = 250e3
+"""What a recording holds besides its frames: the read-me, colour bars, blueprint (measured:
+about 250 kB)."""
+
+_HEADER = struct.Struct("<QQ")
+_STREAM_HEADER_BYTES = 12
+_MAGIC = b"RRF2"
 
 
 class RecordingError(RuntimeError):
     """The recording cannot be made or went wrong (the message says why and what to do)."""
 
 
-def partial_path(path: Path) -> Path:
-    """The name a recording has until it is complete: ``NAME.rrd.partial``."""
-    return path.with_name(path.name + ".partial")
+def free_bytes(directory: Path) -> int:
+    """Free bytes on the file system of ``directory``."""
+    return shutil.disk_usage(directory).free
 
 
-def check_destination(path: Path, overwrite: bool, needed_bytes: float = 0.0) -> None:
+def open_destination(path: Path, overwrite: bool, needed_bytes: float = 0.0) -> AtomicFile:
     """Refuse a bad ``path`` (not ``.rrd``, a directory, an existing file without
-    ``overwrite``), create its folder and an empty ``.partial`` file, and refuse when less than
-    ``needed_bytes`` + ``MIN_FREE_BYTES`` are free there (the ``.partial`` file is removed)."""
-    directory = path.parent
-    partial = partial_path(path)
-    if path.suffix != ".rrd":
-        raise RecordingError(f"the recording file must end in .rrd, got {path}")
-    if path.is_dir():
-        raise RecordingError(f"{path} is a directory; give a file name ending in .rrd")
-    if path.exists() and not overwrite:
-        raise RecordingError(f"{path} already exists; use --force to replace it")
+    ``overwrite``, a missing folder, a ``.partial`` that exists or is a link), create the
+    ``.partial`` file exclusively, and refuse when less than ``needed_bytes`` + ``RESERVE_BYTES``
+    are free there (the ``.partial`` file is removed)."""
     try:
-        directory.mkdir(parents=True, exist_ok=True)
-        with open(partial, "wb"):
-            pass
-    except OSError as error:
-        raise RecordingError(f"cannot write {partial}: {error.strerror}") from None
-    needed = MIN_FREE_BYTES + int(needed_bytes)
-    free = shutil.disk_usage(directory).free
+        output = AtomicFile(path, overwrite, suffix=".rrd")
+    except OutputError as error:
+        hint = (f"; `oscillators record {partial_path(path)}` keeps its readable part"
+                if "interrupted run" in str(error) else "")
+        raise RecordingError(f"{error}{hint}") from None
+    needed = RESERVE_BYTES + int(needed_bytes)
+    free = free_bytes(path.parent)
     if free < needed:
-        partial.unlink(missing_ok=True)
+        output.discard()
         raise RecordingError(
-            f"not enough disk space in {directory}: the recording needs about "
-            f"{needed / 1e6:.0f} MB, {free / 1e6:.0f} MB free "
+            f"not enough disk space in {path.parent}: the recording needs about "
+            f"{needed / 1e6:.2g} MB, {free / 1e6:.2g} MB free "
             "(record fewer frames, use --every, or --field video)"
         )
+    return output
 
 
-def check_space(directory: Path) -> None:
-    """Stop a recording in progress when the disk is nearly full."""
-    free = shutil.disk_usage(directory).free
-    if free < MIN_FREE_BYTES // 4:
+def check_space(directory: Path, bytes_per_interval: float = 0.0) -> None:
+    """Stop a recording in progress while there is still room to end it readably: when less
+    than ``RESERVE_BYTES`` or three flush intervals' worth of bytes are free."""
+    free = free_bytes(directory)
+    if free < max(RESERVE_BYTES, 3 * bytes_per_interval):
         raise RecordingError(f"disk nearly full in {directory} ({free / 1e6:.1f} MB free)")
+
+
+@dataclass(frozen=True)
+class ReadablePart:
+    """How much of an ``.rrd`` file rerun can read: ``readable_bytes`` of ``total_bytes``, in
+    ``messages`` whole messages; ``complete`` when it ends with its end message."""
+
+    readable_bytes: int
+    total_bytes: int
+    messages: int
+    complete: bool
+
+    def describe(self, path: Path) -> str:
+        if self.complete:
+            return f"{path}: complete ({self.total_bytes / 1e6:.3g} MB)"
+        if self.messages == 0:
+            return f"{path}: nothing readable ({self.total_bytes} bytes)"
+        return (f"{path}: {self.readable_bytes / 1e6:.3g} MB of {self.total_bytes / 1e6:.3g} MB "
+                f"readable ({self.messages} whole messages; the rest was cut off)")
+
+
+def readable_part(path: str | os.PathLike) -> ReadablePart:
+    """Scan ``path`` message by message (headers only) and say how much is whole."""
+    with open(path, "rb") as stream:
+        total = os.fstat(stream.fileno()).st_size
+        if stream.read(4) != _MAGIC:
+            raise RecordingError(f"{path} is not a rerun recording")
+        position, messages, complete = _STREAM_HEADER_BYTES, 0, False
+        readable = position if total >= position else 0
+        while position + _HEADER.size <= total:
+            stream.seek(position)
+            header = stream.read(_HEADER.size)
+            if header[:4] == _MAGIC:  # a further stream appended to the file
+                position += _STREAM_HEADER_BYTES
+                continue
+            kind, length = _HEADER.unpack(header)
+            end = position + _HEADER.size + length
+            if end > total:
+                break
+            position = readable = end
+            messages += 1
+            if kind == 0:
+                complete = True
+                break
+    return ReadablePart(readable, total, messages, complete)
+
+
+def salvage(partial: str | os.PathLike, output: str | os.PathLike, overwrite: bool = False
+            ) -> ReadablePart:
+    """Copy the readable part of ``partial`` (a recording cut off by a kill or a crash) to
+    ``output`` (written atomically), or, when ``partial`` is ``output``'s own ``.partial``, cut
+    it there and give it its final name; returns what was readable."""
+    part = readable_part(partial)
+    if part.messages == 0:
+        raise RecordingError(part.describe(Path(partial)))
+    if partial_path(output) == Path(partial):
+        _salvage_in_place(Path(partial), Path(output), part, overwrite)
+        return part
+    try:
+        with AtomicFile(output, overwrite, suffix=".rrd") as target, open(partial, "rb") as source:
+            remaining = part.readable_bytes
+            while remaining > 0:
+                block = source.read(min(remaining, 2**20))
+                if not block:
+                    break
+                target.file.write(block)
+                remaining -= len(block)
+    except OutputError as error:
+        raise RecordingError(str(error)) from None
+    return part
+
+
+def _salvage_in_place(partial: Path, output: Path, part: ReadablePart, overwrite: bool) -> None:
+    if (output.exists() or output.is_symlink()) and not overwrite:
+        raise RecordingError(f"{output} already exists; use --force to replace it")
+    descriptor = os.open(partial, os.O_RDWR | getattr(os, "O_NOFOLLOW", 0))
+    try:
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise RecordingError(f"another program is writing {partial} now") from None
+        os.truncate(descriptor, part.readable_bytes)
+        os.fsync(descriptor)
+        if overwrite:
+            os.replace(partial, output)
+        else:
+            os.link(partial, output)
+            os.unlink(partial)
+    finally:
+        os.close(descriptor)
+
+
+def _messages(data: bytes) -> bytes:
+    """The messages of one encoded stream, without its stream header, end message and footer."""
+    position, kept = _STREAM_HEADER_BYTES, []
+    while position + _HEADER.size <= len(data):
+        kind, length = _HEADER.unpack_from(data, position)
+        if kind == 0:
+            break
+        kept.append(data[position: position + _HEADER.size + length])
+        position += _HEADER.size + length
+    return b"".join(kept)
+
+
+def end_readably(output: AtomicFile, application_id: str, recording_id: str, text: str,
+                 entries: Sequence[tuple[str, int | None, float | None]]) -> None:
+    """Make a recording whose writer failed readable: cut it after its last whole message and,
+    if it has no end message, append ``text`` as an ERROR entry at each of ``entries``
+    (entity, step, sim_time), encoded by rerun as messages of the same recording."""
+    part = readable_part(output.library_path)
+    if part.complete:
+        return
+    os.truncate(output.descriptor, part.readable_bytes)
+    stream = rr.RecordingStream(application_id, recording_id=recording_id,
+                                send_properties=False)
+    encoded = stream.binary_stream()
+    for entity, step, time in entries:
+        if step is not None:
+            stream.set_time("step", sequence=step)
+            stream.set_time("sim_time", duration=time or 0.0)
+        stream.log(entity, rr.TextLog(text, level="ERROR"))
+    data = encoded.read(flush=True) or b""
+    stream.disconnect()
+    os.pwrite(output.descriptor, _messages(data), part.readable_bytes)

@@ -179,7 +179,8 @@ class LoggingPlan:
         if self.field == "jpeg":
             total += model.n_particles * 0.2 * (1 + jpeg_quality / 50)
         elif self.field == "video":
-            total += model.n_particles * 0.04  # measured: ~9.5 kB a frame of interference
+            # measured: ~9.5 kB a frame of interference, ~2 kB at 100x60 (per-frame overhead)
+            total += 1500.0 + model.n_particles * 0.04
         elif self.field == "raw":
             total += model.n_particles * 4
         return total

@@ -17,10 +17,14 @@ How it stays fast and safe:
 * every ``flush_every`` frames the recorder waits for rerun to write what was logged to disk
   (``RecordingStream.flush``), so memory stays flat on long runs and an interrupted run has
   everything up to the last flush on disk;
-* the file is written as ``NAME.rrd.partial`` and renamed to ``NAME.rrd`` by ``close()`` once
-  rerun has flushed and closed it: a file under the final name is always complete;
+* the file is written as ``NAME.rrd.partial`` (created exclusively, never through a link, see
+  ``sim.files.AtomicFile``) and renamed to ``NAME.rrd`` by ``close()`` once rerun has flushed
+  and closed it: a file under the final name is always complete; rerun writes small messages,
+  so a ``.partial`` left by a killed recorder reads back up to its last few frames
+  (``destination.salvage``);
 * the path and the free disk space are checked in the constructor, before any step is run; an
-  existing file is refused unless ``overwrite=True``;
+  existing file is refused unless ``overwrite=True``, a second recorder writing the same file
+  is refused; the run stops while there is still room to end the file readably;
 * a write that fails during the run (disk full, I/O error) stops the recording: the runner
   detaches the recorder and calls its ``on_error``, which logs an ERROR entry if it still can,
   closes the file and gives it its final name, so what was written stays a readable ``.rrd``
@@ -62,6 +66,10 @@ from sim.model import Model
 from sim.runner import Frame, Runner
 
 APPLICATION_ID = "coupled_oscillators"
+
+_SMALL_CHUNKS = rr.ChunkBatcherConfig(flush_num_bytes=256 * 1024, flush_tick=0.25)
+"""rerun writes a message when 256 kB are batched or every 0.25 s: small messages, so a recorder
+killed mid-write loses only its last few frames (the rest reads back, see ``destination``)."""
 
 _STOP = object()
 
@@ -112,11 +120,12 @@ class Recorder:
         self.trees = tuple(trees)
         self.path = Path(path)
         self.partial_path = destination.partial_path(self.path)
-        needed = 0.0
-        if expected_frames:
-            per_frame = self.plan.estimated_bytes_per_frame(self.model, self.options.jpeg_quality)
-            needed = 1.2 * per_frame * expected_frames * len(self.trees)
-        destination.check_destination(self.path, overwrite, needed)
+        per_frame = self.plan.estimated_bytes_per_frame(self.model, self.options.jpeg_quality)
+        self._bytes_per_flush = per_frame * self.options.flush_every * len(self.trees)
+        self.estimated_bytes = (destination.STATIC_BYTES
+                                + per_frame * (expected_frames or 0) * len(self.trees))
+        """The size the file is expected to reach (0 without ``expected_frames``)."""
+        self._output = destination.open_destination(self.path, overwrite, self.estimated_bytes)
         integrator = integrator or scene.integrator
         dt = dt or scene.dt
         self.run = run or RunInfo()
@@ -126,7 +135,7 @@ class Recorder:
                 strains=self.plan.springs, energies=self.plan.modes_every > 0,
             )
         except BaseException:
-            self.partial_path.unlink(missing_ok=True)
+            self._output.discard()
             raise
         self.field_scale = self.options.field_scale or self.scales.field
         exaggeration = self.options.exaggeration
@@ -139,7 +148,9 @@ class Recorder:
         self.frame_interval = (max(DEFAULT_FRAME_INTERVAL, scene.duration / 1000)
                                if interval is None else float(interval))
 
-        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
+        self.recording_id = str(uuid.uuid4())
+        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
+                                         batcher_config=_SMALL_CHUNKS)
         legends = colour_legends(self.plan, self.scales, self.field_scale, self.exaggeration)
         bp = blueprint(
             self.trees, dim=self.model.dim,
@@ -147,7 +158,7 @@ class Recorder:
             legends=len(legends), probes=bool(self.plan.probes),
             modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
         )
-        self.stream.save(self.partial_path, default_blueprint=bp)
+        self.stream.save(self._output.library_path, default_blueprint=bp)
         self.stream.send_blueprint(bp, make_active=True, make_default=True)
         self.stream.send_recording_name(f"{scene.name}")
         self.document = scene_document(
@@ -277,7 +288,7 @@ class Recorder:
             if self._since_flush >= self.options.flush_every:
                 self._since_flush = 0
                 self.stream.flush(timeout_sec=120.0)
-                destination.check_space(self.path.parent)
+                destination.check_space(self.path.parent, self._bytes_per_flush)
         except Exception as error:  # reported to the producer; Ctrl-C passes through
             self._failure = error
 
@@ -305,8 +316,10 @@ class Recorder:
             if not self._closed:
                 self._submit(log_event)
 
-    def close(self, interrupted: bool = False) -> Path:
+    def close(self, interrupted: bool = False, reason: str | None = None) -> Path:
         """Stop listening, log what is queued, flush, close the file and give it its final name.
+        ``interrupted``: a WARN entry says the recording was interrupted; ``reason`` (such as
+        ``"SIGTERM"``): an ERROR entry says the recording was stopped by it.
         Returns the final path; raises ``RecordingError`` if writing failed (the file is kept,
         ending with an ERROR entry when that could still be written)."""
         with self._lock:
@@ -316,9 +329,9 @@ class Recorder:
                         f"recording failed: {self._failure}; what was recorded is in {self.path}"
                     ) from self._failure
                 return self.path
-            if interrupted:
+            if interrupted or reason:
                 for name in self.tracks:
-                    self._submit(functools.partial(self._interrupted_event, name))
+                    self._submit(functools.partial(self._interrupted_event, name, reason))
             for unsubscribe in self._unsubscribers:
                 unsubscribe()
             for track in self.tracks.values():
@@ -333,12 +346,14 @@ class Recorder:
             self._log_failure()
         try:
             self.stream.flush(timeout_sec=120.0)
-        except Exception:  # noqa: BLE001 - the file keeps what reached the disk
+        except Exception as error:  # noqa: BLE001 - a write failed: the file is ended below
             if self._failure is None:
-                raise
+                self._failure = error
         finally:
             self.stream.disconnect()
-        os.replace(self.partial_path, self.path)
+        if self._failure is not None:
+            self._end_readably()
+        self._output.commit()
         if self._failure is not None:
             raise RecordingError(
                 f"recording failed: {self._failure}; what was recorded is in {self.path}"
@@ -371,10 +386,24 @@ class Recorder:
         except Exception:  # noqa: BLE001 - the disk may be full: the file ends where it ends
             pass
 
-    def _interrupted_event(self, tree: str | None) -> None:
+    def _end_readably(self) -> None:
+        """After a failed write (a full disk) rerun's file may end inside a message: cut it at
+        its last whole message and append the ERROR entries, so that it reads back."""
+        try:
+            entries = [(track.paths.log, track.last_step, track.last_time)
+                       for track in self.tracks.values()] or [("/log", None, None)]
+            destination.end_readably(self._output, APPLICATION_ID, self.recording_id,
+                                     f"recording stopped: {self._failure}", entries)
+        except Exception:  # noqa: BLE001 - no room at all: the file ends where it ends
+            pass
+
+    def _interrupted_event(self, tree: str | None, reason: str | None = None) -> None:
         track = self.tracks[tree]
         track.set_last_time()
-        track.event("recording interrupted", "WARN")
+        if reason:
+            track.event(f"recording stopped by {reason}", "ERROR")
+        else:
+            track.event("recording interrupted", "WARN")
 
     def __enter__(self) -> Recorder:
         return self

@@ -38,7 +38,7 @@ from app.web.control import LatticeRunner, SimulationControl
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
 from app.web.scene_files import SceneDirectory
-from app.web.security import AccessPolicy, checked_server
+from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import LatticeView
 from sim.runner import Frame
 
@@ -99,6 +99,7 @@ class WebApp:
         self.recordings = WebRecordings(self.runner, recordings_dir)
         self.access = AccessPolicy(allowed_origins=tuple(allow_origins))
         self.server = checked_server(self.access, host=host, port=port, verbose=verbose)
+        self.gate = PageGate(self.server).install()
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.view = LatticeView(self.server)
         self.play_on_start = play

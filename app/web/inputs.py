@@ -2,7 +2,8 @@
 
 A browser's min/max are hints, not limits: a page (or anything speaking viser's protocol) can send
 any number, NaN or infinity included, and any string for a dropdown.  The panel passes every value
-through these functions before it becomes a command (and ``from_user`` keeps callbacks from
+through these functions (the checks of ``sim.schema``, which scene files and ``--set`` pass too)
+before it becomes a command (and ``from_user`` keeps callbacks from
 acting on values the server assigned itself); a bad one raises ``InputRefused`` with a
 message for the page, and nothing changes.  Text shown in the page goes through ``as_html`` so a
 name or an error message is always shown as text, never as markup.
@@ -13,47 +14,32 @@ from __future__ import annotations
 import functools
 import html
 import inspect
-import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import viser
 
+from sim import schema
 
-class InputRefused(ValueError):
+
+class InputRefused(schema.Refused):
     """A value from the page was refused (the message says why, for the page)."""
 
 
 def number(value: Any, name: str, low: float, high: float, *, low_open: bool = False) -> float:
-    """``value`` as a finite float in [low, high] (or (low, high] with ``low_open``)."""
-    if isinstance(value, bool):
-        raise InputRefused(f"{name} must be a number, got {value!r}")
-    try:
-        result = float(value)
-    except (TypeError, ValueError):
-        raise InputRefused(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(result):
-        raise InputRefused(f"{name} must be a finite number, got {result!r}")
-    below = result <= low if low_open else result < low
-    if below or result > high:
-        bracket = "(" if low_open else "["
-        raise InputRefused(f"{name} must be in {bracket}{low:g}, {high:g}], got {result:g}")
-    return result
+    """``value`` as a finite float in [low, high] (or (low, high] with ``low_open``); a string
+    or a boolean is refused (``sim.schema.number``, the check scene files and ``--set`` pass)."""
+    return schema.number(value, name, low, high, low_open=low_open, error=InputRefused)
 
 
 def whole_number(value: Any, name: str, low: int, high: int) -> int:
     """``value`` as an int in [low, high]; a fractional number is refused, not rounded."""
-    result = number(value, name, low, high)
-    if not result.is_integer():
-        raise InputRefused(f"{name} must be a whole number, got {result:g}")
-    return int(result)
+    return schema.whole_number(value, name, low, high, error=InputRefused)
 
 
 def choice(value: Any, name: str, options: Sequence[str]) -> str:
     """``value`` if it is one of ``options``."""
-    if not isinstance(value, str) or value not in options:
-        raise InputRefused(f"{name} must be one of {', '.join(options)}; got {value!r}")
-    return value
+    return schema.choice(value, name, options, error=InputRefused)
 
 
 def from_user(function: Callable[[viser.GuiEvent], Any]) -> Callable[[viser.GuiEvent], Any]:

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import sim
+from sim.files import partial_path, safe_name
 from sim.runner import Runner
 
 
@@ -51,12 +52,12 @@ class WebRecordings:
 
     def _free_name(self, scene_name: str) -> Path:
         stamp = time.strftime("%Y%m%d-%H%M%S")
-        safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in scene_name)[:40] or "scene"
+        safe = safe_name(scene_name, limit=40)
         for number in range(1, 1000):
             suffix = "" if number == 1 else f"-{number}"
             path = self.directory / f"{safe}-{stamp}{suffix}.rrd"
-            partial = path.with_name(path.name + ".partial")
-            if not path.exists() and not partial.exists():
+            if not path.exists() and not partial_path(path).is_symlink() \
+                    and not partial_path(path).exists():
                 return path
         raise RecordingBusy(f"too many recordings named {safe}-{stamp}* in {self.directory}")
 

@@ -18,6 +18,12 @@ viser 1.1.1 has no option for this.  ``checked_server`` wraps the ``process_requ
 viser gives the ``websockets`` server (the documented way to accept or refuse a handshake): it
 replaces ``websockets.asyncio.server.serve`` only while the ``ViserServer`` is being built (viser
 starts listening inside its constructor), under a lock, and puts it back at once.
+
+Once connected, what a page may send is closed by ``PageGate``: only value updates for controls
+the server created, of the control's own type and range, from a connected client, pass
+``PageGate.accept_page_value``, the one place where page values are accepted (anything else is
+dropped, logged, and the control shown again with the value in use on every page); uploads are
+capped in size and time while they arrive.
 """
 
 from __future__ import annotations
@@ -25,8 +31,11 @@ from __future__ import annotations
 import contextlib
 import http
 import ipaddress
+import logging
+import math
 import socket
 import threading
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -34,6 +43,8 @@ from urllib.parse import urlsplit
 
 import viser
 import websockets.asyncio.server
+
+from sim.scene_files import MAX_UPLOAD_BYTES as MAX_SCENE_UPLOAD_BYTES
 
 _SERVE_PATCH_LOCK = threading.Lock()
 
@@ -152,3 +163,223 @@ def network_warning(host: str, port: int, scenes_dir: str, recordings_dir: str) 
         f"start recordings that are written to {recordings_dir}. Use it on a network you trust "
         "(a classroom), and stop the server (Ctrl+C) afterwards."
     )
+
+
+# --- what a connected page may send ------------------------------------------------------------
+
+MAX_UPLOAD_BYTES = MAX_SCENE_UPLOAD_BYTES
+"""Largest upload a page may announce (the scene reader's own limit)."""
+MAX_UPLOAD_SECONDS = 120.0
+"""An upload not complete this long after it started is dropped with what it holds."""
+MAX_UPLOADS_PER_CLIENT = 2
+MAX_TEXT_CHARACTERS = 10_000
+"""Longest text a page may put in a text box."""
+_LOG = logging.getLogger("oscillators.web")
+_LOGGED_PER_CLIENT = 20
+"""Refusals logged per client (later ones are counted, not logged: a flood is not a log flood)."""
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _type_refusal(current: Any, value: Any, props: Any) -> str | None:
+    """Why ``value`` cannot be a control's value whose value in use is ``current``, or None."""
+    if isinstance(current, bool):
+        return None if isinstance(value, bool) else f"wants true or false, got {value!r:.40}"
+    if isinstance(current, (int, float)):
+        if not _is_number(value) or not math.isfinite(value):
+            return f"wants a finite number, got {value!r:.40}"
+        if isinstance(current, int) and not float(value).is_integer():
+            return f"wants a whole number, got {value!r:.40}"
+        low, high = getattr(props, "min", None), getattr(props, "max", None)
+        if (low is not None and value < low) or (high is not None and value > high):
+            return f"wants a number in [{low:g}, {high:g}], got {value:g}"
+        return None
+    if isinstance(current, str):
+        if not isinstance(value, str) or len(value) > MAX_TEXT_CHARACTERS:
+            return f"wants text, got {value!r:.40}"
+        options = getattr(props, "options", None)
+        if options is not None and value not in options:
+            return f"wants one of its options, got {value!r:.40}"
+        return None
+    if isinstance(current, tuple):
+        if not isinstance(value, (list, tuple)) or len(value) != len(current):
+            return f"wants {len(current)} values, got {value!r:.40}"
+        for old, new in zip(current, value, strict=True):
+            reason = _type_refusal(old, new, None)
+            if reason is not None:
+                return reason
+        return None
+    return f"cannot be set from a page ({type(current).__name__})"
+
+
+class PageGate:
+    """Closes viser's protocol around the app: installed on a ``viser.ViserServer`` before any
+    page connects.
+
+    * a ``GuiUpdateMessage`` passes only ``accept_page_value``; a refused one is dropped, logged,
+      and the control is sent again with the value in use to every page;
+    * a client counts as connected from its websocket handshake (viser registers a client, and
+      runs the app's checks for it, only after its first camera message: the gate gives viser a
+      first camera message at once, so the checks run for every client);
+    * an upload must name a control the server created, announce at most ``MAX_UPLOAD_BYTES``
+      and arrive within ``MAX_UPLOAD_SECONDS``; parts beyond the announced size, or late, drop it.
+    """
+
+    def __init__(self, server: viser.ViserServer) -> None:
+        self.server = server
+        self.gui = server.gui
+        self.websockets = server._websock_server
+        self.connected: set[int] = set()
+        self.refused = 0
+        """How many messages were dropped (for tests and the log)."""
+        self._refused_by_client: dict[int, int] = {}
+        self._upload_started: dict[str, tuple[int, float]] = {}
+        self.upload_seconds = MAX_UPLOAD_SECONDS
+
+    def install(self) -> PageGate:
+        from viser import _messages
+
+        for message_class, original, checked in (
+            (_messages.GuiUpdateMessage, self.gui._handle_gui_updates, self._gui_update),
+            (_messages.FileTransferStartUpload, self.gui._handle_file_transfer_start,
+             self._upload_start),
+            (_messages.FileTransferPart, self.gui._handle_file_transfer_part, self._upload_part),
+        ):
+            self.websockets.unregister_handler(message_class, original)
+            self.websockets.register_handler(message_class, checked)
+        self._originals = {
+            "update": self.gui._handle_gui_updates,
+            "start": self.gui._handle_file_transfer_start,
+            "part": self.gui._handle_file_transfer_part,
+        }
+        self.websockets.on_client_connect(self._connected)
+        self.websockets.on_client_disconnect(self._disconnected)
+        self.server.get_event_loop().call_soon_threadsafe(self._sweep)
+        return self
+
+    # --- the gate ------------------------------------------------------------------------------
+
+    def accept_page_value(self, client_id: int, message: Any) -> str | None:
+        """THE place where a value a page sends is accepted: why ``message`` (a
+        ``GuiUpdateMessage`` from ``client_id``) is refused, or None to let it through to the
+        control's callbacks (which check it against the app's own rules).  Who may change what
+        (a role) is checked here too."""
+        if client_id not in self.connected:
+            return "from a client that is not connected"
+        handle = self.gui._gui_input_handle_from_uuid.get(message.uuid)
+        if handle is None or handle._impl.removed:
+            return f"for an unknown control {message.uuid!r:.40}"
+        updates = message.updates
+        if not isinstance(updates, dict) or set(updates) != {"value"}:
+            names = sorted(map(str, updates)) if isinstance(updates, dict) else updates
+            return f"sets {names!r:.60}; a page may set only a control's value"
+        state = handle._impl
+        if state.is_button:
+            return None if updates["value"] is True else "a button takes only a press"
+        if getattr(state.props, "disabled", False):
+            return "for a control that is disabled"
+        reason = _type_refusal(state.value, updates["value"], state.props)
+        return None if reason is None else f"{getattr(state.props, 'label', 'a control')} {reason}"
+
+    # --- handlers ------------------------------------------------------------------------------
+
+    async def _gui_update(self, client_id: int, message: Any) -> None:
+        reason = self.accept_page_value(client_id, message)
+        if reason is None:
+            await self._originals["update"](client_id, message)
+            return
+        self._refuse(client_id, f"value update {reason}")
+        handle = self.gui._gui_input_handle_from_uuid.get(getattr(message, "uuid", None))
+        if handle is not None and not handle._impl.removed and not handle._impl.is_button:
+            from viser._messages import GuiUpdateMessage
+
+            # every page shows the value in use again (the sender's widget shows its own)
+            self.gui._websock_interface.queue_message(
+                GuiUpdateMessage(handle._impl.uuid, {"value": handle._impl.value}))
+
+    def _upload_start(self, client_id: int, message: Any) -> None:
+        self._drop_stalled_uploads()
+        size, parts = message.size_bytes, message.part_count
+        mine = sum(1 for owner, _ in self._upload_started.values() if owner == client_id)
+        reason = None
+        if client_id not in self.connected:
+            reason = "from a client that is not connected"
+        elif message.source_component_uuid not in self.gui._gui_input_handle_from_uuid:
+            reason = "for an unknown control"
+        elif not (isinstance(size, int) and isinstance(parts, int)
+                  and 0 <= size <= MAX_UPLOAD_BYTES and 0 <= parts <= max(1, size)):
+            reason = f"of {size!r:.20} bytes in {parts!r:.20} parts (at most {MAX_UPLOAD_BYTES:,})"
+        elif mine >= MAX_UPLOADS_PER_CLIENT:
+            reason = "while this client has uploads in progress"
+        if reason is not None:
+            self._refuse(client_id, f"upload {reason}")
+            return
+        self._upload_started[message.transfer_uuid] = (client_id, time.monotonic())
+        self._originals["start"](client_id, message)
+
+    def _upload_part(self, client_id: int, message: Any) -> None:
+        self._drop_stalled_uploads()
+        states = self.gui._current_file_upload_states
+        state = states.get(message.transfer_uuid)
+        if state is None:
+            return
+        content = message.content
+        if (state.get("client_id") != client_id or not isinstance(content, bytes)
+                or state["transferred_bytes"] + len(content) > state["total_bytes"]):
+            self._drop_upload(message.transfer_uuid)
+            self._refuse(client_id, "upload part beyond the announced size; upload dropped")
+            return
+        self._originals["part"](client_id, message)
+        if message.transfer_uuid not in states:
+            self._upload_started.pop(message.transfer_uuid, None)
+
+    def _drop_upload(self, transfer: str) -> None:
+        self.gui._current_file_upload_states.pop(transfer, None)
+        self._upload_started.pop(transfer, None)
+
+    def _drop_stalled_uploads(self) -> None:
+        now = time.monotonic()
+        for transfer, (client_id, started) in list(self._upload_started.items()):
+            if transfer not in self.gui._current_file_upload_states:
+                self._upload_started.pop(transfer, None)
+            elif now - started > self.upload_seconds:
+                self._drop_upload(transfer)
+                self._refuse(client_id, f"upload not complete after {self.upload_seconds:g} s; "
+                             "dropped")
+
+    def _sweep(self) -> None:
+        """Drop stalled uploads every second, so a client that sends nothing more is dropped
+        too (runs on viser's event loop while it runs)."""
+        self._drop_stalled_uploads()
+        self.server.get_event_loop().call_later(1.0, self._sweep)
+
+    # --- clients -------------------------------------------------------------------------------
+
+    async def _connected(self, connection: Any) -> None:
+        from viser._messages import ViewerCameraMessage
+
+        self.connected.add(connection.client_id)
+        # viser registers a client (and runs the app's checks for it) at its first camera
+        # message: give it one now, the page's own follows
+        await connection._handle_incoming_message(connection.client_id, ViewerCameraMessage(
+            wxyz=(1.0, 0.0, 0.0, 0.0), position=(0.0, 0.0, -5.0), fov=0.9, near=0.01,
+            far=1000.0, image_height=720, image_width=1280, look_at=(0.0, 0.0, 0.0),
+            up_direction=(0.0, 0.0, 1.0)))
+
+    async def _disconnected(self, connection: Any) -> None:
+        self.connected.discard(connection.client_id)
+        self._refused_by_client.pop(connection.client_id, None)
+        for transfer, (owner, _) in list(self._upload_started.items()):
+            if owner == connection.client_id:
+                self._drop_upload(transfer)
+
+    def _refuse(self, client_id: int, what: str) -> None:
+        self.refused += 1
+        count = self._refused_by_client.get(client_id, 0) + 1
+        self._refused_by_client[client_id] = count
+        if count <= _LOGGED_PER_CLIENT:
+            _LOG.warning("client %s: dropped a %s", client_id, what)
+        elif count == _LOGGED_PER_CLIENT + 1:
+            _LOG.warning("client %s: further dropped messages are not logged", client_id)

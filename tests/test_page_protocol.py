@@ -1,0 +1,265 @@
+"""The page protocol is closed: messages a program sends over a real websocket to `oscillators
+serve` (viser's msgpack messages, no browser) can only set the values of controls the server
+created, of the right type and range; anything else is dropped and every page keeps showing the
+value in use; the controls still work for the next client; SIGTERM stops the server."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import msgspec
+import psutil
+import pytest
+import viser
+import websockets
+import zstandard
+
+from tests.helpers import free_port
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def decode_window(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
+    """The messages of one viser websocket window (see benchmarks/web_speed.py)."""
+    inner_size = int.from_bytes(raw[:8], "little")
+    compressed_size = int.from_bytes(raw[8:16], "little")
+    payload = decompressor.decompress(raw[16: 16 + compressed_size], max_output_size=inner_size)
+    return msgspec.msgpack.decode(payload)["messages"]
+
+
+class Page:
+    """A websocket client speaking viser's protocol: ``state`` holds each control's creation
+    message by label and every update it received since, in order."""
+
+    def __init__(self, port: int) -> None:
+        self.port = port
+        self.controls: dict[str, dict] = {}
+        self.updates: list[dict] = []
+
+    async def __aenter__(self) -> Page:
+        self.connection = await websockets.connect(
+            f"ws://127.0.0.1:{self.port}", subprotocols=[f"viser-v{viser.__version__}"],
+            max_size=None)
+        self.decompressor = zstandard.ZstdDecompressor()
+        return self
+
+    async def __aexit__(self, *_: Any) -> None:
+        await self.connection.close()
+
+    async def listen(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            try:
+                raw = await asyncio.wait_for(self.connection.recv(), end - time.monotonic())
+            except TimeoutError:
+                return
+            for message in decode_window(raw, self.decompressor):
+                label = message.get("props", {}).get("label") if isinstance(
+                    message.get("props"), dict) else None
+                if message.get("type", "").startswith("Gui") and label:
+                    self.controls[label] = message
+                elif message.get("type") == "GuiUpdateMessage":
+                    self.updates.append(message)
+
+    def uuid(self, label: str) -> str:
+        return self.controls[label]["uuid"]
+
+    def value(self, label: str) -> Any:
+        """The value this page shows: the creation message, then the updates in order."""
+        value = self.controls[label].get("value")
+        for update in self.updates:
+            if update["uuid"] == self.uuid(label) and "value" in update["updates"]:
+                value = update["updates"]["value"]
+        return value
+
+    async def send(self, **message: Any) -> None:
+        await self.connection.send(msgspec.msgpack.encode(message))
+
+    async def set(self, label: str, updates: dict) -> None:
+        await self.send(type="GuiUpdateMessage", uuid=self.uuid(label), updates=updates)
+
+    async def camera(self) -> None:
+        await self.send(type="ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0),
+                        position=(0.0, 0.0, -5.0), fov=0.9, near=0.01, far=100.0,
+                        image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
+                        up_direction=(0.0, 1.0, 0.0))
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """`oscillators serve grid` in a subprocess; stopped with one SIGTERM at the end, which
+    must end it within 5 s."""
+    folder = tmp_path_factory.mktemp("serve")
+    port = free_port()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "grid", "--port", str(port)],
+        cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "PYTHONPATH": str(REPO)})
+    deadline = time.monotonic() + 180
+    served_port = None
+    output = []
+    while time.monotonic() < deadline and served_port is None:
+        line = process.stdout.readline()
+        output.append(line)
+        match = re.search(r"serving on http://127\.0\.0\.1:(\d+)", line)
+        if match:
+            served_port = int(match.group(1))
+        if not line and process.poll() is not None:
+            break
+    assert served_port is not None, "".join(output)
+    yield process, served_port
+    process.send_signal(signal.SIGTERM)
+    started = time.monotonic()
+    process.wait(timeout=30)
+    assert time.monotonic() - started < 5.0
+
+
+async def first_state(port: int, seconds: float = 3.0) -> Page:
+    async with Page(port) as page:
+        await page.camera()
+        await page.listen(seconds)
+    return page
+
+
+def run(coroutine: Any) -> Any:
+    return asyncio.run(coroutine)
+
+
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
+def test_handle_attributes_unknown_ids_and_buttons_cannot_be_tampered_with(served):
+    _, port = served
+
+    async def scenario() -> Page:
+        async with Page(port) as attacker:
+            await attacker.camera()
+            await attacker.listen(3.0)
+            await attacker.set("Play", {"update_cb": []})
+            await attacker.set("Single step", {"update_cb": "x"})
+            await attacker.set("Time step dt (s)", {"removed": True})
+            await attacker.set("Time step dt (s)", {"update_cb": [], "value": 0.02})
+            await attacker.send(type="GuiUpdateMessage", uuid="no-such-control",
+                                updates={"value": 1.0})
+            await attacker.listen(1.0)
+        async with Page(port) as second:
+            await second.camera()
+            await second.listen(3.0)
+            await second.set("Time step dt (s)", {"value": 0.005})
+            await second.listen(1.0)
+        return await first_state(port)
+
+    late = run(scenario())
+    assert late.value("Time step dt (s)") == pytest.approx(0.005)
+    for update in late.updates:
+        assert not {"update_cb", "removed"} & set(update["updates"]), update
+
+
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
+def test_a_client_without_a_camera_message_is_checked_like_any_other(served):
+    _, port = served
+
+    async def scenario() -> Page:
+        async with Page(port) as silent:  # never sends a camera message
+            await silent.listen(3.0)
+            await silent.set("Stiffness k (N/m)", {"value": -1.0})
+            await silent.set("Time step dt (s)", {"value": math.nan})
+            await silent.set("Method", {"value": "<img src=x onerror=alert(1)>"})
+            await silent.listen(1.0)
+        return await first_state(port)
+
+    late = run(scenario())
+    assert late.value("Stiffness k (N/m)") == pytest.approx(35.0)
+    assert late.value("Method") == "rk4"
+    assert math.isfinite(late.value("Time step dt (s)"))
+
+
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
+def test_wrong_types_are_dropped_and_the_sender_shown_the_value_in_use(served):
+    _, port = served
+
+    async def scenario() -> tuple[Page, Page]:
+        async with Page(port) as sender:
+            await sender.camera()
+            await sender.listen(3.0)
+            before = sender.value("Stiffness k (N/m)")
+            for bad in ("abc", None, True, [1.0], 1000.0):
+                await sender.set("Stiffness k (N/m)", {"value": bad})
+            await sender.set("Time step dt (s)", {"value": "0.01"})
+            await sender.listen(1.5)
+            assert before == pytest.approx(35.0)
+            # the refused value was answered with the value in use
+            restored = [update["updates"]["value"] for update in sender.updates
+                        if update["uuid"] == sender.uuid("Stiffness k (N/m)")]
+            assert restored and restored[-1] == pytest.approx(35.0)
+            await sender.set("Stiffness k (N/m)", {"value": 50.0})  # a good one still works
+            await sender.listen(1.0)
+        return sender, await first_state(port)
+
+    _, late = run(scenario())
+    assert late.value("Stiffness k (N/m)") == pytest.approx(50.0)
+    assert isinstance(late.value("Time step dt (s)"), float)
+
+
+@pytest.mark.slow  # starts `oscillators serve` (about a minute for the module)
+def test_uploads_are_capped_while_they_arrive(served):
+    process, port = served
+    server = psutil.Process(process.pid)
+
+    async def scenario() -> None:
+        async with Page(port) as uploader:
+            await uploader.camera()
+            await uploader.listen(3.0)
+            button = uploader.uuid("Open a scene file…")
+            before = server.memory_info().rss
+            part = b"x" * 2**20
+            # announced far beyond the limit: refused at once, its parts ignored
+            await uploader.send(type="FileTransferStartUpload", source_component_uuid=button,
+                                transfer_uuid="huge", filename="a.toml", mime_type="text/plain",
+                                part_count=2000, size_bytes=2000 * 2**20)
+            for index in range(50):
+                await uploader.send(type="FileTransferPart", source_component_uuid=button,
+                                    transfer_uuid="huge", part_index=index, content=part)
+            # announced small, sent large: dropped at the first part beyond the announced size
+            await uploader.send(type="FileTransferStartUpload", source_component_uuid=button,
+                                transfer_uuid="liar", filename="b.toml", mime_type="text/plain",
+                                part_count=200, size_bytes=1000)
+            for index in range(50):
+                await uploader.send(type="FileTransferPart", source_component_uuid=button,
+                                    transfer_uuid="liar", part_index=index, content=part)
+            await uploader.listen(2.0)
+            grown = server.memory_info().rss - before
+            assert grown < 60 * 2**20, f"server grew by {grown / 2**20:.0f} MB"
+
+    run(scenario())
+
+
+def test_a_stalled_upload_is_dropped_with_what_it_holds(web_app):
+    web_app.gate.upload_seconds = 1.0
+    states = web_app.server.gui._current_file_upload_states
+
+    async def scenario() -> None:
+        async with Page(web_app.server.get_port()) as uploader:
+            await uploader.camera()
+            await uploader.listen(2.0)
+            button = uploader.uuid("Open a scene file…")
+            await uploader.send(type="FileTransferStartUpload", source_component_uuid=button,
+                                transfer_uuid="slow", filename="a.toml", mime_type="text/plain",
+                                part_count=8, size_bytes=8 * 2**20)
+            for index in range(3):
+                await uploader.send(type="FileTransferPart", source_component_uuid=button,
+                                    transfer_uuid="slow", part_index=index, content=b"x" * 2**20)
+            await uploader.listen(0.5)
+            assert "slow" in states  # arriving: held
+            await uploader.listen(2.5)  # the client stays connected and sends nothing more
+            assert "slow" not in states  # dropped, with its parts
+
+    run(scenario())
+    assert web_app.gate.refused >= 1

@@ -1,0 +1,124 @@
+"""Recordings survive: a write that fails (a file-size limit standing in for a full disk), a
+disk that fills during the run and SIGKILL leave a file that rerun's own reader
+(``rerun.chunk.RrdReader``) reads back (SIGTERM: ``test_recording.test_signal_leaves_a_readable_file``);
+the disk-space estimate is within 2x of the real size."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rerun.chunk import RrdReader
+
+import sim
+from app.cli import main
+from app.recording import Recorder, RecordingError, RecordingOptions, destination
+from sim.runner import Runner
+from tests.test_recording import read_chunks, temporal, texts
+
+REPO = Path(__file__).resolve().parent.parent
+
+LIMITED = """
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)   # a write past the limit fails with EFBIG
+resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, {limit}))
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def errors_in(chunks: list) -> list:
+    return [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
+
+
+@pytest.mark.slow
+def test_a_write_that_fails_mid_run_leaves_a_readable_file_ending_in_an_error(tmp_path):
+    path = tmp_path / "limited.rrd"
+    command = [sys.executable, "-c", LIMITED.format(limit=400_000), "record", "grid",
+               "--steps", "3000", "--every", "2", "-o", str(path), "--quiet"]
+    result = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=300,
+                            env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert result.returncode == 2, result.stderr
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("error: recording failed") and str(path) in last
+    assert path.exists() and not Path(str(path) + ".partial").exists()
+    chunks = read_chunks(path)
+    steps = temporal(chunks, "/energy/total", "Scalars:scalars")
+    assert len(steps) > 10
+    errors = errors_in(chunks)
+    assert errors and "recording stopped" in errors[-1][1]
+    assert errors[-1][0] >= max(steps)  # at the last frame logged; the cut-off ones are lost
+
+
+def test_a_disk_that_fills_during_the_run_ends_the_file_with_footer_and_error(tmp_path,
+                                                                            monkeypatch):
+    scene = sim.scenes.build("grid")
+    free = {"bytes": 10**9}
+    monkeypatch.setattr(destination, "free_bytes", lambda directory: free["bytes"])
+    path = tmp_path / "filling.rrd"
+    recorder = Recorder(path, scene, expected_frames=200)
+    runner = Runner(sim.Simulation(scene))
+    recorder.attach(runner)
+    runner.advance(200, every=1)
+    free["bytes"] = 100_000  # the disk fills: the next check stops the recording
+    for _ in range(5):
+        runner.advance(200, every=1)  # the runner detaches the failed recorder and goes on
+    assert recorder.failure is not None
+    with pytest.raises(RecordingError, match="disk nearly full"):
+        recorder.close()
+    part = destination.readable_part(path)
+    assert part.complete and part.readable_bytes + 32 == part.total_bytes  # end message, footer
+    chunks = read_chunks(path)
+    errors = errors_in(chunks)
+    assert errors and "disk nearly full" in errors[-1][1]
+
+
+@pytest.mark.slow
+def test_a_sigkilled_recorder_leaves_a_partial_that_reads_back(tmp_path, capsys):
+    path = tmp_path / "killed.rrd"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "record", "interference", "--set", "nx=120",
+         "--set", "ny=80", "--steps", "200000", "--every", "5", "--field", "jpeg",
+         "-o", str(path), "--quiet"], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    partial = Path(str(path) + ".partial")
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and (not partial.exists() or partial.stat().st_size < 1_500_000):
+        time.sleep(0.1)
+    process.send_signal(signal.SIGKILL)
+    _, err = process.communicate(timeout=30)
+    assert partial.exists() and not path.exists(), err
+    part = destination.readable_part(partial)
+    assert not part.complete
+    # small messages: at most the last one (<= ~256 kB batched, plus one frame) is cut off
+    assert part.total_bytes - part.readable_bytes < 400_000
+    # the second writer is told what the left .partial is
+    assert main(["record", "grid", "--steps", "2", "--quiet", "-o", str(path)]) == 2
+    assert "oscillators record" in capsys.readouterr().err
+    assert main(["record", str(partial)]) == 0
+    assert "readable" in capsys.readouterr().out
+    assert path.exists() and not partial.exists()
+    assert path.stat().st_size == part.readable_bytes
+    chunks = RrdReader(path).stream().to_chunks()
+    steps = temporal(chunks, "/energy/total", "Scalars:scalars")
+    assert len(steps) > 20 and max(steps) > 100
+
+
+def test_the_disk_space_estimate_is_within_a_factor_two(tmp_path):
+    for name, overrides, frames in (("grid", {}, 300), ("interference", {"nx": 100, "ny": 60}, 60),
+                                    ("chain", {}, 400)):
+        scene = sim.scenes.build(name, **overrides)
+        path = tmp_path / f"{name}.rrd"
+        runner = Runner(sim.Simulation(scene))
+        options = RecordingOptions(frame_interval=0.0)
+        with Recorder(path, scene, options=options, expected_frames=frames) as recorder:
+            recorder.attach(runner)
+            runner.publish()
+            runner.advance(frames - 1, every=1)
+        assert recorder.frames_logged == frames
+        ratio = recorder.estimated_bytes / path.stat().st_size
+        assert 0.5 <= ratio <= 2.0, (name, recorder.estimated_bytes, path.stat().st_size)
