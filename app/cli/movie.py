@@ -19,6 +19,7 @@ from app.cli.arguments import (
     positive_float,
     scene_from_arguments,
 )
+from app.colours import SCALES
 from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
 
 EPILOG = f"""examples:
@@ -34,8 +35,11 @@ from the front), small ones as springs and particles, 3-D ones in an oblique vie
 height; a title line, the simulated time, a colour bar with its unit and the scene's one-line
 summary. Colours (--color): displacement (the signed component the scene is displaced along, m;
 blue negative, red positive), speed |v| (m/s), strain (of the springs, minus the rest strain) or
-density (relative change rho/rho_0 - 1 from each particle's four springs). The colour scale is
-fixed for the whole movie from a look-ahead run, so frames are comparable.
+density (relative change rho/rho_0 - 1 from each particle's four springs). The colour scale
+(--scale) follows the field by default (adaptive-symlog: a log scale whose limit follows the
+99th percentile of each frame, smoothed over a few simulated seconds), so waves stay visible as
+they spread and weaken; the colour bar's numbers show the scale at each frame. --scale fixed
+keeps one linear scale from a look-ahead run, so frames are comparable in brightness.
 
 length: --duration simulated seconds (default: the scene's) shown in --frames frames (default:
 at most {MAX_FRAMES}, 25 per simulated second); the movie lasts frames / fps seconds.
@@ -78,6 +82,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--color", "--colour", dest="colour", choices=COLOURS,
                         help="what the colours show (default: strain for small planar lattices, "
                         "displacement otherwise)")
+    parser.add_argument("--scale", choices=tuple(SCALES),
+                        help="colour scale: adaptive-symlog (default), adaptive (linear), symlog "
+                        "(log, fixed limit) or fixed (linear, fixed limit)")
     parser.add_argument("--exaggerate", type=positive_float, metavar="FACTOR",
                         help="3-D scenes: draw heights FACTOR times larger")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -96,7 +103,8 @@ def command_movie(arguments: argparse.Namespace) -> int:
     output.parent.mkdir(parents=True, exist_ok=True)
     options = MovieOptions(
         fps=arguments.fps, frames=arguments.frames, duration=arguments.duration,
-        size=arguments.size, colour=arguments.colour, exaggeration=arguments.exaggerate,
+        size=arguments.size, colour=arguments.colour, scale=arguments.scale,
+        exaggeration=arguments.exaggerate,
         integrator=arguments.integrator, dt=arguments.dt, progress=not arguments.quiet,
     )
     if arguments.scene.endswith(".rrd"):

@@ -7,6 +7,7 @@ import dataclasses
 import math
 from typing import Any
 
+from app.colours import SCALES
 from app.recording.options import DETAIL_LIMIT
 
 COLOURS = ("displacement", "speed", "strain", "density")
@@ -28,6 +29,9 @@ class MovieOptions:
     duration: simulated seconds to show (default: the scene's duration; a recording: all of it).
     size: (width, height) in pixels; even numbers for MP4/WebM (odd ones are rounded down).
     colour: one of ``COLOURS`` (default: strain for small planar lattices, else displacement).
+    scale: the colour scale policy, one of ``app.colours.SCALES`` (default: the quantity's
+        scheme's, a log scale following the field's amplitude; "fixed" keeps the look-ahead's
+        linear scale for the whole movie).
     exaggeration: 3-D: heights drawn this many times larger (default: typical height ~8 % of
         the width).
     integrator, dt: of a run from a scene (default: the scene's).
@@ -39,6 +43,7 @@ class MovieOptions:
     duration: float | None = None
     size: tuple[int, int] = (1280, 720)
     colour: str | None = None
+    scale: str | None = None
     exaggeration: float | None = None
     integrator: str | None = None
     dt: float | None = None
@@ -54,6 +59,8 @@ class MovieOptions:
             raise ValueError(f"frames must be between 2 and 100000, got {self.frames}")
         if self.colour is not None and self.colour not in COLOURS:
             raise ValueError(f"colour must be one of {', '.join(COLOURS)}, got {self.colour!r}")
+        if self.scale is not None and self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {', '.join(SCALES)}, got {self.scale!r}")
         return dataclasses.replace(self, size=(width - width % 2, height - height % 2))
 
 
