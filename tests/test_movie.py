@@ -148,11 +148,10 @@ def test_refusals(tmp_path, capsys):
     assert main(["movie", "chain", "-o", str(existing), "--quiet"]) == 2
     assert "--force" in capsys.readouterr().err
     assert main(["movie", "chain", "-o", str(tmp_path / "x.avi"), "--quiet"]) == 2
-    field_only = tmp_path / "big.rrd"
-    assert main(["record", "grid", "--steps", "2", "--field", "raw", "--positions", "none",
-                 "-o", str(field_only), "--quiet"]) == 0
-    assert main(["movie", str(field_only), "-o", str(tmp_path / "y.mp4"), "--quiet"]) == 2
-    assert "positions" in capsys.readouterr().err
+    not_a_recording = tmp_path / "z.rrd"
+    not_a_recording.write_bytes(b"not rerun")
+    assert main(["movie", str(not_a_recording), "-o", str(tmp_path / "y.mp4"), "--quiet"]) == 2
+    assert "cannot read" in capsys.readouterr().err
 
 
 def test_help_teaches_with_examples(capsys):

@@ -20,7 +20,9 @@ from app.cli.arguments import (
     scene_from_arguments,
 )
 from app.colours import SCALES
-from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
+from app.movie.options import COLOURS, DEFAULTS, MAX_FRAMES, MovieOptions
+
+GIF_FRAMES = DEFAULTS["gif"][2]
 
 EPILOG = f"""examples:
   oscillators movie interference -o interference.mp4         # the paper's 150 s, 1000 frames, 720p
@@ -70,15 +72,15 @@ def register(subparsers: Any) -> None:
     parser.add_argument("-o", "--output", type=Path, required=True,
                         help="the movie file: .mp4, .webm or .gif")
     parser.add_argument("--force", action="store_true", help="replace the output if it exists")
-    parser.add_argument("--fps", type=bounded_int(1, 120), default=30,
-                        help="movie frames per second (default 30)")
+    parser.add_argument("--fps", type=bounded_int(1, 120),
+                        help="movie frames per second (default 30; GIF 15)")
     parser.add_argument("--frames", type=bounded_int(2, 100_000),
-                        help=f"movie frames (default: at most {MAX_FRAMES}, 25 per simulated "
-                        "second)")
+                        help=f"movie frames (default: at most {MAX_FRAMES} (GIF {GIF_FRAMES}), "
+                        "25 per simulated second)")
     parser.add_argument("--duration", type=positive_float,
                         help="simulated seconds to show (default: the scene's; a recording: all)")
-    parser.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH",
-                        help="frame size in pixels (default 1280x720)")
+    parser.add_argument("--size", type=_size, metavar="WxH",
+                        help="frame size in pixels (default 1280x720; GIF 640x360)")
     parser.add_argument("--color", "--colour", dest="colour", choices=COLOURS,
                         help="what the colours show (default: strain for small planar lattices, "
                         "displacement otherwise)")

@@ -22,7 +22,7 @@ from app.movie.encode import kind_of, open_writer
 from app.movie.frames import FrameSource
 from app.movie.options import MovieOptions, default_colour
 from app.movie.painter import Painter
-from app.movie.recorded import RecordingSource
+from app.movie.recorded_field import open_recording
 from app.movie.simulated import SimulationSource
 
 
@@ -44,7 +44,9 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
     from tqdm import tqdm
 
     model = source.model
-    colour = options.colour or default_colour(model)
+    colour = options.colour or getattr(source, "colour", None) or default_colour(model)
+    if options.scale is None and getattr(source, "scale_policy", None):
+        options = dataclasses.replace(options, scale=source.scale_policy)
     scales = source.scales(colour)
     painter = Painter(source.scene, model, source.summary, colour, scales, options)
     width, height = options.size
@@ -85,7 +87,7 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
     """A frame source: a Scene, a Simulation (its current state becomes t = 0), or a recording
     (a path ending in .rrd)."""
     if isinstance(scene_or_simulation, (str, Path)) and str(scene_or_simulation).endswith(".rrd"):
-        return RecordingSource(Path(scene_or_simulation), options)
+        return open_recording(Path(scene_or_simulation), options)
     scene = scene_or_simulation
     if hasattr(scene, "step") and hasattr(scene, "state"):  # a running Simulation: snapshot it
         from sim.scenes import scene_from_simulation
@@ -107,9 +109,9 @@ def render_movie(
     ``changes`` override fields of ``options`` (``MovieOptions``): fps, frames, duration, size,
     colour, exaggeration, integrator, dt, progress.  Raises ``ValueError`` on bad options.
     """
-    options = dataclasses.replace(options or MovieOptions(), **changes).checked()
     path = Path(path)
     kind = kind_of(path)
+    options = dataclasses.replace(options or MovieOptions(), **changes).resolved(kind).checked()
     source = _source(scene_or_simulation, options)
     partial = path.with_name(path.name + ".partial")
     try:
@@ -127,8 +129,8 @@ def movie_bytes(
     """The movie as bytes (``kind``: mp4, webm or gif), for a download; see ``render_movie``."""
     import tempfile
 
-    options = dataclasses.replace(options or MovieOptions(), **changes).checked()
     kind_of(f"movie.{kind}")
+    options = dataclasses.replace(options or MovieOptions(), **changes).resolved(kind).checked()
     # through a temporary file: MP4's index goes to the front (+faststart) in a second pass
     # that reopens the file by name
     with tempfile.TemporaryDirectory(prefix="movie-") as directory:
