@@ -326,3 +326,36 @@ register_scheme(Scheme("strain", "spring strain - rest strain", "dimensionless",
                        SIGNED_LINES, "adaptive-symlog"))
 register_scheme(Scheme("density", "density change rho/rho_0 - 1", "dimensionless", SIGNED_FIELD,
                        SIGNED_LINES, "adaptive-symlog"))
+
+
+def colour_bar(quantity_scheme: Scheme, scale: ColourScale, label: str | None = None, *,
+               width: int = 480, height: int = 84, lines: bool = False) -> np.ndarray:
+    """A colour bar as a (height, width, 3) uint8 RGB picture on white: the title (``label``,
+    default the scheme's quantity and units), the map, the numbers of ``scale`` at its ticks
+    (the end ones kept inside the picture) and the scale in words.  Drawn with Pillow."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    image = Image.new("RGB", (width, height), (255, 255, 255))
+    text = (30, 30, 30)
+    font = ImageFont.load_default(size=max(9, round(height * 0.17)))
+    small = ImageFont.load_default(size=max(8, round(height * 0.14)))
+    margin = round(0.03 * width)
+    bar_top, bar_height = round(height * 0.27), round(height * 0.2)
+    bar_width = width - 2 * margin
+    table = (quantity_scheme.lines if lines else quantity_scheme.field).table()
+    pixels = np.asarray(image).copy()
+    pixels[bar_top : bar_top + bar_height, margin : margin + bar_width] = \
+        table[np.linspace(0, 255, bar_width).round().astype(int)][None]
+    image = Image.fromarray(pixels)
+    draw = ImageDraw.Draw(image)
+    draw.text((margin, bar_top - 2), label or quantity_scheme.title(), fill=text, font=font,
+              anchor="lb")
+    marks = scale.ticks()
+    for k, (position, value) in enumerate(marks):
+        x = margin + position * (bar_width - 1)
+        draw.line([(x, bar_top + bar_height), (x, bar_top + bar_height + 3)], fill=text)
+        anchor = "la" if k == 0 else "ra" if k == len(marks) - 1 else "ma"
+        draw.text((x, bar_top + bar_height + 4), f"{value:.2g}" if value else "0", fill=text,
+                  font=small, anchor=anchor)
+    draw.text((margin, height - 2), scale.describe(), fill=(90, 90, 90), font=small, anchor="lb")
+    return np.asarray(image)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import queue
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -39,8 +40,16 @@ def _encode_in_background(writer: Any, frames: queue.Queue, errors: list[BaseExc
             errors.append(error)
 
 
+class MovieCancelled(Exception):
+    """The caller's ``on_frame`` asked to stop (the partial file is removed)."""
+
+
+OnFrame = Callable[[int, int], bool]
+"""``on_frame(frames_done, frames_planned)`` after each frame; returning False cancels."""
+
+
 def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
-            options: MovieOptions) -> int:
+            options: MovieOptions, on_frame: OnFrame | None = None) -> int:
     from tqdm import tqdm
 
     model = source.model
@@ -71,6 +80,8 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
             frames.put(frame)
             count += 1
             bar.update(1)
+            if on_frame is not None and not on_frame(count, source.frames):
+                raise MovieCancelled(f"cancelled after {count} of {source.frames} frames")
     finally:
         bar.close()
         frames.put(None)
@@ -99,7 +110,8 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
 
 
 def render_movie(
-    scene_or_simulation: Any, path: str | Path, options: MovieOptions | None = None, **changes: Any
+    scene_or_simulation: Any, path: str | Path, options: MovieOptions | None = None,
+    on_frame: OnFrame | None = None, **changes: Any,
 ) -> Path:
     """Render a movie to ``path`` (.mp4, .webm or .gif) and return the path.
 
@@ -107,7 +119,10 @@ def render_movie(
     (its current state is copied and run on; call it between steps, e.g. through
     ``Runner.post``), or the path of a ``.rrd`` recording (re-rendered from its positions).
     ``changes`` override fields of ``options`` (``MovieOptions``): fps, frames, duration, size,
-    colour, exaggeration, integrator, dt, progress.  Raises ``ValueError`` on bad options.
+    colour, scale, exaggeration, integrator, dt, progress.  ``on_frame(done, planned)`` is
+    called after each frame; returning False stops with ``MovieCancelled``.  Raises
+    ``ValueError`` on bad options.  Frames are encoded as they are drawn: memory does not grow
+    with the number of frames.
     """
     path = Path(path)
     kind = kind_of(path)
@@ -115,7 +130,7 @@ def render_movie(
     source = _source(scene_or_simulation, options)
     partial = path.with_name(path.name + ".partial")
     try:
-        _render(source, partial, kind, options)
+        _render(source, partial, kind, options, on_frame)
         partial.replace(path)
     finally:
         partial.unlink(missing_ok=True)

@@ -39,7 +39,7 @@ from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, checked_server
-from app.web.view import LatticeView
+from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, LatticeView, camera_fit
 from sim.runner import Frame
 
 DEFAULT_SCENES_DIR = Path("scenes")
@@ -67,17 +67,6 @@ def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
         return max(1, min(by_cost, by_time)), 25.0, 25.0
     return 1, 60.0, 90.0
 
-
-def camera_pose(model: sim.Model) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """Camera position (m) and up direction that frame the lattice: straight above a planar
-    lattice, and from the front and above (about 40 degrees) for a 3-D one, so that its
-    out-of-plane motion is visible."""
-    width = (model.nx + 1) * model.spacing
-    height = (model.ny + 1) * model.spacing
-    distance = 1.1 * max(width, height * 1.4)
-    if model.dim == 3:
-        return (0.0, -0.75 * distance, 0.65 * distance), (0.0, 0.0, 1.0)
-    return (0.0, 0.0, distance), (0.0, 1.0, 0.0)
 
 class WebApp:
     """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end.
@@ -237,15 +226,32 @@ class WebApp:
         self.panel.update(frame)
 
     def _frame_camera(self, model: sim.Model) -> None:
-        position, up = camera_pose(model)
         camera = self.server.initial_camera
-        camera.position = position
-        camera.look_at = (0.0, 0.0, 0.0)
-        camera.up = up
+        position, look_at, up = camera_fit(model, camera.fov, 16 / 9, right=PANEL_WIDTH / 1366)
+        camera.position, camera.look_at, camera.up = position, look_at, up
         for client in self.server.get_clients().values():
-            client.camera.position = position
-            client.camera.look_at = (0.0, 0.0, 0.0)
-            client.camera.up_direction = up
+            self.fit_client(client, model)
+
+    def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None) -> None:
+        """Point ``client``'s camera so the lattice fills the part of its view the panel leaves:
+        left of it on a laptop, above it on a narrow view (a phone), where it floats over the
+        lower part."""
+        model = model or self.runner.simulation.model
+        camera = client.camera
+        try:
+            width, height, fov = camera.image_width, camera.image_height, camera.fov
+        except AssertionError:  # the browser has not reported its view yet
+            width, height, fov = 0, 0, self.server.initial_camera.fov
+        width, height = width or 1366, height or 768
+        if width < NARROW:
+            position, look_at, up = camera_fit(model, fov, width / height,
+                                               bottom=PHONE_PANEL_SHARE)
+        else:
+            position, look_at, up = camera_fit(model, fov, width / height,
+                                               right=min(0.5, PANEL_WIDTH / width))
+        camera.position = position
+        camera.look_at = look_at
+        camera.up_direction = up
 
     # --- selection and dragging ------------------------------------------------------------------
 
@@ -263,10 +269,16 @@ class WebApp:
 
         @self.server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
-            position, up = camera_pose(self.runner.simulation.model)
-            client.camera.position = position
-            client.camera.look_at = (0.0, 0.0, 0.0)
-            client.camera.up_direction = up
+            self.fit_client(client)
+            fitted: dict[str, tuple] = {"size": (0, 0)}
+
+            @client.camera.on_update
+            def _(camera: viser.CameraHandle) -> None:
+                # the first report of the view's size (and a resized window) refits once
+                size = (camera.image_width, camera.image_height)
+                if size != fitted["size"] and all(size):
+                    fitted["size"] = size
+                    self.fit_client(client)
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
