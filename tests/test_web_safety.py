@@ -429,6 +429,7 @@ def test_download_a_movie_of_the_current_run(web_app):
 
     client = PageClient()
     press(web_app.panel.recording.movie_button, client)
+    assert wait_for(lambda: client.downloads, timeout=120)  # made in the background
     (name, content), = client.downloads
     assert name.endswith(".mp4") and "sent" in web_app.panel.recording.movie_text.content
     path = Path(web_app.scene_files.root) / "movie.mp4"
