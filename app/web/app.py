@@ -24,6 +24,7 @@ in one directory (``app.web.scene_files``) and records only into one directory
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Sequence
@@ -58,14 +59,17 @@ LARGE_LATTICE_FRAME_TIME = 0.25
 def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
     """(steps per frame, simulation frames/s cap, render frames/s cap) for a simulation.
 
-    Large lattices: at most the cost of 5 RK4 steps (20 force evaluations) per frame, and no more
-    steps than ``LARGE_LATTICE_FRAME_TIME`` of simulated time needs (Verlet at dt = 0.02 s: 12)."""
+    Small scenes: the steps per frame that let them play in real time at 60 frames a second
+    (the Run folder's speed then sets the frame rate).  Large lattices: at most the cost of 5
+    RK4 steps (20 force evaluations) per frame, and no more steps than
+    ``LARGE_LATTICE_FRAME_TIME`` of simulated time needs (Verlet at dt = 0.02 s: 12)."""
     if simulation.model.n_particles >= LARGE_LATTICE:
         evaluations = sim.integrators.describe(simulation.integrator).force_evaluations
         by_cost = 20 // max(1, evaluations)
         by_time = max(1, round(LARGE_LATTICE_FRAME_TIME / simulation.dt))
         return max(1, min(by_cost, by_time)), 25.0, 25.0
-    return 1, 60.0, 90.0
+    # small scenes: enough steps per frame that real time needs at most 60 frames a second
+    return max(1, math.ceil(1.0 / (60.0 * simulation.dt) - 1e-9)), 60.0, 90.0
 
 
 class WebApp:
@@ -285,10 +289,14 @@ class WebApp:
             self.client_left(client.client_id)
 
     def client_left(self, client_id: int) -> None:
-        """A browser went away: let go of whatever it was dragging."""
+        """A browser went away: let go of whatever it was dragging; when it was the last one,
+        pause the run (unless a recording is on) instead of burning a core for nobody."""
         self.control.release(client_id)
         if self._drag is not None and self._drag["owner"] == client_id:
             self._drag = None
+        others = [c for c in self.server.get_clients() if c != client_id]
+        if not others and not self.recordings.active and self.runner.playing:
+            self.control.pause()
 
     def pick(self, ray_origin: tuple[float, float, float],
              ray_direction: tuple[float, float, float]) -> int | None:
