@@ -49,3 +49,19 @@ def test_last_page_leaving_pauses_unless_recording(web_app):
     web_app.client_left(12345)
     assert runner.playing
     web_app.recordings.stop()
+
+
+def test_probe_spectrum_axis_fits_its_peaks():
+    """A 1.2 Hz oscillation sampled at 100 frames a second: the spectrum drawn stops near the
+    peak (not at the 50 Hz Nyquist frequency), and keeps the peak."""
+    import numpy as np
+
+    from app.web.folders.probes import shown_band
+
+    times = np.arange(0, 40, 0.01)
+    values = 0.01 * np.sin(2 * np.pi * 1.2 * times)
+    amplitudes = np.abs(np.fft.rfft(values)) * 2 / times.size
+    frequencies = np.fft.rfftfreq(times.size, 0.01)
+    shown, column = shown_band(frequencies, [amplitudes])
+    assert 1.2 < shown[-1] < 3.0
+    assert shown[np.argmax(column)] == pytest.approx(1.2, abs=0.05)
