@@ -277,9 +277,14 @@ class Painter:
         image = Image.fromarray(region)
         draw = ImageDraw.Draw(image)
         marks = self.colour_scale.ticks()
-        for k, (fraction, value) in enumerate(marks):
+        texts = [f"{value:.2g}" if value else "0" for _, value in marks]
+        widest = max(draw.textlength(text, font=self.small) for text in texts)
+        if widest * 1.3 * len(marks) > self.bar_w:  # a narrow bar: the ends and zero only
+            keep = {0, len(marks) // 2, len(marks) - 1}
+            marks = [m for k, m in enumerate(marks) if k in keep]
+            texts = [t for k, t in enumerate(texts) if k in keep]
+        for k, ((fraction, _), text) in enumerate(zip(marks, texts, strict=True)):
             x = self.margin + fraction * (self.bar_w - 1)
             anchor = "la" if k == 0 else "ra" if k == len(marks) - 1 else "ma"
-            draw.text((x, 0), f"{value:.2g}" if value else "0", fill=TEXT, font=self.small,
-                      anchor=anchor)
+            draw.text((x, 0), text, fill=TEXT, font=self.small, anchor=anchor)
         region[:] = np.asarray(image)
