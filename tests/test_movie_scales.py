@@ -74,7 +74,8 @@ def middle_and_end_fractions(tmp_path, arguments: list[str], size: tuple[int, in
 def test_interference_waves_fill_the_movie_quarter_size(tmp_path):
     """The interference run on a lattice a quarter as wide and high, for a quarter of the time
     (waves cross it at the same times relative to its size): in the middle and last frames most
-    of the lattice shows the field; a fixed linear scale would show a few per cent of it."""
+    of the lattice shows the field (measured 63 % and 99 %); a fixed linear scale shows a quarter
+    of it at most."""
     overrides = ["--set", "nx=170", "--set", "ny=96", "--duration", "37.5"]
     scene = sim.scenes.build("interference", nx=170, ny=96)
     size = (640, 360)
@@ -82,7 +83,7 @@ def test_interference_waves_fill_the_movie_quarter_size(tmp_path):
     assert min(adaptive) > 0.5, adaptive
     fixed = middle_and_end_fractions(tmp_path, ["interference", *overrides, "--scale", "fixed"],
                                      size, scene)
-    assert max(fixed) < 0.25, fixed
+    assert max(fixed) < 0.35, fixed  # measured 20 % and 24 %
 
 
 @pytest.mark.slow
