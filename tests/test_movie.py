@@ -148,11 +148,10 @@ def test_refusals(tmp_path, capsys):
     assert main(["movie", "chain", "-o", str(existing), "--quiet"]) == 2
     assert "--force" in capsys.readouterr().err
     assert main(["movie", "chain", "-o", str(tmp_path / "x.avi"), "--quiet"]) == 2
-    field_only = tmp_path / "big.rrd"
-    assert main(["record", "grid", "--steps", "2", "--field", "raw", "--positions", "none",
-                 "-o", str(field_only), "--quiet"]) == 0
-    assert main(["movie", str(field_only), "-o", str(tmp_path / "y.mp4"), "--quiet"]) == 2
-    assert "positions" in capsys.readouterr().err
+    not_a_recording = tmp_path / "z.rrd"
+    not_a_recording.write_bytes(b"not rerun")
+    assert main(["movie", str(not_a_recording), "-o", str(tmp_path / "y.mp4"), "--quiet"]) == 2
+    assert "cannot read" in capsys.readouterr().err
 
 
 def test_help_teaches_with_examples(capsys):
@@ -165,10 +164,11 @@ def test_help_teaches_with_examples(capsys):
 
 @pytest.mark.slow
 def test_default_interference_movie(tmp_path):
-    """The full default: 1000 frames of the 150 s run at 720p in under 20 MB (the speed is
-    measured by benchmarks/movie_speed.py)."""
+    """The full default: 1000 frames of the 150 s run at 720p in under 60 MB (the adaptive log
+    colour scale shows the short waves everywhere, which H.264 stores at ~54 MB; the speed is
+    measured by benchmarks/movie_speed.py, size and memory by benchmarks/movie_memory.py)."""
     path = tmp_path / "interference.mp4"
     assert main(["movie", "interference", "-o", str(path), "--quiet"]) == 0
-    assert path.stat().st_size < 20e6
+    assert path.stat().st_size < 60e6
     frames, duration, _ = decoded(path)
     assert len(frames) == 1000 and duration == pytest.approx(1000 / 30, abs=0.1)

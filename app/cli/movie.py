@@ -23,8 +23,11 @@ from app.cli.arguments import (
     scene_from_arguments,
 )
 from app.cli.limits import planned_steps
-from app.movie.options import COLOURS, MAX_FRAMES, MovieOptions
+from app.colours import SCALES
+from app.movie.options import COLOURS, DEFAULTS, MAX_FRAMES, MovieOptions
 from sim.files import PARTIAL_SUFFIX
+
+GIF_FRAMES = DEFAULTS["gif"][2]
 
 EPILOG = f"""examples:
   oscillators movie interference -o interference.mp4         # the paper's 150 s, 1000 frames, 720p
@@ -39,8 +42,11 @@ from the front), small ones as springs and particles, 3-D ones in an oblique vie
 height; a title line, the simulated time, a colour bar with its unit and the scene's one-line
 summary. Colours (--color): displacement (the signed component the scene is displaced along, m;
 blue negative, red positive), speed |v| (m/s), strain (of the springs, minus the rest strain) or
-density (relative change rho/rho_0 - 1 from each particle's four springs). The colour scale is
-fixed for the whole movie from a look-ahead run, so frames are comparable.
+density (relative change rho/rho_0 - 1 from each particle's four springs). The colour scale
+(--scale) follows the field by default (adaptive-symlog: a log scale whose limit follows the
+99th percentile of each frame, smoothed over a few simulated seconds), so waves stay visible as
+they spread and weaken; the colour bar's numbers show the scale at each frame. --scale fixed
+keeps one linear scale from a look-ahead run, so frames are comparable in brightness.
 
 length: --duration simulated seconds (default: the scene's) shown in --frames frames (default:
 at most {MAX_FRAMES}, 25 per simulated second); the movie lasts frames / fps seconds.
@@ -71,18 +77,21 @@ def register(subparsers: Any) -> None:
     parser.add_argument("-o", "--output", type=Path, required=True,
                         help="the movie file: .mp4, .webm or .gif")
     parser.add_argument("--force", action="store_true", help="replace the output if it exists")
-    parser.add_argument("--fps", type=bounded_int(1, 120), default=30,
-                        help="movie frames per second (default 30)")
+    parser.add_argument("--fps", type=bounded_int(1, 120),
+                        help="movie frames per second (default 30; GIF 15)")
     parser.add_argument("--frames", type=bounded_int(2, 100_000),
-                        help=f"movie frames (default: at most {MAX_FRAMES}, 25 per simulated "
-                        "second)")
+                        help=f"movie frames (default: at most {MAX_FRAMES} (GIF {GIF_FRAMES}), "
+                        "25 per simulated second)")
     parser.add_argument("--duration", type=positive_float,
                         help="simulated seconds to show (default: the scene's; a recording: all)")
-    parser.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH",
-                        help="frame size in pixels (default 1280x720)")
+    parser.add_argument("--size", type=_size, metavar="WxH",
+                        help="frame size in pixels (default 1280x720; GIF 640x360)")
     parser.add_argument("--color", "--colour", dest="colour", choices=COLOURS,
                         help="what the colours show (default: strain for small planar lattices, "
                         "displacement otherwise)")
+    parser.add_argument("--scale", choices=tuple(SCALES),
+                        help="colour scale: adaptive-symlog (default), adaptive (linear), symlog "
+                        "(log, fixed limit) or fixed (linear, fixed limit)")
     parser.add_argument("--exaggerate", type=positive_float, metavar="FACTOR",
                         help="3-D scenes: draw heights FACTOR times larger")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -115,7 +124,8 @@ def command_movie(arguments: argparse.Namespace) -> int:
     check_output_file(output, arguments.force, f".{kind}")
     options = MovieOptions(
         fps=arguments.fps, frames=arguments.frames, duration=arguments.duration,
-        size=arguments.size, colour=arguments.colour, exaggeration=arguments.exaggerate,
+        size=arguments.size, colour=arguments.colour, scale=arguments.scale,
+        exaggeration=arguments.exaggerate,
         integrator=arguments.integrator, dt=arguments.dt, progress=not arguments.quiet,
     )
     with contextlib.ExitStack() as cleanup:

@@ -5,8 +5,9 @@
 (``io.BytesIO``).  MP4 is H.264 in yuv420p with the index at the front (``+faststart``), so it plays
 in browsers and slide software; WebM is VP9 (if this PyAV build has libvpx-vp9); GIF frames are
 reduced, without dithering, to one 256-colour palette: the movie's colour map (192 entries) and 64
-greys (background, text), given as ``palette``; without one, taken from the first frame.  Pillow
-merges identical consecutive GIF frames into one longer frame (the timing is kept).
+greys (background, text), given as ``palette``; without one, taken from the first frame.  Every
+kind is encoded frame by frame as frames come (GIF by ffmpeg's GIF encoder, which stores only the
+rectangle that changed), so memory does not grow with the length of the movie.
 """
 
 from __future__ import annotations
@@ -29,15 +30,16 @@ def kind_of(path: str | Path) -> str:
     return suffix
 
 
+CODECS = {"mp4": "libx264", "webm": "libvpx-vp9", "gif": "gif"}
+
+
 def available(kind: str) -> bool:
     """True if this machine can write ``kind``."""
-    if kind == "gif":
-        return True
     try:
         import av
     except ImportError:
         return False
-    return ("libx264" if kind == "mp4" else "libvpx-vp9") in av.codecs_available
+    return CODECS[kind] in av.codecs_available
 
 
 class _AvWriter:
@@ -74,36 +76,65 @@ class _AvWriter:
 
 
 class _GifWriter:
+    """GIF frames streamed into the file as they come (ffmpeg's GIF encoder through PyAV,
+    which stores only what changed since the previous frame); memory does not grow with the
+    number of frames."""
+
     def __init__(self, target: str | Path | BinaryIO, width: int, height: int, fps: float,
                  palette: np.ndarray | None = None):
-        self.target = target
-        self.duration_ms = max(20, round(1000 / fps / 10) * 10)  # GIF counts hundredths
-        self.frames: list[Any] = []
-        self.palette: Any = None
-        if palette is not None:
-            from PIL import Image
+        import av
+        from PIL import Image
 
+        self._av = av
+        # GIF counts hundredths of a second: the frame rate the file can hold
+        rate = Fraction(100, max(2, round(100 / fps)))
+        self.container = av.open(target if not isinstance(target, Path) else str(target),
+                                 mode="w", format="gif")
+        self.stream = self.container.add_stream("gif", rate=rate)
+        self.stream.width, self.stream.height = width, height
+        self.stream.pix_fmt = "pal8"
+        self.stream.codec_context.time_base = 1 / rate
+        self.palette: Any = None
+        self.argb: np.ndarray | None = None
+        if palette is not None:
             table = np.asarray(palette, np.uint8)
             picks = table[np.linspace(0, len(table) - 1, 192).round().astype(int)]
             greys = np.repeat(np.linspace(0, 255, 64).round().astype(np.uint8)[:, None], 3, 1)
-            colours = np.concatenate([picks, greys])
-            self.palette = Image.new("P", (1, 1))
-            self.palette.putpalette(colours.ravel().tolist())
+            self._use_palette(np.concatenate([picks, greys]))
+        self._image = Image
+        self.index = 0
 
-    def write(self, frame: np.ndarray) -> None:
+    def _use_palette(self, colours: np.ndarray) -> None:
+        """(256, 3) uint8 RGB: the palette of every frame."""
         from PIL import Image
 
+        self.palette = Image.new("P", (1, 1))
+        self.palette.putpalette(colours.ravel().tolist())
+        self.argb = np.empty((256, 4), np.uint8)  # PyAV's pal8 palette: A, R, G, B bytes
+        self.argb[:, 0] = 255
+        self.argb[:, 1:] = colours
+
+    def write(self, frame: np.ndarray) -> None:
+        Image = self._image
         image = Image.fromarray(frame)
         if self.palette is None:
-            self.palette = image.quantize(colors=256, method=Image.Quantize.MEDIANCUT)
-        self.frames.append(image.quantize(palette=self.palette, dither=Image.Dither.NONE))
+            quantised = image.quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+            colours = np.zeros((256, 3), np.uint8)
+            used = np.asarray(quantised.getpalette()[: 3 * 256], np.uint8).reshape(-1, 3)
+            colours[: len(used)] = used
+            self._use_palette(colours)
+        indices = np.asarray(image.quantize(palette=self.palette, dither=Image.Dither.NONE))
+        video_frame = self._av.VideoFrame.from_ndarray((np.ascontiguousarray(indices), self.argb),
+                                                       format="pal8")
+        video_frame.pts = self.index
+        self.index += 1
+        self.container.mux(self.stream.encode(video_frame))
 
     def close(self) -> None:
-        if not self.frames:
+        if not self.index:
             raise ValueError("no frames to write")
-        first, *rest = self.frames
-        first.save(self.target, format="GIF", save_all=True, append_images=rest,
-                   duration=self.duration_ms, loop=0, optimize=False, disposal=1)
+        self.container.mux(self.stream.encode(None))
+        self.container.close()
 
 
 def open_writer(target: str | Path | BinaryIO, kind: str, width: int, height: int, fps: float,
@@ -112,11 +143,10 @@ def open_writer(target: str | Path | BinaryIO, kind: str, width: int, height: in
     ``palette``: (n, 3) uint8 colours the GIF palette must hold (the colour map)."""
     if kind not in KINDS:
         raise ValueError(f"movie kind must be one of {KINDS}, got {kind!r}")
+    if not available(kind):
+        raise ValueError(f"this PyAV build has no {CODECS[kind]} encoder for .{kind}; try .mp4")
     if kind == "gif":
         return _GifWriter(target, width, height, fps, palette)
-    if not available(kind):
-        codec = "libx264" if kind == "mp4" else "libvpx-vp9"
-        raise ValueError(f"this PyAV build has no {codec} encoder for .{kind}; try .mp4 or .gif")
     if isinstance(target, io.BytesIO) or not isinstance(target, (str, Path)):
         return _AvWriter(target, kind, width, height, fps)
     return _AvWriter(str(target), kind, width, height, fps)

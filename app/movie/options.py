@@ -7,13 +7,19 @@ import dataclasses
 import math
 from typing import Any
 
+from app.colours import SCALES
 from app.recording.options import DETAIL_LIMIT
 
 COLOURS = ("displacement", "speed", "strain", "density")
 """What colours the picture: the signed displacement component (m), the speed |v| (m/s), the
 strain of the springs minus the rest strain, the relative density change rho/rho_0 - 1."""
 MAX_FRAMES = 1000
-"""Frames of a movie at most, unless asked for more (``MovieOptions.frames``)."""
+"""Frames of an MP4 or WebM movie at most, unless asked for more (``MovieOptions.frames``)."""
+DEFAULTS = {"mp4": ((1280, 720), 30.0, MAX_FRAMES), "webm": ((1280, 720), 30.0, MAX_FRAMES),
+            "gif": ((640, 360), 15.0, 300)}
+"""Per movie kind: the default (width, height), frames per second and most frames.  A GIF
+stores every pixel that changes in every frame, so its defaults keep the flagship's under 25 MB
+(docs/recording.md, "Movies": measured by benchmarks/movie_memory.py)."""
 FRAMES_PER_SIMULATED_SECOND = 25
 """Frames of a movie per simulated second by default."""
 
@@ -22,29 +28,44 @@ FRAMES_PER_SIMULATED_SECOND = 25
 class MovieOptions:
     """How a movie is made.
 
-    fps: movie frames per second.
-    frames: movie frames (default: min(1000, 25 per simulated second, one per step));
+    fps: movie frames per second (default: 30; GIF 15).
+    frames: movie frames (default: min(``max_frames``, 25 per simulated second, one per step));
         the movie lasts frames / fps seconds.
+    max_frames: frames at most when ``frames`` is not given (default: 1000; GIF 300).
     duration: simulated seconds to show (default: the scene's duration; a recording: all of it).
-    size: (width, height) in pixels; even numbers for MP4/WebM (odd ones are rounded down).
+    size: (width, height) in pixels (default 1280x720; GIF 640x360); even numbers (odd ones
+        are rounded down).
     colour: one of ``COLOURS`` (default: strain for small planar lattices, else displacement).
+    scale: the colour scale policy, one of ``app.colours.SCALES`` (default: the quantity's
+        scheme's, a log scale following the field's amplitude; "fixed" keeps the look-ahead's
+        linear scale for the whole movie).
     exaggeration: 3-D: heights drawn this many times larger (default: typical height ~8 % of
         the width).
     integrator, dt: of a run from a scene (default: the scene's).
     progress: show a progress bar (tqdm) on stderr.
     """
 
-    fps: float = 30.0
+    fps: float | None = None
     frames: int | None = None
+    max_frames: int | None = None
     duration: float | None = None
-    size: tuple[int, int] = (1280, 720)
+    size: tuple[int, int] | None = None
     colour: str | None = None
+    scale: str | None = None
     exaggeration: float | None = None
     integrator: str | None = None
     dt: float | None = None
     progress: bool = True
 
+    def resolved(self, kind: str) -> MovieOptions:
+        """These options with the defaults of a movie of ``kind`` (mp4, webm, gif) filled in."""
+        size, fps, max_frames = DEFAULTS.get(kind, DEFAULTS["mp4"])
+        return dataclasses.replace(self, size=self.size or size, fps=self.fps or fps,
+                                   max_frames=self.max_frames or max_frames)
+
     def checked(self) -> MovieOptions:
+        if self.size is None or self.fps is None or self.max_frames is None:
+            return self.resolved("mp4").checked()
         width, height = self.size
         if not (160 <= width <= 7680 and 90 <= height <= 4320):
             raise ValueError(f"size must be between 160x90 and 7680x4320 pixels, got {width}x{height}")
@@ -54,6 +75,8 @@ class MovieOptions:
             raise ValueError(f"frames must be between 2 and 100000, got {self.frames}")
         if self.colour is not None and self.colour not in COLOURS:
             raise ValueError(f"colour must be one of {', '.join(COLOURS)}, got {self.colour!r}")
+        if self.scale is not None and self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {', '.join(SCALES)}, got {self.scale!r}")
         return dataclasses.replace(self, size=(width - width % 2, height - height % 2))
 
 

@@ -2,9 +2,12 @@
 springs and particles for small ones, an oblique view of 3-D ones with heights exaggerated), a
 title line, the simulated time, a colour bar with its unit and the scene's one-line summary.
 
-Text is drawn once with Pillow into a template (title, colour bar, summary); only the time is
-drawn per frame.  The pixels of the picture come from the compiled kernels of
-``app.movie.raster``.
+Colours follow the quantity's scheme (``app.colours.scheme``) on a scale that may follow the
+field frame by frame (``MovieOptions.scale``, default the scheme's: adaptive, logarithmic), so
+the waves stay visible as they spread and weaken; the colour bar's numbers are those of the scale
+in use at each frame.  Text is drawn once with Pillow into a template (title, colour bar,
+summary); only the time and the colour bar's numbers are drawn per frame.  The pixels of the
+picture come from the compiled kernels of ``app.movie.raster``.
 """
 
 from __future__ import annotations
@@ -15,11 +18,11 @@ from typing import Any
 import numpy as np
 
 import app.movie.raster as raster
-from app.colours import MAGNITUDE, SIGNED_FIELD, SIGNED_LINES, map_values
+from app.colours import colour_fractions, make_scale, scheme
 from app.movie.frames import State
 from app.movie.options import MovieOptions
 from app.recording.options import DETAIL_LIMIT
-from app.recording.scales import AXIS_NAMES, SIGNED, UNITS, ColourScales, field_values
+from app.recording.scales import AXIS_NAMES, UNITS, ColourScales, field_values
 from app.recording.style import NEUTRAL_COLOUR, PARTICLE_COLOUR, nice_number
 
 BACKGROUND = (250, 250, 250)
@@ -55,14 +58,17 @@ class Painter:
         self.scales = scales
         self.width, self.height = options.size
         self.detailed = model.n_particles <= DETAIL_LIMIT
-        self.signed = colour in SIGNED
-        self.table = ((SIGNED_LINES if self.detailed else SIGNED_FIELD) if self.signed
-                      else MAGNITUDE).table()
+        self.scheme = scheme(colour)
+        self.signed = self.scheme.signed
+        self.table = (self.scheme.lines if self.detailed else self.scheme.field).table()
         if colour == "displacement" and model.dim == 3 and self.detailed:
-            self.scale = scales.height
+            limit = scales.height
         else:
-            self.scale = scales.strain if (colour == "strain" and self.detailed) else scales.field
-        self.scale = max(self.scale, 1e-12)
+            limit = scales.strain if (colour == "strain" and self.detailed) else scales.field
+        limit = max(limit, 1e-12)
+        floor = 1e-9 * model.spacing if colour in ("displacement", "speed") else 1e-9
+        self.colour_scale = make_scale(options.scale or self.scheme.scale, limit, self.signed, floor)
+        self.ticks_at = [position for position, _ in self.colour_scale.ticks()]
         self.exaggeration = 1.0
         if model.dim == 3:
             width_m = (max(model.nx, model.ny) + 1) * model.spacing
@@ -132,26 +138,24 @@ class Painter:
         title_font = _font(round(self.top * 0.5))
         title = _fit_text(draw, _title(scene), title_font, int(self.width * 0.72))
         draw.text((margin, self.top // 2), title, fill=TEXT, font=title_font, anchor="lm")
-        # colour bar: left half of the bottom band
-        bar_top = self.height - self.bottom + round(self.bottom * 0.2)
-        bar_h = max(6, round(self.bottom * 0.18))
-        bar_w = int(self.width * 0.42)
-        low = -self.scale if self.signed else 0.0
+        # colour bar: left half of the bottom band; its numbers are drawn per frame
+        self.bar_top = bar_top = self.height - self.bottom + round(self.bottom * 0.2)
+        self.bar_h = bar_h = max(6, round(self.bottom * 0.18))
+        self.bar_w = bar_w = int(self.width * 0.42)
+        self.margin = margin
         gradient = self.table[np.linspace(0, 255, bar_w).astype(int)]
         pixels = np.asarray(image).copy()
         pixels[bar_top : bar_top + bar_h, margin : margin + bar_w] = gradient[None, :, :]
         image = Image.fromarray(pixels)
         draw = ImageDraw.Draw(image)
-        small = _font(round(self.bottom * 0.16))
-        for fraction in (0.0, 0.25, 0.5, 0.75, 1.0):
+        self.small = small = _font(round(self.bottom * 0.16))
+        for fraction in self.ticks_at:
             x = margin + fraction * (bar_w - 1)
-            value = low + fraction * (self.scale - low)
             draw.line([(x, bar_top + bar_h), (x, bar_top + bar_h + 3)], fill=TEXT)
-            draw.text((x, bar_top + bar_h + 4), f"{value:.3g}", fill=TEXT, font=small, anchor="ma")
         draw.text((margin, bar_top - 3), self._colour_label(), fill=TEXT, font=small, anchor="lb")
         right = margin + bar_w + 2 * margin
         width = self.width - right - margin
-        lines = [summary, "colour scale fixed for the whole movie"]
+        lines = [summary, f"colours: {self.colour_scale.describe()}"]
         if self.model.dim == 3:
             lines.append(f"heights drawn {self.exaggeration:g} times larger")
         y = bar_top - 3
@@ -169,9 +173,7 @@ class Painter:
                 else f"height z ({unit})"
         if self.colour == "speed":
             return "speed |v| (m/s)"
-        if self.colour == "strain":
-            return "spring strain - rest strain (dimensionless)"
-        return "density change rho/rho_0 - 1 (dimensionless)"
+        return self.scheme.title()
 
     # -- per frame --
 
@@ -184,13 +186,17 @@ class Painter:
         return field_values(quantity, state.positions, model.rest_positions, state.velocities,
                             self.scales.axis, model)
 
+    def _colours(self, values: np.ndarray) -> np.ndarray:
+        """uint8 RGB of ``values`` on the scale in use."""
+        return colour_fractions(self.colour_scale.fraction(values), self.table)
+
     def paint(self, state: State, frame: np.ndarray) -> None:
         """Draw ``state`` into ``frame`` (height, width, 3) uint8."""
         np.copyto(frame, self.template)
-        low = -self.scale if self.signed else 0.0
         if not self.detailed:
             rows, columns = self.model.ny, self.model.nx
             values = np.asarray(self.values(state), dtype=np.float64)
+            self.colour_scale.observe(values, state.time)
             block = math.ceil(columns / self.px)
             if block > 1:
                 # fewer pixels than particles: each block shows its largest value (with its
@@ -202,25 +208,28 @@ class Painter:
                     rows, columns, block * block)
                 pick = np.abs(blocks).argmax(axis=2)
                 values = np.take_along_axis(blocks, pick[:, :, None], axis=2).ravel()
-            raster.field_to_frame(frame, np.ascontiguousarray(values), rows, columns, low,
-                                  self.scale, self.table, self.x0, self.y0, self.px, self.py)
+            fractions = self.colour_scale.fraction(values).astype(np.float64)
+            raster.field_to_frame(frame, np.ascontiguousarray(fractions), rows, columns, 0.0,
+                                  1.0, self.table, self.x0, self.y0, self.px, self.py)
         else:
-            self._paint_lattice(state, frame, low)
+            self._paint_lattice(state, frame)
         self._paint_time(state.time, frame)
+        self._paint_bar_numbers(frame)
 
-    def _paint_lattice(self, state: State, frame: np.ndarray, low: float) -> None:
+    def _paint_lattice(self, state: State, frame: np.ndarray) -> None:
         model = self.model
         ends = np.concatenate([state.positions, model.anchor_positions])
         x, y, depth = self._to_pixels(ends)
         springs = model.springs
         if self.colour == "strain" and state.strains is not None:
-            spring_colours = map_values(state.strains - self.scales.rest_strain, low,
-                                              self.scale, self.table)
+            strains = state.strains - self.scales.rest_strain
+            self.colour_scale.observe(strains, state.time)
+            spring_colours = self._colours(strains)
         elif model.dim == 3:
             height = ends[:, 2] - np.concatenate([model.rest_positions[:, 2],
                                                   model.anchor_positions[:, 2]])
-            mean = 0.5 * (height[springs[:, 0]] + height[springs[:, 1]])
-            spring_colours = map_values(mean, -self.scale, self.scale, self.table)
+            self.colour_scale.observe(height[: model.n_particles], state.time)
+            spring_colours = self._colours(0.5 * (height[springs[:, 0]] + height[springs[:, 1]]))
         else:
             spring_colours = np.tile(np.array(NEUTRAL_COLOUR, np.uint8), (len(springs), 1))
         half = max(0.8, (0.12 if model.dim == 3 else 0.05) * model.spacing * self.pixels_per_metre)
@@ -239,7 +248,9 @@ class Painter:
         if self.colour == "strain" and model.dim == 2:
             colours = np.tile(np.array(PARTICLE_COLOUR, np.uint8), (n, 1))
         else:
-            colours = map_values(self.values(state), low, self.scale, self.table)
+            values = self.values(state)
+            self.colour_scale.observe(values, state.time)
+            colours = self._colours(values)
         order = np.argsort(depth[:n], kind="stable")
         raster.draw_discs(frame, x[:n], y[:n], radii, np.ascontiguousarray(colours), order)
 
@@ -254,3 +265,26 @@ class Painter:
         alpha = np.asarray(mask, dtype=np.float32)[:, :, None] / 255.0
         region = frame[:box_h, self.width - box_w :]
         region[:] = (region * (1.0 - alpha) + np.array(TEXT, np.float32) * alpha).astype(np.uint8)
+
+    def _paint_bar_numbers(self, frame: np.ndarray) -> None:
+        """The colour bar's numbers of the scale in use, under its ticks; the end ones aligned
+        inwards so no sign or digit leaves the frame."""
+        from PIL import Image, ImageDraw
+
+        top = self.bar_top + self.bar_h + 4
+        right = min(self.width, self.margin * 2 + self.bar_w)
+        region = frame[top : top + round(self.bottom * 0.2), :right]
+        image = Image.fromarray(region)
+        draw = ImageDraw.Draw(image)
+        marks = self.colour_scale.ticks()
+        texts = [f"{value:.2g}" if value else "0" for _, value in marks]
+        widest = max(draw.textlength(text, font=self.small) for text in texts)
+        if widest * 1.3 * len(marks) > self.bar_w:  # a narrow bar: the ends and zero only
+            keep = {0, len(marks) // 2, len(marks) - 1}
+            marks = [m for k, m in enumerate(marks) if k in keep]
+            texts = [t for k, t in enumerate(texts) if k in keep]
+        for k, ((fraction, _), text) in enumerate(zip(marks, texts, strict=True)):
+            x = self.margin + fraction * (self.bar_w - 1)
+            anchor = "la" if k == 0 else "ra" if k == len(marks) - 1 else "ma"
+            draw.text((x, 0), text, fill=TEXT, font=self.small, anchor=anchor)
+        region[:] = np.asarray(image)

@@ -45,43 +45,22 @@ class RecordingSource:
     """Frames of a recording (see the module docstring), an ``app.movie.frames.FrameSource``."""
 
     def __init__(self, path: Path, options: MovieOptions) -> None:
-        from rerun.chunk import RrdReader
-
-        import sim
-
-        try:
-            chunks = RrdReader(path).stream().to_chunks()
-        except Exception as error:  # noqa: BLE001 - rerun raises various types for bad files
-            raise ValueError(f"cannot read {path} as a rerun recording: {error}") from None
-        document = None
-        masses = None
-        for chunk in chunks:
-            if chunk.is_static:
-                batch = chunk.to_record_batch()
-                if chunk.entity_path == "/scene" and "TextDocument:text" in batch.schema.names:
-                    document = batch.column("TextDocument:text")[0].as_py()[0]
-                if chunk.entity_path.endswith("/lattice/particles") and "mass" in batch.schema.names:
-                    masses = masses if masses is not None else _flat(batch.column("mass")[0])
-        if document is None:
-            raise ValueError(f"{path} has no scene document: not a recording of this program")
-        self.model, integrator, dt = _model_from_document(document, masses)
-        name = document.splitlines()[0].lstrip("# ").strip()
-        paragraphs = [p for p in document.split("\n\n") if p.strip()]
-        description = paragraphs[1].strip() if len(paragraphs) > 1 else ""
+        chunks = read_chunks(path)
+        document, masses = document_and_masses(chunks, path)
+        self.model, integrator, dt = model_from_document(document, masses)
         times, positions = self._positions(chunks, path)
         if options.duration is not None:
             keep = times <= times[0] + options.duration + 1e-9
             times, positions = times[keep], [p for p, k in zip(positions, keep, strict=True) if k]
-        if options.frames is not None and options.frames < len(times):
-            picks = np.unique(np.linspace(0, len(times) - 1, options.frames).round().astype(int))
+        wanted = options.frames or options.max_frames
+        if wanted is not None and wanted < len(times):
+            picks = np.unique(np.linspace(0, len(times) - 1, wanted).round().astype(int))
             times, positions = times[picks], [positions[k] for k in picks]
         self.times, self.positions = times, positions
         self.frames = len(times)
         duration = max(float(times[-1] - times[0]), dt)
-        self.scene = sim.Scene(
-            name=name or path.stem, model=self.model, description=description,
-            integrator=integrator, dt=dt, duration=duration, initial_positions=positions[0],
-        )
+        self.scene = scene_of(document, self.model, integrator, dt, duration, positions[0],
+                              path.stem)
         self.summary = f"{self.scene.summary()}; recording {path.name}"
 
     def _positions(self, chunks: list, path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -167,7 +146,45 @@ class RecordingSource:
                         self._strains(positions) if strains else None)
 
 
-def _model_from_document(document: str, masses: np.ndarray | None) -> tuple[Any, str, float]:
+def read_chunks(path: Path) -> list:
+    """The chunks of a ``.rrd`` file (a clear error if it is not one)."""
+    from rerun.chunk import RrdReader
+
+    try:
+        return RrdReader(path).stream().to_chunks()
+    except Exception as error:  # noqa: BLE001 - rerun raises various types for bad files
+        raise ValueError(f"cannot read {path} as a rerun recording: {error}") from None
+
+
+def document_and_masses(chunks: list, path: Path) -> tuple[str, np.ndarray | None]:
+    """The recording's scene document (``/scene``) and per-particle masses (kg) if logged."""
+    document = None
+    masses = None
+    for chunk in chunks:
+        if chunk.is_static:
+            batch = chunk.to_record_batch()
+            if chunk.entity_path == "/scene" and "TextDocument:text" in batch.schema.names:
+                document = batch.column("TextDocument:text")[0].as_py()[0]
+            if chunk.entity_path.endswith("/lattice/particles") and "mass" in batch.schema.names:
+                masses = masses if masses is not None else _flat(batch.column("mass")[0])
+    if document is None:
+        raise ValueError(f"{path} has no scene document: not a recording of this program")
+    return document, masses
+
+
+def scene_of(document: str, model: Any, integrator: str, dt: float, duration: float,
+             positions: np.ndarray, fallback: str) -> Any:
+    """A ``sim.Scene`` for the title of a movie of a recording."""
+    import sim
+
+    name = document.splitlines()[0].lstrip("# ").strip()
+    paragraphs = [p for p in document.split("\n\n") if p.strip()]
+    description = paragraphs[1].strip() if len(paragraphs) > 1 else ""
+    return sim.Scene(name=name or fallback, model=model, description=description,
+                     integrator=integrator, dt=dt, duration=duration, initial_positions=positions)
+
+
+def model_from_document(document: str, masses: np.ndarray | None) -> tuple[Any, str, float]:
     """The ``sim.Model`` described by a recording's parameter table, its integrator and dt."""
     from sim import Model
 

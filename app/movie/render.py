@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import queue
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -22,7 +23,7 @@ from app.movie.encode import kind_of, open_writer
 from app.movie.frames import FrameSource
 from app.movie.options import MovieOptions, default_colour
 from app.movie.painter import Painter
-from app.movie.recorded import RecordingSource
+from app.movie.recorded_field import open_recording
 from app.movie.simulated import SimulationSource
 from sim.files import AtomicFile
 
@@ -40,12 +41,22 @@ def _encode_in_background(writer: Any, frames: queue.Queue, errors: list[BaseExc
             errors.append(error)
 
 
+class MovieCancelled(Exception):
+    """The caller's ``on_frame`` asked to stop (the partial file is removed)."""
+
+
+OnFrame = Callable[[int, int], bool]
+"""``on_frame(frames_done, frames_planned)`` after each frame; returning False cancels."""
+
+
 def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
-            options: MovieOptions) -> int:
+            options: MovieOptions, on_frame: OnFrame | None = None) -> int:
     from tqdm import tqdm
 
     model = source.model
-    colour = options.colour or default_colour(model)
+    colour = options.colour or getattr(source, "colour", None) or default_colour(model)
+    if options.scale is None and getattr(source, "scale_policy", None):
+        options = dataclasses.replace(options, scale=source.scale_policy)
     scales = source.scales(colour)
     painter = Painter(source.scene, model, source.summary, colour, scales, options)
     width, height = options.size
@@ -70,6 +81,8 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
             frames.put(frame)
             count += 1
             bar.update(1)
+            if on_frame is not None and not on_frame(count, source.frames):
+                raise MovieCancelled(f"cancelled after {count} of {source.frames} frames")
     finally:
         bar.close()
         frames.put(None)
@@ -86,7 +99,7 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
     """A frame source: a Scene, a Simulation (its current state becomes t = 0), or a recording
     (a path ending in .rrd)."""
     if isinstance(scene_or_simulation, (str, Path)) and str(scene_or_simulation).endswith(".rrd"):
-        return RecordingSource(Path(scene_or_simulation), options)
+        return open_recording(Path(scene_or_simulation), options)
     scene = scene_or_simulation
     if hasattr(scene, "step") and hasattr(scene, "state"):  # a running Simulation: snapshot it
         from sim.scenes import scene_from_simulation
@@ -98,7 +111,8 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
 
 
 def render_movie(
-    scene_or_simulation: Any, path: str | Path, options: MovieOptions | None = None, **changes: Any
+    scene_or_simulation: Any, path: str | Path, options: MovieOptions | None = None,
+    on_frame: OnFrame | None = None, **changes: Any,
 ) -> Path:
     """Render a movie to ``path`` (.mp4, .webm or .gif) and return the path.
 
@@ -106,14 +120,17 @@ def render_movie(
     (its current state is copied and run on; call it between steps, e.g. through
     ``Runner.post``), or the path of a ``.rrd`` recording (re-rendered from its positions).
     ``changes`` override fields of ``options`` (``MovieOptions``): fps, frames, duration, size,
-    colour, exaggeration, integrator, dt, progress.  Raises ``ValueError`` on bad options.
+    colour, scale, exaggeration, integrator, dt, progress.  ``on_frame(done, planned)`` is
+    called after each frame; returning False stops with ``MovieCancelled``.  Raises
+    ``ValueError`` on bad options.  Frames are encoded as they are drawn: memory does not grow
+    with the number of frames.
     """
-    options = dataclasses.replace(options or MovieOptions(), **changes).checked()
     path = Path(path)
     kind = kind_of(path)
+    options = dataclasses.replace(options or MovieOptions(), **changes).resolved(kind).checked()
     source = _source(scene_or_simulation, options)
     with AtomicFile(path, overwrite=True) as output:  # the caller refuses an existing file
-        _render(source, output.library_path, kind, options)
+        _render(source, output.library_path, kind, options, on_frame)
     return path
 
 
@@ -124,8 +141,8 @@ def movie_bytes(
     """The movie as bytes (``kind``: mp4, webm or gif), for a download; see ``render_movie``."""
     import tempfile
 
-    options = dataclasses.replace(options or MovieOptions(), **changes).checked()
     kind_of(f"movie.{kind}")
+    options = dataclasses.replace(options or MovieOptions(), **changes).resolved(kind).checked()
     # through a temporary file: MP4's index goes to the front (+faststart) in a second pass
     # that reopens the file by name
     with tempfile.TemporaryDirectory(prefix="movie-") as directory:

@@ -26,7 +26,8 @@ class SimulationSource:
         duration = options.duration or scene.duration
         steps = max(1, math.ceil(duration / dt - 1e-9))
         frames = options.frames or min(
-            MAX_FRAMES, steps + 1, max(2, round(duration * FRAMES_PER_SIMULATED_SECOND) + 1)
+            options.max_frames or MAX_FRAMES, steps + 1,
+            max(2, round(duration * FRAMES_PER_SIMULATED_SECOND) + 1),
         )
         self.frames = frames
         self.every = max(1, round(steps / (frames - 1)))

@@ -17,7 +17,9 @@ Three encodings, one class each, all with ``log(stream, entity, field, scale)`` 
   apart from the float conversion); the viewer colour-maps it.
 
 ``FieldView`` is a tree's field: it turns each frame's positions or velocities into the image and
-hands it to its encoder.
+hands it to its encoder.  With the first frame it logs, static on the field's entity, what the
+colours mean (``quantity``, ``axis``, ``colour_scale``: the value at the map's end, m or m/s), so
+a movie can be made from the field alone (``app.movie.recorded_field``).
 """
 
 from __future__ import annotations
@@ -193,6 +195,7 @@ class FieldView:
         self.scale = scale
         self.encoder: FieldEncoder = make_field_encoder(mode, jpeg_quality, raw_dtype,
                                                         signed=quantity in SIGNED)
+        self._described = False
 
     def log_frame(self, stream: rr.RecordingStream, model: Model, positions: np.ndarray,
                   velocities: np.ndarray | None) -> None:
@@ -200,6 +203,10 @@ class FieldView:
         skips frames without them)."""
         if self.quantity == "speed" and velocities is None:
             return
+        if not self._described:
+            stream.log(self.entity, rr.AnyValues(quantity=self.quantity, axis=self.axis,
+                                                 colour_scale=self.scale), static=True)
+            self._described = True
         values = field_values(self.quantity, positions, model.rest_positions, velocities,
                               self.axis)
         self.encoder.log(stream, self.entity, lattice_image(values, model.nx, model.ny), self.scale)

@@ -24,6 +24,7 @@ in one directory (``app.web.scene_files``) and records only into one directory
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Sequence
@@ -39,7 +40,7 @@ from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
-from app.web.view import LatticeView
+from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, LatticeView, camera_fit
 from sim.runner import Frame
 
 DEFAULT_SCENES_DIR = Path("scenes")
@@ -58,26 +59,18 @@ LARGE_LATTICE_FRAME_TIME = 0.25
 def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
     """(steps per frame, simulation frames/s cap, render frames/s cap) for a simulation.
 
-    Large lattices: at most the cost of 5 RK4 steps (20 force evaluations) per frame, and no more
-    steps than ``LARGE_LATTICE_FRAME_TIME`` of simulated time needs (Verlet at dt = 0.02 s: 12)."""
+    Small scenes: the steps per frame that let them play in real time at 60 frames a second
+    (the Run folder's speed then sets the frame rate).  Large lattices: at most the cost of 5
+    RK4 steps (20 force evaluations) per frame, and no more steps than
+    ``LARGE_LATTICE_FRAME_TIME`` of simulated time needs (Verlet at dt = 0.02 s: 12)."""
     if simulation.model.n_particles >= LARGE_LATTICE:
         evaluations = sim.integrators.describe(simulation.integrator).force_evaluations
         by_cost = 20 // max(1, evaluations)
         by_time = max(1, round(LARGE_LATTICE_FRAME_TIME / simulation.dt))
         return max(1, min(by_cost, by_time)), 25.0, 25.0
-    return 1, 60.0, 90.0
+    # small scenes: enough steps per frame that real time needs at most 60 frames a second
+    return max(1, math.ceil(1.0 / (60.0 * simulation.dt) - 1e-9)), 60.0, 90.0
 
-
-def camera_pose(model: sim.Model) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """Camera position (m) and up direction that frame the lattice: straight above a planar
-    lattice, and from the front and above (about 40 degrees) for a 3-D one, so that its
-    out-of-plane motion is visible."""
-    width = (model.nx + 1) * model.spacing
-    height = (model.ny + 1) * model.spacing
-    distance = 1.1 * max(width, height * 1.4)
-    if model.dim == 3:
-        return (0.0, -0.75 * distance, 0.65 * distance), (0.0, 0.0, 1.0)
-    return (0.0, 0.0, distance), (0.0, 1.0, 0.0)
 
 class WebApp:
     """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end.
@@ -238,15 +231,32 @@ class WebApp:
         self.panel.update(frame)
 
     def _frame_camera(self, model: sim.Model) -> None:
-        position, up = camera_pose(model)
         camera = self.server.initial_camera
-        camera.position = position
-        camera.look_at = (0.0, 0.0, 0.0)
-        camera.up = up
+        position, look_at, up = camera_fit(model, camera.fov, 16 / 9, right=PANEL_WIDTH / 1366)
+        camera.position, camera.look_at, camera.up = position, look_at, up
         for client in self.server.get_clients().values():
-            client.camera.position = position
-            client.camera.look_at = (0.0, 0.0, 0.0)
-            client.camera.up_direction = up
+            self.fit_client(client, model)
+
+    def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None) -> None:
+        """Point ``client``'s camera so the lattice fills the part of its view the panel leaves:
+        left of it on a laptop, above it on a narrow view (a phone), where it floats over the
+        lower part."""
+        model = model or self.runner.simulation.model
+        camera = client.camera
+        try:
+            width, height, fov = camera.image_width, camera.image_height, camera.fov
+        except AssertionError:  # the browser has not reported its view yet
+            width, height, fov = 0, 0, self.server.initial_camera.fov
+        width, height = width or 1366, height or 768
+        if width < NARROW:
+            position, look_at, up = camera_fit(model, fov, width / height,
+                                               bottom=PHONE_PANEL_SHARE)
+        else:
+            position, look_at, up = camera_fit(model, fov, width / height,
+                                               right=min(0.5, PANEL_WIDTH / width))
+        camera.position = position
+        camera.look_at = look_at
+        camera.up_direction = up
 
     # --- selection and dragging ------------------------------------------------------------------
 
@@ -264,20 +274,30 @@ class WebApp:
 
         @self.server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
-            position, up = camera_pose(self.runner.simulation.model)
-            client.camera.position = position
-            client.camera.look_at = (0.0, 0.0, 0.0)
-            client.camera.up_direction = up
+            self.fit_client(client)
+            fitted: dict[str, tuple] = {"size": (0, 0)}
+
+            @client.camera.on_update
+            def _(camera: viser.CameraHandle) -> None:
+                # the first report of the view's size (and a resized window) refits once
+                size = (camera.image_width, camera.image_height)
+                if size != fitted["size"] and all(size):
+                    fitted["size"] = size
+                    self.fit_client(client)
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
             self.client_left(client.client_id)
 
     def client_left(self, client_id: int) -> None:
-        """A browser went away: let go of whatever it was dragging."""
+        """A browser went away: let go of whatever it was dragging; when it was the last one,
+        pause the run (unless a recording is on) instead of burning a core for nobody."""
         self.control.release(client_id)
         if self._drag is not None and self._drag["owner"] == client_id:
             self._drag = None
+        others = [c for c in self.server.get_clients() if c != client_id]
+        if not others and not self.recordings.active and self.runner.playing:
+            self.control.pause()
 
     def pick(self, ray_origin: tuple[float, float, float],
              ray_direction: tuple[float, float, float]) -> int | None:

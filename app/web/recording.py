@@ -6,7 +6,11 @@ every recording gets a new file name in the recordings directory chosen when the
 (``<scene>-<date>-<time>.rrd``, with ``-2``, ``-3``… if that name is taken; nothing the page sends
 names a file), and ``stop()`` (the page's button, the server stopping, Ctrl+C) closes the file so
 that it verifies.  A recorder that fails (a full disk) is detached by the runner, closes its file
-with an ERROR entry, and ``status()`` says so.
+with an ERROR entry, and ``status()`` says so.  ``jobs`` (``app.web.jobs.PageJobs``) runs the
+page's longer work (the movie download) one at a time; ``shutdown()`` ends it too.
+
+``download()`` gives the bytes of the recording just made (or, while one runs, closes it first:
+the current run's recording) and its read-me (the ``/scene`` document), for the page to send.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import sim
+from app.web.jobs import PageJobs
 from sim.files import partial_path, safe_name
 from sim.runner import Runner
 
@@ -37,6 +42,7 @@ class WebRecordings:
         self._recorder: Any = None
         self.last_path: Path | None = None
         self.last_error: str | None = None
+        self.jobs = PageJobs()
 
     @property
     def active(self) -> bool:
@@ -90,6 +96,7 @@ class WebRecordings:
         server is stopping).  Returns the closed file's path, or None."""
         with self._starting:
             self._closed = True
+        self.jobs.shutdown()
         return self.stop()
 
     def failure(self) -> str | None:
@@ -114,3 +121,21 @@ class WebRecordings:
             self.last_error = str(error)
             self.last_path = recorder.path
         return self.last_path
+
+    def download(self) -> tuple[str, bytes, str]:
+        """(file name, .rrd bytes, read-me markdown) of the last recording; a running one is
+        closed first.  Raises ``FileNotFoundError`` with a sentence if there is none."""
+        if self.active:
+            self.stop()
+        path = self.last_path
+        if path is None or not path.is_file():
+            raise FileNotFoundError("no recording yet: press Start recording, let it run, then "
+                                    "Download recording")
+        content = path.read_bytes()
+        try:
+            from app.movie.recorded import document_and_masses, read_chunks
+
+            readme = document_and_masses(read_chunks(path), path)[0]
+        except (ImportError, ValueError):
+            readme = ""
+        return path.name, content, readme

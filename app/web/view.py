@@ -8,6 +8,13 @@ Two ways to draw particles, chosen by lattice size:
   fronts show up; on very large lattices the points stay at their rest sites by default and only
   the colours are sent (a 261k-point position update is ~3 MB).
 
+Colours come from the quantity's scheme in ``app.colours`` (the same language as movies and
+recordings): the signed displacement along the scene's axis (the component it is displaced
+along) on the blue - grey - red map (grey at rest, so the lattice shows before anything moves),
+or the speed, on the scheme's scale (by default logarithmic, its limit following the field).  A
+colour bar (quantity, units, the numbers of the scale in use) lies in the scene under the
+lattice, redrawn when the scale moves.
+
 Springs are line segments coloured by strain (blue compressed, red stretched); they are hidden
 automatically above ``SPRING_AUTO_LIMIT`` particles (the paper's 25x20) and never sent above
 ``SPRING_HARD_LIMIT`` springs.  Every update happens inside ``server.atomic()`` so a browser
@@ -17,7 +24,9 @@ never sees half a frame.  Coordinates: metres, lattice in the plane z = 0, centr
 from __future__ import annotations
 
 import dataclasses
+import math
 import threading
+import time
 
 import numpy as np
 import viser
@@ -41,8 +50,8 @@ PARTICLE = (60, 60, 70)
 """RGB of particles when they are not coloured by a field."""
 ANCHOR = (120, 90, 60)
 """RGB of the walls and their anchor points."""
-STRAIN_FULL_SCALE = 0.05
-"""Spring strain shown at full colour (``app.colours.STRAIN``: blue compressed, red stretched)."""
+BAR_FRACTION = 0.6
+"""Width of the colour bar under the lattice, as a fraction of the lattice's width."""
 
 
 @dataclasses.dataclass
@@ -108,7 +117,11 @@ class LatticeView:
         self._points: viser.PointCloudHandle | None = None
         self._springs: viser.LineSegmentsHandle | None = None
         self._selection_points: viser.PointCloudHandle | None = None
-        self._field_scale = 0.0
+        self._scales: dict[str, colours.ColourScale] = {}
+        self._axis = 1
+        self._bar: viser.ImageHandle | None = None
+        self._bar_shown: tuple | None = None
+        self._bar_time = 0.0
         self._dirty = True
         self.frames_drawn = 0
         self.last_positions: np.ndarray | None = None
@@ -156,10 +169,15 @@ class LatticeView:
     def _rebuild(self, frame: Frame) -> None:
         scene = self.server.scene
         model = frame.model
-        for handle in (self._spheres, self._points, self._springs, self._selection_points):
+        for handle in (self._spheres, self._points, self._springs, self._selection_points,
+                       self._bar):
             if handle is not None:
                 handle.remove()
         self._spheres = self._points = self._springs = self._selection_points = None
+        self._bar = self._bar_shown = None
+        self._scales = {}
+        moved = ((frame.positions - model.rest_positions) ** 2).sum(axis=0)
+        self._axis = int(np.argmax(moved)) if moved.max() > 0 else model.dim - 1
         self._draw_walls(model)
         xyz = to_xyz(frame.positions)
         if model.n_particles <= SPHERE_LIMIT:
@@ -173,7 +191,6 @@ class LatticeView:
                 cast_shadow=False, receive_shadow=False,
             )
         else:
-            self._field_scale = 0.0
             shown = xyz if self.settings.points_move(model) else to_xyz(model.rest_positions)
             self._points = scene.add_point_cloud(
                 "/lattice/particles", shown, self._particle_colors(frame),
@@ -233,43 +250,119 @@ class LatticeView:
         model = frame.model
         mode = self.settings.coloring(model)
         n = model.n_particles
+        values = None
         if mode == "displacement":
-            values = np.linalg.norm(frame.positions - model.rest_positions, axis=1)
+            values = frame.positions[:, self._axis] - model.rest_positions[:, self._axis]
         elif mode == "speed" and frame.velocities is not None:
             values = np.linalg.norm(frame.velocities, axis=1)
+        if values is not None:
+            scale = self._colour_scale(mode, model)
+            scale.observe(values, frame.time)
+            result = colours.scheme(mode).colour(values, scale, lines=True)
+            self._draw_colour_bar(mode, model, scale)
         elif mode == "mass":
             masses = model.masses.reshape(-1)
-            values = masses / masses.max()
+            result = colours.MAGNITUDE.map(masses / masses.max(), 1.0)
         else:
-            values = None
-        if values is None:
             result = np.empty((n, 3), np.uint8)
             result[:] = PARTICLE
-        else:
-            result = colours.MAGNITUDE.map(values, self._adapt_scale(values, mode))
         if self._spheres is not None or n <= SPHERE_LIMIT:
             result[self.selection] = SELECTED
         return result
 
-    def _adapt_scale(self, values: np.ndarray, mode: str) -> float:
-        """Full-scale value of the colour map: a slowly decaying high percentile."""
-        if mode == "mass":
-            return 1.0
-        sample = values[:: max(1, values.size // 20_000)]
-        current = float(np.percentile(sample, 99.5)) if sample.size else 0.0
-        current = max(current, float(values.max()) * 0.05)
-        self._field_scale = max(current, 0.97 * self._field_scale)
-        return self._field_scale or 1.0
+    def _colour_scale(self, mode: str, model: Model) -> colours.ColourScale:
+        """The scale of ``mode``'s scheme for this lattice (new after a rebuild)."""
+        if mode not in self._scales:
+            quantity = colours.scheme(mode)
+            unit = model.spacing if mode in ("displacement", "speed") else 1.0
+            self._scales[mode] = colours.make_scale(quantity.scale, unit, quantity.signed,
+                                                    floor=1e-9 * unit)
+            self._bar_shown = None
+        return self._scales[mode]
+
+    def colour_label(self, mode: str, model: Model) -> str:
+        """The colour bar's title: quantity (the displacement's component) and units."""
+        quantity = colours.scheme(mode)
+        if mode == "displacement":
+            return f"displacement u_{'xyz'[self._axis]} ({quantity.units})"
+        return quantity.title()
+
+    def _draw_colour_bar(self, mode: str, model: Model, scale: colours.ColourScale) -> None:
+        """The colour bar under the lattice, redrawn when the scale's numbers change (at most
+        twice a second)."""
+        shown = (mode, f"{scale.limit:.2g}")
+        now = time.monotonic()
+        if shown == self._bar_shown or (self._bar is not None and now - self._bar_time < 0.5):
+            return
+        picture = colours.colour_bar(colours.scheme(mode), scale, self.colour_label(mode, model),
+                                     lines=True)
+        picture = np.ascontiguousarray(picture[::-1])  # image rows run along -y in the scene
+        width = BAR_FRACTION * (model.nx + 1) * model.spacing
+        height = width * picture.shape[0] / picture.shape[1]
+        centre_y = model.origin[1] - 1.5 * model.spacing - height / 2
+        if self._bar is None:
+            self._bar = self.server.scene.add_image(
+                "/lattice/colour_bar", picture, render_width=width, render_height=height,
+                format="png", position=(model.origin[0] + (model.nx - 1) * model.spacing / 2,
+                                        centre_y, 0.0))
+        else:
+            self._bar.image = picture
+        self._bar_shown, self._bar_time = shown, now
 
     @staticmethod
     def _spring_points(model: Model, positions: np.ndarray) -> np.ndarray:
         ends = np.concatenate([to_xyz(positions), to_xyz(model.anchor_positions)])
         return ends[model.springs]
 
-    @staticmethod
-    def _spring_colors(frame: Frame) -> np.ndarray:
+    def _spring_colors(self, frame: Frame) -> np.ndarray:
+        """Springs coloured by strain - rest strain on the strain scheme's scale; the colour bar
+        shows it when the particles carry no colour."""
+        model = frame.model
+        strain = colours.scheme("strain")
         if frame.strains is None:
-            relaxed = colours.STRAIN.map(np.zeros(1), STRAIN_FULL_SCALE)[0]  # strain 0
-            return np.broadcast_to(relaxed, (frame.model.n_springs, 2, 3))
-        per_spring = colours.STRAIN.map(frame.strains, STRAIN_FULL_SCALE)
+            relaxed = colours.colour_fractions(np.full(1, 0.5 if strain.signed else 0.0),
+                                               strain.lines.table())[0]
+            return np.broadcast_to(relaxed, (model.n_springs, 2, 3))
+        values = frame.strains - (model.spacing - model.rest_length) / model.rest_length
+        scale = self._colour_scale("strain", model)
+        scale.observe(values, frame.time)
+        if self.settings.coloring(model) not in ("displacement", "speed"):
+            self._draw_colour_bar("strain", model, scale)
+        per_spring = strain.colour(values, scale, lines=True)
         return np.repeat(per_spring[:, None, :], 2, axis=1)
+
+
+PANEL_WIDTH = 420
+"""CSS pixels of the page's control panel (viser's "large" controls) at the right edge."""
+NARROW = 700
+"""Views narrower than this (phones): the panel floats over the lower part of the view."""
+PHONE_PANEL_SHARE = 0.6
+"""Share of a narrow view's height the floating panel takes at most (viser's phone layout)."""
+
+
+def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bottom: float = 0.0
+               ) -> tuple[tuple[float, float, float], tuple[float, float, float],
+                          tuple[float, float, float]]:
+    """(position, look_at, up) of a camera that shows the whole lattice, its walls and the colour
+    bar under it in the part of the view the panel leaves, with a small margin.  ``right`` and
+    ``bottom``: the fractions of the view's width (on the right) and height (at the bottom)
+    under the panel; ``fov``: the vertical field of view (radians); ``aspect``: width / height
+    of the view.  Planar lattices are seen straight from above; 3-D ones from the front and
+    above (about 40 degrees) so their out-of-plane motion shows."""
+    a = model.spacing
+    width = (model.nx + 1) * a
+    top = (model.ny + 1) * a / 2
+    lowest = -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * 84 / 480
+    free_x, free_y = max(0.2, 1.0 - right), max(0.2, 1.0 - bottom)
+    tangent = math.tan(fov / 2)
+    distance = max(width / (2 * tangent * aspect * free_x),
+                   (top - lowest) / (2 * tangent * free_y)) / 0.9
+    # the lattice's centre at the centre of the free part of the view
+    shift_x = distance * tangent * aspect * (1.0 - free_x)
+    shift_y = -distance * tangent * (1.0 - free_y)
+    centre = ((top + lowest) / 2 + shift_y, shift_x)
+    if model.dim == 3:
+        distance *= 1.15
+        return ((centre[1], centre[0] - 0.75 * distance, 0.65 * distance),
+                (centre[1], centre[0], 0.0), (0.0, 0.0, 1.0))
+    return (centre[1], centre[0], distance), (centre[1], centre[0], 0.0), (0.0, 1.0, 0.0)

@@ -2,7 +2,7 @@
 
 The plot keeps the last ``ENERGY_HISTORY`` frames and is redrawn a few times a second; a scene
 with a driver (or one that had one) also shows the driver's work.  When the time goes back (a
-reset, a new scene) the plot starts again.
+reset, a new scene) the plot starts again at once.  Its axes say their quantity and unit.
 """
 
 from __future__ import annotations
@@ -56,20 +56,24 @@ class EnergyFolder(Folder):
             self.plot = self.gui.add_uplot(
                 data=(empty,) * len(series), series=series,
                 scales={"x": {"time": False}}, aspect=1.6,
+                axes=({"label": "simulated time t (s)"}, {"label": "energy (J)", "size": 60}),
             )
         self.shows_driver = with_driver
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         self.history.clear()
+        self._last_plot = 0.0
 
     def update(self, frame: Frame, now: float) -> None:
         energy = frame.energy
-        self.history.add(frame.time, (energy.kinetic, energy.potential, energy.total,
-                                      energy.dissipated, energy.driven))
+        restarted = self.history.add(frame.time, (energy.kinetic, energy.potential,
+                                                  energy.total, energy.dissipated, energy.driven))
+        if restarted or len(self.history) == 1:
+            self._last_plot = 0.0  # a reset: the old lines go at once
         with_driver = frame.model.driver is not None or energy.driven != 0.0
         if with_driver != self.shows_driver:
             self._make_plot(with_driver)
-        if now - self._last_plot > PLOT_INTERVAL and len(self.history) > 1:
+        if now - self._last_plot > PLOT_INTERVAL and len(self.history) >= 1:
             self._last_plot = now
             times, columns = self.history.columns()
             shown = columns if self.shows_driver else columns[:4]

@@ -29,6 +29,19 @@ COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
 REFRESH_SECONDS = 0.5
 
 
+def shown_band(frequencies: np.ndarray, columns: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """The spectrum up to where it carries motion: frequencies (Hz) up to 1.5 times the highest
+    one whose amplitude reaches 2 % of the largest (at least 8 bins), so a peak under 2 Hz is
+    not drawn as a sliver at the left of a 0-50 Hz axis."""
+    amplitudes = np.max(np.abs(np.array(columns)), axis=0)
+    top = float(amplitudes.max()) if amplitudes.size else 0.0
+    if top <= 0.0:
+        return (frequencies, *columns)
+    last = int(np.flatnonzero(amplitudes >= 0.02 * top)[-1])
+    keep = max(8, int(np.searchsorted(frequencies, 1.5 * frequencies[last])) + 1)
+    return (frequencies[:keep], *(column[:keep] for column in columns))
+
+
 class ProbesFolder(Folder):
     name = "probes"
 
@@ -116,6 +129,7 @@ class ProbesFolder(Folder):
                     {"label": f"probe {k + 1} (m)", "stroke": COLOURS[k], "width": 1.2}
                     for k in range(count))),
                 scales={"x": {"time": False}}, aspect=2.0,
+                axes=({"label": "simulated time t (s)"}, {"label": "displacement (m)", "size": 60}),
             )
             self.spectrum_plot = self._gui.add_uplot(
                 data=(empty,) * (count + 1),
@@ -123,6 +137,7 @@ class ProbesFolder(Folder):
                     {"label": f"probe {k + 1} amplitude (m)", "stroke": COLOURS[k], "width": 1.2}
                     for k in range(count))),
                 scales={"x": {"time": False}}, aspect=2.0,
+                axes=({"label": "frequency f (Hz)"}, {"label": "amplitude (m)", "size": 60}),
             )
 
     # --- keeping in step -------------------------------------------------------------------------
@@ -168,7 +183,7 @@ class ProbesFolder(Folder):
                                                            else ""))
             lines.append(f"probe {k + 1}: " + ("; ".join(described) or "no motion"))
         if frequencies is not None:
-            self.spectrum_plot.data = (frequencies, *columns)
+            self.spectrum_plot.data = shown_band(frequencies, columns)
         span = max(times[-1] - times[0], 1e-12)
         nyquist = 0.5 * (times.size - 1) / span
         self.text.content = as_html(

@@ -1,19 +1,27 @@
-"""The page's "Recording" folder: record the live run on the server, or download a movie.
+"""The page's "Recording" folder: record the live run on the server, take it home, or
+download a movie.
 
 *Start recording* records the run into the server's recordings directory (``app.web.recording``
 chooses the file name; nothing the page sends names a file) until *Stop recording*; a recorder
-that fails (a full disk) is stopped and the folder says why.  *Download a movie* renders the
-scene's run from the current state to an MP4 and sends it to the user's browser.
+that fails (a full disk) is stopped and the folder says why.  *Download recording* hands the
+browser the ``.rrd`` just made (a running one is closed first) and its read-me (``.md``).
+*Download a movie* renders the scene's run from the current state to an MP4 in the background
+(``app.web.jobs``: frames encoded as drawn, progress shown, at most ``MOVIE_FRAME_LIMIT`` frames);
+while it runs the button cancels it, and a second request is refused with a sentence.
 """
 
 from __future__ import annotations
 
+import tempfile
+import time
 from pathlib import Path
+from typing import Any
 
 import viser
 
 from app.web.host import Folder, PanelHost
 from app.web.inputs import as_html, from_user, ok_html
+from app.web.jobs import MOVIE_FRAME_LIMIT, JobBusy
 from app.web.widgets import download_name, say
 from sim.runner import Frame
 
@@ -34,32 +42,57 @@ class RecordingFolder(Folder):
                       if available else "the recorder (app.recording) is not installed"),
             )
             self.record_text = gui.add_html("")
+            self.download_button = gui.add_button(
+                "Download recording", icon=viser.Icon.DOWNLOAD, disabled=not available,
+                hint="the .rrd just recorded (a running recording is stopped first) and its "
+                "read-me, to your computer; open it with rerun")
             self.movie_button = gui.add_button(
                 "Download a movie", icon=viser.Icon.MOVIE,
-                hint="render the scene's run from the current state (its duration) to an MP4 "
-                "on your computer: title, time, colour bar; plays in browsers and slides")
+                hint="render the scene's run from the current state (its duration, at most "
+                f"{MOVIE_FRAME_LIMIT} frames) to an MP4 on your computer: title, time, colour "
+                "bar; plays in browsers and slides. Press again to cancel.")
             self.movie_text = gui.add_html("")
+
+        @self.download_button.on_click
+        @from_user
+        def _(event: viser.GuiEvent) -> None:
+            try:
+                was_active = recordings.active
+                name, content, readme = recordings.download()
+                if was_active:
+                    self._show_stopped(recordings.last_path)
+            except Exception as error:  # nothing to send, or the file is unreadable
+                say(self.record_text, error, "could not download")
+                return
+            event.client.send_file_download(name, content, save_immediately=True)
+            if readme:
+                event.client.send_file_download(Path(name).stem + "-readme.md",
+                                                readme.encode(), save_immediately=True)
+            self.record_text.content = ok_html(f"sent {name} ({len(content) / 1e6:.2g} MB)")
 
         @self.movie_button.on_click
         @from_user
-        def _(event: viser.GuiEvent) -> None:  # thread pool: rendering takes seconds
-            if self.movie_button.disabled:
-                return
-            self.movie_button.disabled = True
+        def _(event: viser.GuiEvent) -> None:
+            jobs = recordings.jobs
+            if jobs.running:
+                if jobs.name == "movie":
+                    jobs.cancel()
+                    self.movie_text.content = as_html("cancelling…")
+                    return
+            client = event.client
             try:
-                from app.movie import movie_bytes
-
-                self.movie_text.content = as_html("rendering the movie… (about a second per "
-                                                  "100 frames on large lattices)")
                 scene = host.control.snapshot().result(timeout=30)
-                content = movie_bytes(scene, "mp4", progress=False)
-                name = download_name(scene.name) + ".mp4"
-                event.client.send_file_download(name, content, save_immediately=True)
-                self.movie_text.content = ok_html(f"sent {name} ({len(content) / 1e6:.2g} MB)")
+                jobs.start("movie", lambda report: self._render(scene, report),
+                           lambda result, error: self._movie_done(client, scene, result, error))
+            except JobBusy as busy:
+                say(self.movie_text, busy, "one at a time")
+                return
             except Exception as error:  # a failed movie must not take the page down
                 say(self.movie_text, error, "could not make the movie")
-            finally:
-                self.movie_button.disabled = False
+                return
+            self.movie_button.label = "Cancel the movie"
+            self.movie_button.icon = viser.Icon.PLAYER_STOP
+            self.movie_text.content = as_html("rendering the movie…")
 
         @self.record_button.on_click
         @from_user
@@ -93,8 +126,44 @@ class RecordingFolder(Folder):
         else:
             self.record_text.content = ok_html(f"saved {path.name}" if path else "stopped")
 
+    def _render(self, scene: Any, report: Any) -> bytes:
+        """The movie of ``scene`` as MP4 bytes, made through a temporary file frame by frame;
+        the progress is shown about twice a second (also while the run is paused)."""
+        from app.movie import render_movie
+
+        jobs = self.host.recordings.jobs
+        shown = [0.0]
+
+        def on_frame(done: int, planned: int) -> bool:
+            going_on = report(done, planned)
+            now = time.monotonic()
+            if going_on and now - shown[0] > 0.5:
+                shown[0] = now
+                self.movie_text.content = as_html(jobs.status())
+            return going_on
+
+        with tempfile.TemporaryDirectory(prefix="page-movie-") as directory:
+            path = render_movie(scene, Path(directory) / "movie.mp4", progress=False,
+                                max_frames=MOVIE_FRAME_LIMIT, on_frame=on_frame)
+            return path.read_bytes()
+
+    def _movie_done(self, client: viser.ClientHandle, scene: Any, content: bytes | None,
+                    error: BaseException | None) -> None:
+        self.movie_button.label = "Download a movie"
+        self.movie_button.icon = viser.Icon.MOVIE
+        jobs = self.host.recordings.jobs
+        if jobs.outcome == "cancelled":
+            self.movie_text.content = as_html("movie cancelled")
+        elif error is not None or content is None:
+            say(self.movie_text, error or "no frames", "could not make the movie")
+        else:
+            name = download_name(scene.name) + ".mp4"
+            client.send_file_download(name, content, save_immediately=True)
+            self.movie_text.content = ok_html(f"sent {name} ({len(content) / 1e6:.2g} MB)")
+
     def update(self, frame: Frame, now: float) -> None:
-        """Stop a recording whose recorder failed (a full disk) and say why."""
+        """Show the movie's progress; stop a recording whose recorder failed (a full disk) and
+        say why."""
         recordings = self.host.recordings
         failure = recordings.failure()
         if failure and failure != self._failure_shown:

@@ -1,8 +1,14 @@
 """The page's "Run" folder: Play/Pause, Single step, Reset, and the status line.
 
-The status line shows the time, the step, whether the run goes on and the steps per second; a red
-line says why the run stopped (a blow-up), and an amber one that a part of the app (a recorder, a
-plot) failed and was detached while the simulation goes on.
+The status line shows the time, the step, whether the run goes on, the steps per second and the
+rate (simulated seconds per second of wall time); a red line says why the run stopped (a
+blow-up), and an amber one that a part of the app (a recorder, a plot) failed and was detached
+while the simulation goes on.
+
+*Speed*: small scenes play in real time by default (x1), or in slow motion (x1/4, x1/2): the
+runner's frame rate follows the steps per frame and dt (at most ``MAX_FPS`` frames a second), and
+the status line says when the machine cannot keep up.  Large lattices play as fast as they can
+by default.
 """
 
 from __future__ import annotations
@@ -17,6 +23,12 @@ from sim.runner import Frame
 
 STATUS_INTERVAL = 0.5
 """Seconds between two updates of the status line."""
+SPEEDS = {"x1/4": 0.25, "x1/2": 0.5, "x1": 1.0, "as fast as it can": None}
+"""The page's speeds: simulated seconds per second of wall time (None: no pacing)."""
+MAX_FPS = 60.0
+"""Frames a second at most when a speed is asked for."""
+LARGE = 50_000
+"""From this many particles on, a scene plays as fast as it can by default."""
 
 
 class RunFolder(Folder):
@@ -36,6 +48,10 @@ class RunFolder(Folder):
             self.step_button = gui.add_button("Single step", icon=viser.Icon.PLAYER_TRACK_NEXT)
             self.reset_button = gui.add_button("Reset", icon=viser.Icon.REFRESH,
                                                hint="back to the scene's initial state")
+            large = host.runner.simulation.model.n_particles >= LARGE
+            self.speed = gui.add_dropdown(
+                "Speed", list(SPEEDS), initial_value="as fast as it can" if large else "x1",
+                hint="simulated seconds per second: real time (x1) or slow motion")
             self.status = gui.add_html("")
             self.error_html = gui.add_html("", visible=False)
             self.part_html = gui.add_html("", visible=False)
@@ -46,6 +62,8 @@ class RunFolder(Folder):
             if host.runner.playing:
                 host.control.pause()
             else:
+                if self._reached_end:
+                    self.go_on = True  # asked to go on past the scene's duration
                 host.control.play()
             self._show_playing()
 
@@ -58,14 +76,59 @@ class RunFolder(Folder):
         @self.reset_button.on_click
         @from_user
         async def _(_: viser.GuiEvent) -> None:
+            self.go_on = False
             host.control.reset()
+
+        self._fastest_fps = host.runner.max_fps
+        self.go_on = False
+        """Whether the user asked to run past the scene's duration."""
+        self._reached_end = False
+
+        @self.speed.on_update
+        @from_user
+        async def _(_: viser.GuiEvent) -> None:
+            if self.speed.value not in SPEEDS:
+                self.speed.value = "x1"
+            self._pace()
+
+    def show_scene(self, simulation) -> None:
+        """Real time for small scenes, as fast as it can for large lattices."""
+        self.go_on = self._reached_end = False
+        self._fastest_fps = self.host.runner.max_fps
+        self.speed.value = "as fast as it can" if simulation.model.n_particles >= LARGE else "x1"
+        self._pace()
+
+    def _pace(self) -> None:
+        """Set the runner's frame rate for the chosen speed (dt and steps per frame as they are
+        now)."""
+        runner = self.host.runner
+        speed = SPEEDS.get(self.speed.value)
+        if speed is None:
+            runner.max_fps = self._fastest_fps
+            return
+        seconds_per_frame = max(1, int(runner.steps_per_frame)) * runner.simulation.dt
+        runner.max_fps = min(MAX_FPS, speed / seconds_per_frame)
 
     def _show_playing(self) -> None:
         playing = self.host.runner.playing
         self.play_button.label = "Pause" if playing else "Play"
         self.play_button.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
 
+    def _stop_at_duration(self, frame: Frame) -> None:
+        """Pause once at the scene's duration (unless the user asked to go on) and say so."""
+        duration = self.host.runner.simulation.scene.duration
+        if frame.time < duration - 1e-9:
+            self._reached_end = False
+            return
+        if frame.playing and not self.go_on and not self._reached_end:
+            self._reached_end = True
+            self.host.control.pause()
+            self.part_html.content = as_html(
+                f"Paused at the scene's duration ({duration:g} s); press Play to go on.")
+            self.part_html.visible = True
+
     def update(self, frame: Frame, now: float) -> None:
+        self._stop_at_duration(frame)
         self._update_error(frame)
         self._update_part_failures()
         if now - self._last_status > STATUS_INTERVAL:
@@ -76,10 +139,17 @@ class RunFolder(Folder):
             self._status_steps = (now, taken)
             self._last_status = now
             self._show_playing()
+            self._pace()
+            rate = self._steps_per_second * frame.dt
+            asked = SPEEDS.get(self.speed.value)
+            behind = (" - this machine cannot keep up" if frame.playing and asked is not None
+                      and rate < 0.85 * asked else "")
             self.status.content = as_html(
                 f"t = {frame.time:.3f} s, step {frame.step}, "
                 f"{'running' if frame.playing else 'paused'}, "
-                f"{self._steps_per_second:.0f} steps/s\n{frame.model.describe()}"
+                f"{self._steps_per_second:.0f} steps/s\n"
+                f"rate {rate:.2f} s of simulated time per second ({self.speed.value}{behind})\n"
+                f"{frame.model.describe()}"
             )
 
     def _update_part_failures(self) -> None:

@@ -1,0 +1,113 @@
+"""What a student takes home from the page, without a browser: the recording just made (read back
+with rerun's API) and its read-me, the movie made as a page job (progress, one at a time, cancel,
+ended by the server's stop), and the camera that frames the lattice in the part of the view the
+panel leaves.  Buttons are pressed the way viser runs them (``tests.test_web_safety.press``)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import sim
+from app.web.view import BAR_FRACTION, camera_fit
+from tests.helpers import wait_for
+from tests.test_web_safety import PageClient, press
+
+
+def test_download_recording_hands_over_the_rrd_and_its_readme(web_app):
+    from rerun.chunk import RrdReader
+
+    folder = web_app.panel.recording
+    press(folder.record_button, PageClient())
+    assert wait_for(lambda: web_app.recordings.active)
+    web_app.runner.play()
+    steps = web_app.runner.simulation.step_count
+    assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 200)
+    web_app.runner.pause()
+    client = PageClient()
+    press(folder.download_button, client)  # the running recording is closed, then sent
+    (name, content), (readme_name, readme) = client.downloads
+    assert name.endswith(".rrd") and readme_name == name[:-4] + "-readme.md"
+    assert b"# grid" in readme and b"time step dt" in readme
+    assert not web_app.recordings.active and folder.record_button.label == "Start recording"
+    path = web_app.recordings.directory / "downloaded.rrd"
+    path.write_bytes(content)
+    chunks = RrdReader(path).stream().to_chunks()
+    frames = {int(s) for c in chunks if c.entity_path == "/lattice/particles" and not c.is_static
+              for s in c.to_record_batch().column("step").to_pylist()}
+    assert len(frames) > 10
+
+
+def test_download_recording_without_one_says_what_to_do(web_app):
+    client = PageClient()
+    press(web_app.panel.recording.download_button, client)
+    assert not client.downloads
+    assert "Start recording" in web_app.panel.recording.record_text.content
+
+
+def test_movie_job_shows_progress_refuses_a_second_and_cancels(web_app):
+    folder = web_app.panel.recording
+    jobs = web_app.recordings.jobs
+    web_app.replace_scene(sim.scenes.build("grid", nx=60, ny=40), source="test")  # a slow movie
+    first = PageClient()
+    press(folder.movie_button, first)
+    assert wait_for(lambda: jobs.running and jobs.done > 0)
+    assert folder.movie_button.label == "Cancel the movie"
+    assert wait_for(lambda: "frames" in folder.movie_text.content and "%" in folder.movie_text.content)
+    # a second request from another page while the movie is made: refused in words
+    assert "is being made" in _second_request_refusal(web_app)
+    press(folder.movie_button, first)  # the button now cancels
+    assert wait_for(lambda: not jobs.running)
+    assert jobs.outcome == "cancelled" and not first.downloads
+    assert "cancelled" in folder.movie_text.content
+    assert folder.movie_button.label == "Download a movie"
+
+
+def _second_request_refusal(web_app) -> str:
+    from app.web.jobs import JobBusy
+
+    try:
+        web_app.recordings.jobs.start("movie", lambda report: None, lambda result, error: None)
+    except JobBusy as refusal:
+        return str(refusal)
+    return ""
+
+
+def test_the_servers_stop_ends_a_movie_being_made(web_app):
+    jobs = web_app.recordings.jobs
+    web_app.replace_scene(sim.scenes.build("grid", nx=60, ny=40), source="test")
+    press(web_app.panel.recording.movie_button, PageClient())
+    assert wait_for(lambda: jobs.running and jobs.done > 0)
+    started = time.monotonic()
+    web_app.recordings.shutdown()  # what the server's SIGTERM runs (WebApp.stop)
+    assert not jobs.running and time.monotonic() - started < 10
+    assert jobs.outcome == "cancelled"
+
+
+@pytest.mark.parametrize("size, right, bottom", [((1366, 768), 420 / 1366, 0.0),
+                                                 ((414, 896), 0.0, 0.6)])
+@pytest.mark.parametrize("scene", ["grid", "interference", "chain"])
+def test_camera_fits_lattice_and_colour_bar_in_the_free_part(scene, size, right, bottom):
+    """Project the walls' corners and the colour bar through the fitted camera (looking straight
+    down): all inside the part of the view the panel leaves, and the lattice spans most of it."""
+    model = sim.scenes.build(scene).model
+    fov = math.radians(75)
+    aspect = size[0] / size[1]
+    position, look_at, _ = camera_fit(model, fov, aspect, right=right, bottom=bottom)
+    assert position[:2] == look_at[:2]
+    half_h = position[2] * math.tan(fov / 2)
+    half_w = half_h * aspect
+    a = model.spacing
+    width = (model.nx + 1) * a
+    xs = np.array([-width / 2, width / 2])
+    ys = np.array([(model.ny + 1) * a / 2,
+                   -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * 84 / 480])
+    u = (xs - position[0]) / half_w / 2 + 0.5  # 0 left edge of the view, 1 right edge
+    v = 0.5 - (ys - position[1]) / half_h / 2  # 0 top, 1 bottom
+    assert u.min() >= 0 and u.max() <= 1 - right + 1e-9
+    assert v.min() >= 0 and v.max() <= 1 - bottom + 1e-9
+    spans = ((u.max() - u.min()) / (1 - right), (v.max() - v.min()) / (1 - bottom))
+    assert max(spans) > 0.85
