@@ -6,7 +6,8 @@ Threads:
   subscriber only keeps the latest frame (cheap), so the simulation never waits for the network;
 * the frame pump thread draws the latest frame into the scene at no more than ``render_fps``
   (inside ``server.atomic()``), updates the panel and moves the drag gizmo;
-* viser's event loop and thread pool run the GUI and scene callbacks, which only post commands.
+* viser's event loop and thread pool run the GUI and scene callbacks, which only post commands;
+* the client watch (``app.web.clients``) disconnects a page that stops reading.
 
 Interaction: a click casts the pointer ray onto the lattice plane z = 0 and selects the nearest
 particle (shift+click adds to the selection; clicks outside the lattice are ignored).  A
@@ -34,6 +35,7 @@ import numpy as np
 import viser
 
 import sim
+from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
@@ -101,6 +103,7 @@ class WebApp:
         self.server = checked_server(self.access, host=host, port=port, verbose=verbose)
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.view = LatticeView(self.server)
+        self.clients = ClientWatch(self.server)
         self.play_on_start = play
         self.hold_while_dragging = True
         self._latest: Frame | None = None
@@ -134,6 +137,7 @@ class WebApp:
         self._pumping = True
         self._pump = threading.Thread(target=self._pump_frames, name="web-frame-pump", daemon=True)
         self._pump.start()
+        self.clients.start()
         self.runner.start()
         self.runner.post(lambda simulation: None)  # publish a first frame
         if self.play_on_start:
@@ -151,6 +155,7 @@ class WebApp:
         self._pumping = False
         self._frame_ready.set()
         self.runner.stop()
+        self.clients.stop()
         if self._pump is not None:
             self._pump.join(5.0)
         if self._unsubscribe is not None:
