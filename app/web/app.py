@@ -39,6 +39,7 @@ from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
+from app.web.roles import ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, checked_server
 from app.web.view import LatticeView
@@ -86,14 +87,15 @@ class WebApp:
 
     scenes_dir: the directory whose ``.toml`` files the page may open by name;
     recordings_dir: where the page's recordings go;
-    allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app.
+    allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app;
+    class_mode: one teacher page drives, the other pages watch (``app.web.roles``).
     """
 
     def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
                  verbose: bool = False, play: bool = False,
                  scenes_dir: str | Path = DEFAULT_SCENES_DIR,
                  recordings_dir: str | Path = DEFAULT_RECORDINGS_DIR,
-                 allow_origins: Sequence[str] = ()) -> None:
+                 allow_origins: Sequence[str] = (), class_mode: bool = False) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
         self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
         self.control = SimulationControl(self.runner)
@@ -123,6 +125,7 @@ class WebApp:
 
         self.panel = ControlPanel(self)
         self._install_interaction()
+        self.roles = ClassRoles(self.server, self.pick).install() if class_mode else None
 
     # --- life cycle ------------------------------------------------------------------------------
 
@@ -240,6 +243,8 @@ class WebApp:
             self.last_error = frame.error
         self._follow_selection(frame)
         self.panel.update(frame)
+        if self.roles is not None:
+            self.roles.update(frame)
 
     def _frame_camera(self, model: sim.Model) -> None:
         position, up = camera_pose(model)
