@@ -99,7 +99,7 @@ class ClassRoles:
     def greet(self, client: viser.ClientHandle) -> None:
         """Tell a student page, in its own panel, what it may do."""
         if client.client_id in self.students:
-            client.gui.add_html(as_html(STUDENT_NOTE, color="#1f5eea", bold=True))
+            client.gui.add_html(as_html(STUDENT_NOTE, color="#1f5eea", bold=True), order=-2.0)
 
     def left(self, client_id: int) -> None:
         with self._lock:
@@ -190,7 +190,7 @@ class ClassRoles:
             if client is None or particle is None or particle >= model.n_particles:
                 continue
             if "readout" not in probe:
-                probe["readout"] = client.gui.add_html("")
+                probe["readout"] = client.gui.add_html("", order=-1.0)
             position = np.zeros(3, np.float32)
             position[: model.dim] = frame.positions[particle]
             marker = probe.get("marker")
