@@ -13,8 +13,8 @@ the lattice plane z = 0, one lattice spacing per pixel) and replaces its bytes e
 * ``FORMAT`` and ``QUALITY`` were chosen by ``benchmarks/frame_formats.py`` (bytes against
   peak signal-to-noise ratio on a running interference field);
 * the server chooses the frame rate: at most ``MAX_FPS`` pictures per second and no more than
-  ``BYTES_PER_SECOND`` per page (a 40 kB picture goes out at 10 frames/s), so a class of 30 on
-  one Wi-Fi network shares a few Mbit/s, not Gbit/s.
+  ``BYTES_PER_SECOND`` per page (a 25 kB picture goes out at 10 frames/s, a 50 kB one at 5), so
+  a class of 30 on one Wi-Fi network shares tens of Mbit/s, not Gbit/s.
 
 Small lattices keep their spheres and springs (``app.web.view``); ``uses_image`` is the switch.
 Backpressure (a slow page gets fewer frames, a page that stops reading is dropped) lives in
@@ -39,14 +39,14 @@ FORMAT = "jpeg444"
 ``benchmarks/frame_formats.py``: at equal bytes it is 3 dB closer to the field than JPEG 4:2:0 or
 WebP, whose halved colour resolution blurs one-particle-wide wave crests, and encodes in a few
 milliseconds where WebP takes 50-100 ms)."""
-QUALITY = 80
+QUALITY = 75
 """JPEG quality of the pictures (see ``benchmarks/frame_formats.py``)."""
 MAX_FPS = 12.0
 """Most pictures per second sent to the pages."""
 MIN_FPS = 2.0
 """Fewest pictures per second sent while the field changes (even if a picture is large)."""
-BYTES_PER_SECOND = 400_000
-"""Bytes per second of pictures aimed at for each page (0.4 MB/s = 3.2 Mbit/s)."""
+BYTES_PER_SECOND = 250_000
+"""Bytes per second of pictures aimed at for each page (2 Mbit/s: a class of 30 shares 60 Mbit/s)."""
 
 
 def uses_image(model: Model, points_move: bool) -> bool:
