@@ -193,11 +193,13 @@ class ClassRoles:
                 probe["readout"] = client.gui.add_html("", order=-1.0)
             position = np.zeros(3, np.float32)
             position[: model.dim] = frame.positions[particle]
+            position[2] += 0.5 * model.spacing  # in front of a field picture in the plane z = 0
             marker = probe.get("marker")
             if marker is None:
+                size = max(1.5, 0.02 * max(model.nx, model.ny)) * model.spacing  # seen at any size
                 probe["marker"] = client.scene.add_point_cloud(
                     "/my_particle", position[None], (255, 30, 30),
-                    point_size=1.5 * model.spacing, point_shape="circle", precision="float32")
+                    point_size=size, point_shape="circle", precision="float32")
             else:
                 marker.points = position[None]
             displacement = frame.positions[particle] - model.rest_positions[particle]
