@@ -133,9 +133,14 @@ def command_serve(arguments: argparse.Namespace) -> int:
         print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
         print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
               f"recordings go to {arguments.recordings_dir}/", flush=True)
-        if not _loopback(arguments.host):
+        if not _loopback(arguments.host) and app.roles is not None:
+            print(f"warning: listening on {arguments.host}: anyone who can reach this machine on "
+                  f"port {app.server.get_port()} can open the page and watch; only teacher pages "
+                  "drive the run, open scene files and record", file=sys.stderr, flush=True)
+        elif not _loopback(arguments.host):
             print(network_warning(arguments.host, app.server.get_port(), str(scenes_dir),
                                   str(arguments.recordings_dir)), file=sys.stderr, flush=True)
+        if not _loopback(arguments.host):
             print("others open http://<this machine's address>:"
                   f"{app.server.get_port()}", flush=True)
         if app.roles is not None:
