@@ -129,9 +129,19 @@ def test_student_click_selects_a_particle_for_that_page_only(class_app):
     click = {"type": "ScenePointerMessage", "event_type": "click",
              "ray_origin": (float(x), float(y), 10.0), "ray_direction": (0.0, 0.0, -1.0),
              "screen_pos": ((0.5, 0.5),), "modifier": None}
+    followed = []
+    student_click = app.roles.student_click
+
+    def recording_click(client_id, ray_origin, ray_direction):
+        chosen = student_click(client_id, ray_origin, ray_direction)
+        followed.append((chosen, dict(app.roles._probes)))
+        return chosen
+
+    app.roles.student_click = recording_click
     run_pages(app, teacher=[], student=[click])
     assert app.view.selection.size == 0  # the shared selection is untouched
-    probes = app.roles._probes
+    [(chosen, probes)] = followed
+    assert chosen == particle
     assert [probe["particle"] for probe in probes.values()] == [particle]
     assert not app.roles.refused
 
