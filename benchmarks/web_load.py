@@ -8,10 +8,11 @@ received per second and the lattice frames per second (windows that update
 simulation's step counter from the page's status line (so one sees whether the simulation slows
 down with more clients).  ``--slow K`` adds K clients that read like a page on a 1 Mbit/s link,
 ``--stalled K`` K clients that stop reading after two seconds (the server's log then says it
-disconnected them).
+disconnected them), ``--browsers K`` K real Chromium pages (bytes received only).
 
     .venv/bin/python benchmarks/web_load.py                        # 1 and 20 clients, 15 s each
     .venv/bin/python benchmarks/web_load.py --clients 1 20 30 --seconds 20 --slow 2 --stalled 1
+    .venv/bin/python benchmarks/web_load.py --clients 19 --browsers 1   # 20 pages, one a browser
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import msgspec
 import psutil
@@ -40,6 +42,7 @@ PARTICLES_NODE = "/lattice/particles"
 STEP = re.compile(r"step (\d+)")
 SLOW_BYTES_PER_SECOND = 125_000
 """How fast a ``--slow`` client reads (1 Mbit/s)."""
+CHROMIUM = "/usr/bin/chromium"
 STALL_AFTER = 2.0
 """Seconds after which a ``--stalled`` client stops reading."""
 
@@ -120,17 +123,50 @@ async def sample_memory(process: psutil.Process, stop: asyncio.Event, peak: list
             pass
 
 
+async def run_browsers(url: str, clients: list[Client], warm_up: float, seconds: float) -> None:
+    """Real Chromium pages (Debian's ``/usr/bin/chromium`` through Playwright): bytes of every
+    websocket frame they receive while counting."""
+    if not clients:
+        return
+    from playwright.async_api import async_playwright
+
+    page_url = url.replace("ws://", "http://")
+    async with async_playwright() as playwright:
+        browser = await playwright.chromium.launch(
+            executable_path=CHROMIUM, args=["--headless", "--no-sandbox", "--disable-gpu",
+                                            "--enable-unsafe-swiftshader"])
+        counting = [False]
+
+        def follow(client: Client, websocket: Any) -> None:
+            def received(payload: bytes | str) -> None:
+                if counting[0]:
+                    client.bytes += len(payload)
+            websocket.on("framereceived", received)
+
+        for client in clients:
+            page = await browser.new_page(viewport={"width": 1280, "height": 800})
+            page.on("websocket", lambda websocket, client=client: follow(client, websocket))
+            await page.goto(page_url)
+        await asyncio.sleep(warm_up)
+        counting[0] = True
+        await asyncio.sleep(seconds)
+        counting[0] = False
+        await browser.close()
+
+
 async def phase(url: str, process: psutil.Process, count: int, slow: int, stalled: int,
-                warm_up: float, seconds: float) -> tuple[list[Client], int]:
+                browsers: int, warm_up: float, seconds: float) -> tuple[list[Client], int]:
     kinds = ["normal"] * count + ["slow"] * slow + ["stalled"] * stalled
     clients = [Client(kind=kind) for kind in kinds]
+    pages = [Client(kind="Chromium") for _ in range(browsers)]
     stop = asyncio.Event()
     peak = [0]
     sampler = asyncio.create_task(sample_memory(process, stop, peak))
-    await asyncio.gather(*(run_client(url, c, warm_up, seconds) for c in clients))
+    await asyncio.gather(run_browsers(url, pages, warm_up, seconds),
+                         *(run_client(url, c, warm_up, seconds) for c in clients))
     stop.set()
     await sampler
-    return clients, peak[0]
+    return clients + pages, peak[0]
 
 
 def steps_per_second(clients: list[Client]) -> float:
@@ -152,10 +188,10 @@ def report(count: int, clients: list[Client], rss: int, seconds: float) -> None:
           f"frames/s median {statistics.median(fps):.1f} (min {fps[0]:.1f}); "
           f"all clients {sum(c.bytes for c in clients) / seconds / 1e6:.2f} MB/s; "
           f"server RSS peak {rss / 1e6:.0f} MB; simulation {steps_per_second(clients):.0f} steps/s")
-    for kind in ("slow", "stalled"):
+    for kind in ("slow", "stalled", "Chromium"):
         for c in (c for c in clients if c.kind == kind):
-            print(f"    a {kind} client: {c.bytes / seconds / 1e3:.0f} kB/s, "
-                  f"{c.frames / seconds:.1f} frames/s")
+            frames = f", {c.frames / seconds:.1f} frames/s" if kind != "Chromium" else ""
+            print(f"    a {kind} client: {c.bytes / seconds / 1e3:.0f} kB/s{frames}")
 
 
 def start_server(port: int, scene: str, log: Path) -> subprocess.Popen:
@@ -180,6 +216,8 @@ def main() -> None:
     parser.add_argument("--warm-up", type=float, default=5.0, help="seconds before counting")
     parser.add_argument("--slow", type=int, default=0, help="clients reading at 1 Mbit/s")
     parser.add_argument("--stalled", type=int, default=0, help="clients that stop reading")
+    parser.add_argument("--browsers", type=int, default=0,
+                        help="real Chromium pages (/usr/bin/chromium) besides the clients")
     parser.add_argument("--scene", default="interference")
     parser.add_argument("--port", type=int, default=8765)
     arguments = parser.parse_args()
@@ -192,8 +230,8 @@ def main() -> None:
               f"{process.memory_info().rss / 1e6:.0f} MB")
         for count in arguments.clients:
             clients, rss = asyncio.run(phase(url, process, count, arguments.slow,
-                                             arguments.stalled, arguments.warm_up,
-                                             arguments.seconds))
+                                             arguments.stalled, arguments.browsers,
+                                             arguments.warm_up, arguments.seconds))
             report(count, clients, rss, arguments.seconds)
             dropped = [line for line in log.read_text().splitlines() if "disconnected page" in line]
             print(f"    server log: {len(dropped)} page(s) disconnected for not reading so far")
