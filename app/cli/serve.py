@@ -24,6 +24,7 @@ EPILOG = """examples:
   oscillators serve my_scene.toml            # a saved scene file
   oscillators serve --host 0.0.0.0 --port 8000   # let a classroom connect to this machine
   oscillators serve --scenes-dir lessons/        # offer the .toml files in lessons/ by name
+  oscillators serve interference --host 0.0.0.0 --class   # a class: only the teacher drives
 
 in the page: click a particle to select it (shift+click adds), drag the arrows to move it,
 press Play; the panel changes integrator, time step, stiffness, damping, gravity and more.
@@ -31,6 +32,11 @@ press Play; the panel changes integrator, time step, stiffness, damping, gravity
 files: the page never names a file on this machine.  "Download this scene" saves to the
 browser, "Open a scene file" uploads one from it, and the scene files in --scenes-dir are
 offered by name.  Recordings started in the page go to --recordings-dir.
+
+a class (--class): the first page that opens, and any page opened with the teacher link printed
+at start, is the teacher and drives the run; every other page is a student: it watches the run,
+the plots and read-outs, moves its own camera and follows a particle of its own (click one), and
+the server refuses anything else it sends.
 
 security: only pages served by this server drive it (the websocket checks the Origin and Host
 headers); --allow-origin admits another page (e.g. behind a proxy).  Binding stays on this
@@ -62,6 +68,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
                         help="also let pages from ORIGIN (http://name:port) drive the app, or "
                         "'*' for any page (repeatable; default: only this server's own page)")
+    parser.add_argument("--class", dest="class_mode", action="store_true",
+                        help="teach a class: the first page (or the teacher link printed) drives "
+                        "the run, every other page only watches")
     parser.set_defaults(handler=command_serve)
 
 
@@ -129,7 +138,7 @@ def command_serve(arguments: argparse.Namespace) -> int:
     simulation = simulation_from_arguments(arguments)
     app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play,
                  scenes_dir=scenes_dir, recordings_dir=arguments.recordings_dir,
-                 allow_origins=arguments.allow_origin)
+                 allow_origins=arguments.allow_origin, class_mode=arguments.class_mode)
 
     def terminate(number: int, frame: object) -> None:  # SIGTERM: stop as Ctrl+C does
         raise KeyboardInterrupt
@@ -142,11 +151,20 @@ def command_serve(arguments: argparse.Namespace) -> int:
         print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
         print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
               f"recordings go to {arguments.recordings_dir}/", flush=True)
-        if not _loopback(arguments.host):
+        if not _loopback(arguments.host) and app.roles is not None:
+            print(f"warning: listening on {arguments.host}: anyone who can reach this machine on "
+                  f"port {app.server.get_port()} can open the page and watch; only teacher pages "
+                  "drive the run, open scene files and record", file=sys.stderr, flush=True)
+        elif not _loopback(arguments.host):
             print(network_warning(arguments.host, app.server.get_port(), str(scenes_dir),
                                   str(arguments.recordings_dir)), file=sys.stderr, flush=True)
+        if not _loopback(arguments.host):
             print("others open http://<this machine's address>:"
                   f"{app.server.get_port()}", flush=True)
+        if app.roles is not None:
+            print(f"class: the first page to open drives the run, and so does the teacher link "
+                  f"{app.roles.teacher_link(app.url)}  (keep it to yourself); every other page "
+                  "only watches", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:

@@ -6,7 +6,8 @@ Threads:
   subscriber only keeps the latest frame (cheap), so the simulation never waits for the network;
 * the frame pump thread draws the latest frame into the scene at no more than ``render_fps``
   (inside ``server.atomic()``), updates the panel and moves the drag gizmo;
-* viser's event loop and thread pool run the GUI and scene callbacks, which only post commands.
+* viser's event loop and thread pool run the GUI and scene callbacks, which only post commands;
+* the client watch (``app.web.clients``) disconnects a page that stops reading.
 
 Interaction: a click casts the pointer ray onto the lattice plane z = 0 and selects the nearest
 particle (shift+click adds to the selection; clicks outside the lattice are ignored).  A
@@ -35,9 +36,11 @@ import numpy as np
 import viser
 
 import sim
+from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
+from app.web.roles import ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, LatticeView, camera_fit
@@ -77,14 +80,15 @@ class WebApp:
 
     scenes_dir: the directory whose ``.toml`` files the page may open by name;
     recordings_dir: where the page's recordings go;
-    allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app.
+    allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app;
+    class_mode: one teacher page drives, the other pages watch (``app.web.roles``).
     """
 
     def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
                  verbose: bool = False, play: bool = False,
                  scenes_dir: str | Path = DEFAULT_SCENES_DIR,
                  recordings_dir: str | Path = DEFAULT_RECORDINGS_DIR,
-                 allow_origins: Sequence[str] = ()) -> None:
+                 allow_origins: Sequence[str] = (), class_mode: bool = False) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
         self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
         self.control = SimulationControl(self.runner)
@@ -95,6 +99,7 @@ class WebApp:
         self.gate = PageGate(self.server).install()
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.view = LatticeView(self.server)
+        self.clients = ClientWatch(self.server)
         self.play_on_start = play
         self.hold_while_dragging = True
         self._latest: Frame | None = None
@@ -114,6 +119,7 @@ class WebApp:
 
         self.panel = ControlPanel(self)
         self._install_interaction()
+        self.roles = ClassRoles(self.server, self.pick).install() if class_mode else None
 
     # --- life cycle ------------------------------------------------------------------------------
 
@@ -128,6 +134,7 @@ class WebApp:
         self._pumping = True
         self._pump = threading.Thread(target=self._pump_frames, name="web-frame-pump", daemon=True)
         self._pump.start()
+        self.clients.start()
         self.runner.start()
         self.runner.post(lambda simulation: None)  # publish a first frame
         if self.play_on_start:
@@ -145,6 +152,7 @@ class WebApp:
         self._pumping = False
         self._frame_ready.set()
         self.runner.stop()
+        self.clients.stop()
         if self._pump is not None:
             self._pump.join(5.0)
         if self._unsubscribe is not None:
@@ -229,6 +237,8 @@ class WebApp:
             self.last_error = frame.error
         self._follow_selection(frame)
         self.panel.update(frame)
+        if self.roles is not None:
+            self.roles.update(frame)
 
     def _frame_camera(self, model: sim.Model) -> None:
         camera = self.server.initial_camera

@@ -5,8 +5,9 @@ Two ways to draw particles, chosen by lattice size:
 * small lattices (up to ``SPHERE_LIMIT`` particles): instanced spheres whose diameter grows with
   the cube root of the mass;
 * large lattices: one float32 point cloud coloured by the displacement field (or speed), so wave
-  fronts show up; on very large lattices the points stay at their rest sites by default and only
-  the colours are sent (a 261k-point position update is ~3 MB).
+  fronts show up; on very large lattices the points stay at their rest sites by default, and
+  then the field is one picture (``app.web.frames``: encoded once per frame, shared by every
+  page, at a frame rate the server chooses).
 
 Colours come from the quantity's scheme in ``app.colours`` (the same language as movies and
 recordings): the signed displacement along the scene's axis (the component it is displaced
@@ -32,6 +33,7 @@ import numpy as np
 import viser
 
 from app import colours
+from app.web.frames import FieldImage, uses_image
 from sim.model import Model
 from sim.runner import Frame
 
@@ -122,6 +124,7 @@ class LatticeView:
         self._bar: viser.ImageHandle | None = None
         self._bar_shown: tuple | None = None
         self._bar_time = 0.0
+        self._image: FieldImage | None = None
         self._dirty = True
         self.frames_drawn = 0
         self.last_positions: np.ndarray | None = None
@@ -170,11 +173,12 @@ class LatticeView:
         scene = self.server.scene
         model = frame.model
         for handle in (self._spheres, self._points, self._springs, self._selection_points,
-                       self._bar):
+                       self._bar, self._image):
             if handle is not None:
                 handle.remove()
         self._spheres = self._points = self._springs = self._selection_points = None
         self._bar = self._bar_shown = None
+        self._image = None
         self._scales = {}
         moved = ((frame.positions - model.rest_positions) ** 2).sum(axis=0)
         self._axis = int(np.argmax(moved)) if moved.max() > 0 else model.dim - 1
@@ -191,12 +195,15 @@ class LatticeView:
                 cast_shadow=False, receive_shadow=False,
             )
         else:
-            shown = xyz if self.settings.points_move(model) else to_xyz(model.rest_positions)
-            self._points = scene.add_point_cloud(
-                "/lattice/particles", shown, self._particle_colors(frame),
-                point_size=self._base_diameter(model), point_shape="square",
-                precision="float32", point_shading="flat",
-            )
+            if uses_image(model, self.settings.points_move(model)):
+                self._image = FieldImage(self.server, model, self._particle_colors(frame))
+            else:
+                shown = xyz if self.settings.points_move(model) else to_xyz(model.rest_positions)
+                self._points = scene.add_point_cloud(
+                    "/lattice/particles", shown, self._particle_colors(frame),
+                    point_size=self._base_diameter(model), point_shape="square",
+                    precision="float32", point_shading="flat",
+                )
             if self.selection.size:
                 self._selection_points = scene.add_point_cloud(
                     "/lattice/selection", xyz[self.selection], SELECTED,
@@ -220,8 +227,10 @@ class LatticeView:
             if self.settings.points_move(model):
                 self._points.points = xyz
             self._points.colors = self._particle_colors(frame)
-            if self._selection_points is not None:
-                self._selection_points.points = xyz[self.selection]
+        if self._image is not None and (self._image.due_now() or not frame.playing):
+            self._image.show(self._particle_colors(frame), force=True)
+        if self._selection_points is not None:
+            self._selection_points.points = xyz[self.selection]
         if self._springs is not None:
             self._springs.points = self._spring_points(model, frame.positions)
             if frame.strains is not None:

@@ -1,0 +1,210 @@
+"""A class: one teacher drives the shared run, every other page watches (``serve --class``).
+
+Roles are given when a page connects:
+
+* the **teacher** is the first page that connects, and every page opened with the teacher link
+  that ``serve --class`` prints: ``http://HOST:PORT/?websocket=ws://HOST:PORT/teacher/TOKEN``.
+  viser's page opens its websocket at the page's address without the query string, except that
+  a ``websocket=`` parameter names that address; so the link makes the page connect to the path
+  ``/teacher/TOKEN`` and the server reads the token from the websocket handshake.  ``TOKEN`` is
+  random (``secrets``, 96 bits) and new for every server;
+* every other page is a **student**.  It sees the run, the colour bar, the plots and the
+  read-outs and moves its own camera.  A click on the lattice selects a particle for that page
+  only: a red marker in its own scene and a read-out of the particle's displacement in its own
+  panel.  Nothing else a student page sends reaches the app.
+
+``ClassRoles.gate`` is the one check: it sits in front of viser's dispatch of every message a
+page sends (``install``), so whatever a student page sends (a button, a slider, a dropdown, a
+drag of the gizmo, an upload, a shared-selection click), from the page or from a program
+speaking viser's protocol, is refused on the server and counted in ``refused``; a refused
+control is set back on that page to the value in use.  Only ``STUDENT_MESSAGES`` pass (the
+camera, replies to the server's own requests).  Without ``--class`` there are no roles.
+"""
+
+from __future__ import annotations
+
+import secrets
+import sys
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+from urllib.parse import urlsplit
+
+import numpy as np
+import viser
+from viser import _messages
+
+from app.web.inputs import as_html
+from sim.runner import Frame
+
+TEACHER_PATH = "/teacher/"
+"""Websocket path prefix of the teacher link (followed by the token)."""
+STUDENT_MESSAGES = (
+    _messages.ViewerCameraMessage,
+    _messages.GetRenderResponseMessage,
+    _messages.LocalStorageGetItemResponseMessage,
+)
+"""What a student page may send: its own camera, and replies to the server's requests."""
+PROBE_INTERVAL = 0.5
+"""Seconds between two updates of a student's own read-out."""
+STUDENT_NOTE = ("Student view: the teacher runs this lattice. Move the camera as you like; "
+                "click a particle to follow it yourself.")
+
+
+class ClassRoles:
+    """Teacher and student pages of one server.  ``pick(ray_origin, ray_direction)`` returns
+    the particle under a pointer ray (or None); ``install()`` puts the gate in front of viser."""
+
+    def __init__(self, server: viser.ViserServer,
+                 pick: Callable[[Any, Any], int | None], token: str | None = None) -> None:
+        self.server = server
+        self.pick = pick
+        self.token = token or secrets.token_urlsafe(12)
+        self.teachers: set[int] = set()
+        self.students: set[int] = set()
+        self.refused: list[tuple[int, str]] = []
+        """(client id, message type) of every message refused."""
+        self._first_taken = False
+        self._lock = threading.Lock()
+        self._probes: dict[int, dict[str, Any]] = {}
+        self._last_probe_update = 0.0
+
+    # --- roles -----------------------------------------------------------------------------------
+
+    def teacher_link(self, page_url: str) -> str:
+        """The teacher link for a page address ``http://host:port``."""
+        parts = urlsplit(page_url)
+        scheme = "wss" if parts.scheme == "https" else "ws"
+        return f"{page_url}/?websocket={scheme}://{parts.netloc}{TEACHER_PATH}{self.token}"
+
+    def is_teacher(self, client_id: int) -> bool:
+        return client_id in self.teachers
+
+    def arrived(self, client_id: int) -> str:
+        """Give a page whose websocket just opened its role (``teacher`` or ``student``), before
+        anything it sends is read."""
+        connection = self.server._websock_server._live_connections.get(client_id)
+        path = getattr(getattr(connection, "request", None), "path", "") or ""
+        with self._lock:
+            by_link = path.startswith(TEACHER_PATH) and secrets.compare_digest(
+                path[len(TEACHER_PATH):].encode(), self.token.encode())
+            if by_link or not self._first_taken:
+                self._first_taken = True
+                self.teachers.add(client_id)
+                return "teacher"
+            self.students.add(client_id)
+            return "student"
+
+    def greet(self, client: viser.ClientHandle) -> None:
+        """Tell a student page, in its own panel, what it may do."""
+        if client.client_id in self.students:
+            client.gui.add_html(as_html(STUDENT_NOTE, color="#1f5eea", bold=True), order=-2.0)
+
+    def left(self, client_id: int) -> None:
+        with self._lock:
+            self.teachers.discard(client_id)
+            self.students.discard(client_id)
+            self._probes.pop(client_id, None)
+
+    # --- the gate --------------------------------------------------------------------------------
+
+    def install(self) -> ClassRoles:
+        """Put ``gate`` in front of viser's dispatch of the messages pages send, and follow
+        pages connecting and leaving."""
+        websocket_server = self.server._websock_server
+        dispatch = websocket_server._handle_incoming_message
+
+        async def gated(client_id: int, message: _messages.Message) -> None:
+            if self.gate(client_id, message):
+                await dispatch(client_id, message)
+
+        async def opened(connection: Any) -> None:  # on the event loop, before any message
+            self.arrived(connection.client_id)
+
+        async def closed(connection: Any) -> None:
+            self.left(connection.client_id)
+
+        websocket_server._handle_incoming_message = gated
+        websocket_server.on_client_connect(opened)
+        websocket_server.on_client_disconnect(closed)
+        self.server.on_client_connect(self.greet)
+        return self
+
+    def gate(self, client_id: int, message: _messages.Message) -> bool:
+        """Whether ``message`` from page ``client_id`` may reach the app.  A student's click
+        goes to its own probe instead; anything else a student sends is refused."""
+        if client_id in self.teachers or isinstance(message, STUDENT_MESSAGES):
+            return True
+        if isinstance(message, _messages.ScenePointerMessage):
+            if message.event_type == "click" and message.ray_origin and message.ray_direction:
+                self.student_click(client_id, message.ray_origin, message.ray_direction)
+            return False
+        self.refused.append((client_id, type(message).__name__))
+        if len(self.refused) == 1 or len(self.refused) % 100 == 0:
+            print(f"web page: refused {len(self.refused)} change(s) from student pages "
+                  f"(the last a {type(message).__name__} from page {client_id})",
+                  file=sys.stderr)
+        if isinstance(message, _messages.GuiUpdateMessage):
+            self._restore(client_id, message)
+        return False
+
+    def _restore(self, client_id: int, message: _messages.GuiUpdateMessage) -> None:
+        """Set a refused control back, on that page, to the value in use."""
+        handle = self.server.gui._gui_input_handle_from_uuid.get(message.uuid)
+        client = self.server.get_clients().get(client_id)
+        if handle is None or client is None:
+            return
+        current = {name: getattr(handle._impl, name) for name in message.updates
+                   if hasattr(handle._impl, name)}
+        if current:
+            client._websock_connection.queue_message(
+                _messages.GuiUpdateMessage(message.uuid, current))
+
+    # --- a student's own probe -------------------------------------------------------------------
+
+    def student_click(self, client_id: int, ray_origin: Any, ray_direction: Any) -> int | None:
+        """Select the particle under the ray for this student page only (shown at the next
+        ``update``)."""
+        particle = self.pick(ray_origin, ray_direction)
+        if particle is None:
+            return None
+        with self._lock:
+            if client_id in self.students:
+                self._probes.setdefault(client_id, {})["particle"] = particle
+        self._last_probe_update = 0.0
+        return particle
+
+    def update(self, frame: Frame) -> None:
+        """Follow a frame: move each student's marker and refresh its read-out (at most every
+        ``PROBE_INTERVAL`` seconds)."""
+        now = time.perf_counter()
+        if not self._probes or now - self._last_probe_update < PROBE_INTERVAL:
+            return
+        self._last_probe_update = now
+        clients = self.server.get_clients()
+        model = frame.model
+        for client_id, probe in list(self._probes.items()):
+            client = clients.get(client_id)
+            particle = probe.get("particle")
+            if client is None or particle is None or particle >= model.n_particles:
+                continue
+            if "readout" not in probe:
+                probe["readout"] = client.gui.add_html("", order=-1.0)
+            position = np.zeros(3, np.float32)
+            position[: model.dim] = frame.positions[particle]
+            position[2] += 0.5 * model.spacing  # in front of a field picture in the plane z = 0
+            marker = probe.get("marker")
+            if marker is None:
+                size = max(1.5, 0.02 * max(model.nx, model.ny)) * model.spacing  # seen at any size
+                probe["marker"] = client.scene.add_point_cloud(
+                    "/my_particle", position[None], (255, 30, 30),
+                    point_size=size, point_shape="circle", precision="float32")
+            else:
+                marker.points = position[None]
+            displacement = frame.positions[particle] - model.rest_positions[particle]
+            row, column = divmod(int(particle), model.nx)
+            probe["readout"].content = as_html(
+                f"my particle (column {column}, row {row}) at t = {frame.time:.2f} s: "
+                f"displacement {np.linalg.norm(displacement):.3e} m",
+                color="#b00000")

@@ -1,0 +1,72 @@
+"""A class in a real (headless) Chromium: the teacher page (opened with the teacher link) changes
+the run and the student page sees it; the student page's own clicks on the shared controls
+change nothing, and its controls show the value in use again."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+
+import pytest
+
+import sim
+from app.web.app import WebApp
+from tests.helpers import free_port, wait_for
+from tests.test_web_browser import VIEWPORT, browser  # noqa: F401  (the browser fixture)
+
+CHROMIUM = "/usr/bin/chromium"
+SCREENSHOT = os.environ.get("CLASS_SCREENSHOT")
+"""If set, the student page's screenshot is saved there (to look at it)."""
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no Chromium at {CHROMIUM}"),
+]
+
+
+@pytest.fixture
+def class_app(tmp_path) -> Iterator[WebApp]:
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port(),
+                 scenes_dir=tmp_path / "scenes", recordings_dir=tmp_path / "recordings",
+                 class_mode=True)
+    app.start()
+    yield app
+    app.stop()
+
+
+def open_page(browser, address: str):  # noqa: F811
+    page = browser.new_page(viewport=VIEWPORT)
+    page.set_default_timeout(120_000)  # two software-rendered pages on a busy machine
+    page.goto(address)
+    page.get_by_text("Connected").wait_for(timeout=60_000)
+    assert wait_for(lambda: page.locator("canvas").count() > 0, timeout=60)
+    return page
+
+
+def test_the_student_sees_the_teachers_change_and_cannot_make_one(class_app, browser):  # noqa: F811
+    app = class_app
+    teacher = open_page(browser, app.roles.teacher_link(app.url))
+    assert wait_for(lambda: len(app.server.get_clients()) == 1)
+    student = open_page(browser, app.url)
+    assert wait_for(lambda: len(app.server.get_clients()) == 2)
+    assert len(app.roles.teachers) == 1 and len(app.roles.students) == 1
+
+    teacher.get_by_label("Gravity", exact=True).check()
+    assert wait_for(lambda: app.runner.simulation.model.has_gravity)
+    assert wait_for(lambda: student.get_by_label("Gravity", exact=True).is_checked(), timeout=60)
+
+    student.get_by_role("button", name="Play").click()
+    student.get_by_label("Gravity", exact=True).click()  # the page would uncheck it
+    assert wait_for(lambda: len(app.roles.refused) >= 2, timeout=60)
+    time.sleep(0.5)
+    assert not app.runner.playing and app.runner.simulation.step_count == 0
+    assert app.runner.simulation.model.has_gravity
+    assert wait_for(lambda: student.get_by_label("Gravity", exact=True).is_checked(), timeout=60)
+
+    teacher.get_by_role("button", name="Play").click()
+    assert wait_for(lambda: app.runner.simulation.step_count > 20)
+    student.get_by_text("Student view").wait_for(timeout=60_000)
+    if SCREENSHOT:
+        time.sleep(1.0)
+        student.screenshot(path=SCREENSHOT)
