@@ -274,3 +274,49 @@ def test_bad_driver_and_boundary_values_are_refused_clearly(parameters, message)
 def test_the_exact_solver_refuses_a_driven_scene():
     with pytest.raises(ValueError, match="driver"):
         sim.Simulation(sim.scenes.build("resonance", linear=True), integrator="exact")
+
+
+def instrumented_grid(**changes) -> sim.scenes.Scene:
+    """The nonlinear pre-tensioned grid with a force driver and absorbing walls, undamped: the
+    scene the fused leapfrog loops run."""
+    parameters = dict(nx=40, ny=24, boundary="absorbing", sponge_width=6,
+                      driver=dict(column=20, row=12, direction="y", amplitude=0.05,
+                                  frequency=0.8, ramp=1.0))
+    return sim.scenes.build("grid", **{**parameters, **changes})
+
+
+def test_a_driver_and_a_sponge_run_inside_the_fused_steps(monkeypatch):
+    simulation = sim.Simulation(instrumented_grid(), integrator="verlet")
+    calls = []
+    advance = simulation._integrator.advance
+    monkeypatch.setattr(simulation._integrator, "advance",
+                        lambda state, n, dt: (calls.append(n), advance(state, n, dt)))
+    simulation.step(64)
+    assert calls == [64]
+
+
+@pytest.mark.parametrize("kind", ["force", "displacement"])
+def test_the_balance_closes_with_the_instruments_inside_verlets_steps(kind):
+    """Work fed in and energy taken out are counted inside the fused loops: what the driver
+    put in is what the lattice holds plus what the layer took out, to Verlet's accuracy."""
+    scene = instrumented_grid(driver=dict(column=20, row=12, direction="y", amplitude=0.05,
+                                          frequency=0.8, ramp=1.0, kind=kind))
+    simulation = sim.Simulation(scene, integrator="verlet", dt=0.01)
+    start = simulation.energy().balance
+    simulation.step(3000)
+    energy = simulation.energy()
+    exchanged = abs(energy.driven) + energy.dissipated
+    assert abs(energy.driven) > 0.01 and energy.dissipated > 1.0
+    assert abs(energy.balance - start) < 2e-3 * exchanged
+
+
+def test_threads_run_the_instruments_like_one_thread():
+    runs = []
+    for threads in (1, 2):
+        simulation = sim.Simulation(instrumented_grid(), integrator="verlet", dt=0.01,
+                                    threads=threads)
+        simulation.step(500)
+        runs.append((simulation.positions.copy(), simulation.energy()))
+    np.testing.assert_allclose(runs[1][0], runs[0][0], rtol=0, atol=1e-12)
+    assert runs[1][1].driven == pytest.approx(runs[0][1].driven, rel=1e-9)
+    assert runs[1][1].dissipated == pytest.approx(runs[0][1].dissipated, rel=1e-9)
