@@ -2,10 +2,11 @@
 (out-of-plane) waves of a pre-tensioned strip.
 
 The strip: ``2 (distance + width)`` columns by ``rows`` rows, linearised springs (k = 35 N/m,
-m = 1 kg, a = 1 m) of rest length ~0 (``REST_LENGTH``), so the tension T = k a makes the out-of-plane wave obey
-m z'' = k (second differences of z along x and along y): the same dispersion along each axis as
-the longitudinal chain of ``app.study.reflection``.  The absorbing layers line the left and
-right walls (``sponge_sides="left,right"``); the bottom and top walls are fixed.  The packet
+m = 1 kg, a = 1 m) of rest length ~0 (``REST_LENGTH``), so the tension T = k a makes the
+out-of-plane wave obey m z'' = k (second differences of z along x and along y): the same
+dispersion along each axis as the longitudinal chain of ``app.study.reflection``.  The
+absorbing layers line the left and right walls (``sponge_sides="left,right"``); the bottom and
+top walls are fixed.  The packet
 
     z = A sin(pi m (j + 1) / (rows + 1)) exp(-(x - x0)^2 / (2 lambda^2)) cos(q_x (x - x0))
 
@@ -13,7 +14,8 @@ is one sine mode across the strip (an exact mode of the fixed walls, which the l
 damping across the strip keeps), so it is two plane waves at angles +-theta to the walls'
 normal, tan theta = q_y / q_x, q_y = pi m / (rows + 1), |q| = 2 pi / lambda.  45 degrees is
 q_x = q_y: the strip is about lambda / sqrt(2) rows wide (one half wave across it), and the
-wavelength is rounded to the one that fits.  Normal incidence is one row (m = 0).  As in the
+wavelength is rounded to the one that fits.  (Normal incidence is the chain's measurement:
+every mode across a strip between fixed walls has q_y >= pi / (rows + 1).)  As in the
 chain, the packet starts at rest in the middle, splits, runs into the layers at the group
 velocity along x, and the **reflected fraction** is the energy left between the layers at
 t = 2 distance / c_gx over the energy at the start.
@@ -73,6 +75,8 @@ def measure(width: int, wavelength: float, angle: float = 0.0,
             strength: float = DEFAULT_SPONGE_STRENGTH, distance: int = DISTANCE,
             boundary: str = "absorbing") -> float:
     """Reflected energy fraction (see the module docstring) of a ``width``-deep layer."""
+    if not angle:
+        raise ValueError("normal incidence is measured on the chain (app.study.reflection)")
     rows, q_x, q_y, _ = strip_geometry(wavelength, angle)
     columns = 2 * (distance + width)
     extra = dict(sponge_width=width, sponge_strength=strength, sponge_sides="left,right") \
