@@ -242,14 +242,18 @@ def format_report(study: ReflectionStudy) -> str:
         lines[0] = (f"reflected energy fraction at {study.angle:g} degrees from the walls' "
                     f"normal: out-of-plane waves on a strip one half wave wide "
                     f"(app.study.reflection_angle), {study.distance} particles from the packet "
-                    f"to each layer; sponge_strength {study.strength:g}")
+                    f"to each layer; c_g along the normal; sponge_strength {study.strength:g}")
     header = f"{'lambda/a':>8s} {'c_g (m/s)':>9s}" + "".join(
         f" {f'width {width}':>11s}" for width in study.widths)
     if study.fixed_walls is not None:
         header += f" {'fixed walls':>11s}"
     lines.append(header)
     for index, wavelength in enumerate(study.wavelengths):
-        line = f"{wavelength:8g} {group_velocity(wavelength):9.3f}" + "".join(
+        speed = group_velocity(wavelength)
+        if study.angle:  # along the walls' normal, at the wavelength that fits the strip
+            _, q_x, q_y, _ = reflection_angle.strip_geometry(wavelength, study.angle)
+            speed = reflection_angle.group_velocity_x(q_x, q_y)
+        line = f"{wavelength:8g} {speed:9.3f}" + "".join(
             f" {study.fractions[index, column]:11.2e}" for column in range(len(study.widths)))
         if study.fixed_walls is not None:
             line += f" {study.fixed_walls[index]:11.3f}"
