@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from sim import boundaries, forcing_kernels
+from sim import boundaries, forcing_kernels, instruments
 
 DRIVER_KINDS = ("force", "displacement")
 SPONGE_POWER = 2
@@ -129,7 +129,7 @@ class Driver:
     def envelope(self, time: float) -> tuple[float, float]:
         """(s, ds/dt) of the start-up envelope at ``time`` (0 before ``start``, 1 after the ramp)."""
         elapsed = time - self.start
-        if elapsed <= 0.0:
+        if elapsed < 0.0:
             return 0.0, 0.0
         if self.ramp <= 0.0 or elapsed >= self.ramp:
             return 1.0, 0.0
@@ -319,6 +319,50 @@ class Forcing:
                 float(parameters.origin_x), float(parameters.origin_y),
                 {"walls": 0, "ring": 1, "free": 2}[model.row_ends],
             )
+
+    @property
+    def has_sponge(self) -> bool:
+        return self._rates is not None
+
+    def drive_table(self) -> np.ndarray | None:
+        """The driver as a row of the drive table the compiled steps read (``sim.instruments``),
+        or None without a driver."""
+        driver = self.driver
+        if driver is None:
+            return None
+        table = np.zeros((1, instruments.DRIVE_FIELDS))
+        row = table[0]
+        row[instruments.ROW], row[instruments.COLUMN] = driver.row, driver.column
+        row[instruments.DIRECTION:instruments.DIRECTION + 3] = driver.direction
+        force = driver.kind == "force"
+        row[instruments.AMPLITUDE] = driver.amplitude * (self.model.stiffness if force else 1.0)
+        row[instruments.OMEGA] = driver.angular_frequency
+        row[instruments.START], row[instruments.RAMP] = driver.start, driver.ramp
+        row[instruments.KIND] = instruments.FORCE if force else instruments.DISPLACEMENT
+        row[instruments.INVERSE_MASS] = 1.0 / self._mass
+        row[instruments.REST:instruments.REST + 3] = self._rest
+        return table
+
+    def sponge_arrays(self, dt: float, dtype: type) -> tuple | None:
+        """The absorbing layer for steps of ``dt`` in ``dtype`` as the compiled steps take it
+        (``sim.instruments``): factors exp(-rate dt), their square roots, masses and the four
+        layer widths; None without a layer."""
+        if self._rates is None:
+            return None
+        key = ("in step", dt, dtype)
+        arrays = self._factors.get(key)
+        if arrays is None:
+            factors = np.exp(-dt * self._rates)
+            arrays = (factors.astype(dtype), np.sqrt(factors).astype(dtype), self._masses,
+                      np.array(self._layer, dtype=np.int64))
+            self._factors = {key: arrays}
+        return arrays
+
+    def place(self, state: Any) -> None:
+        """Put a prescribed particle where its prescription says at the state's time (the work
+        this takes is added to ``State.driven``)."""
+        if self.moves_particles:
+            self._place(state, state.time)
 
     @property
     def moves_particles(self) -> bool:

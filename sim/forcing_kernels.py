@@ -104,6 +104,8 @@ def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
         axis = 0 if dj == 0 else 1
         energy += _spring_energy(dx, dy, dz, axis, linear, stiffness, rest_length,
                                  tension_stiffness, spacing)
+        if linear and row_ends == 2 and axis == 0:  # the rest tension's work (free ends)
+            energy += tension_stiffness * spacing * (dx - spacing)
     return energy
 
 

@@ -294,6 +294,11 @@ def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, 
     r = j % x.shape[0]
     nx = x.shape[1]
     still = (zero, zero, zero, zero)
+    if linearised is not None:
+        # the linearised law leaves out each spring's rest tension T = k (a - L), which cancels
+        # on every particle with a spring on both sides; a free end has none outside it, so its
+        # missing spring carries -T relative to that law (the end particle is pulled inward)
+        still = (-parameters.tension_stiffness * parameters.spacing, zero, zero, zero)
     power = 0.0
     if parameters.free_ends is not None:  # no spring to the left wall
         _store(out, 0, still, z)
@@ -453,6 +458,9 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
             if i > 0 or parameters.free_ends is None:
                 spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
                                          tension_stiffness, spacing)
+            if i > 0 and linear and parameters.free_ends is not None:
+                # the rest tension's work T (dx - a), which sums to zero between two walls
+                spring += tension_stiffness * spacing * (dx - spacing)
             # the spring to the neighbour below (or the bottom wall anchor)
             if j == 0:
                 dx = x[0, i] - (origin_x + i * spacing)

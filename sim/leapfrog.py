@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from numba import njit, prange
 
+from sim.instruments import damp_drift_row, leapfrog_drive, save_driven
 from sim.kernels import (
     gravity_vector,
     horizontal_springs,
@@ -27,7 +28,8 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 @njit(**_JIT)
 def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                  parameters, gravity, below, above_last, horizontal):
+                  parameters, gravity, below, above_last, horizontal, position, velocity, time,
+                  drive, saved, sponge, totals):
     """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
     nonlinear springs, with each row's forces and update fused into one pass over it.
 
@@ -36,11 +38,19 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     the sweep moved anything (the top wall springs, or a block boundary when the lattice is swept
     as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
     spring is computed here from positions that have not moved yet.
+
+    Instruments (``sim.instruments``, None compiles them out) act on a row after its plain
+    pass: the drive table's particles get their drive at ``time`` (s; velocities kept in
+    ``saved`` (drives, 3) before the pass), the absorbing layer (``sponge``) damps its particles
+    around their drift; ``totals`` (2,) receives the drive's work and the layer's take (J).
+    ``position``/``velocity`` are the full (dim, ny, nx) arrays of the components.
     """
     zero = type(dt)(0.0)
     pull = gravity_vector(gravity, zero)
     nx = x.shape[1]
     for j in range(j0, j1):
+        if drive is not None:
+            save_driven(j, drive, velocity, saved)
         horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
         given = j + 1 == j1
         for i in range(nx):
@@ -79,24 +89,30 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
             y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
             below[0, i] = above[0]
             below[1, i] = above[1]
+        if drive is not None:
+            totals[0] += leapfrog_drive(j, time, dt, drive, position, velocity, saved)
+        if sponge is not None:
+            totals[1] += damp_drift_row(j, dt, position, velocity, sponge, velocity, False)
 
 
 @njit(**_JIT)
 def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                   parameters, gravity, block_starts, boundary, below, horizontal):
+                   parameters, gravity, block_starts, boundary, below, horizontal, time=0.0,
+                   drive=None, saved=None, sponge=None, totals=None):
     """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
 
     The springs below each block (and the top wall springs) go into ``boundary``
     (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below``
     (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.  This one runs
     the blocks one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them
-    on numba's threads and computes the same numbers.
+    on numba's threads and computes the same numbers.  Instruments as in ``leapfrog_rows``
+    (the kick of step s at ``time`` + s dt), ``totals`` (blocks, 2).
     """
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     ny = position.shape[1]
     blocks = block_starts.size - 1
-    for _ in range(n):
+    for step in range(n):
         for b in range(blocks + 1):
             vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
                              boundary[b])
@@ -104,26 +120,30 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
             below[b, :, :] = boundary[b]
             leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
                           inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
-                          boundary[b + 1], horizontal[b])
+                          boundary[b + 1], horizontal[b], position, velocity,
+                          time + step * float(dt), drive, saved, sponge,
+                          totals[b])
 
 
 @njit(parallel=True, **_JIT)
 def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mass,
                             uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal):
+                            below, horizontal, time=0.0, drive=None, saved=None, sponge=None,
+                            totals=None):
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
     threads (``prange``; ``numba.set_num_threads`` sets how many).  The loop bodies are
     functions of their own: numba's parallel transformation of the inlined 3-D body read stale
     out-of-plane components (runs differed from one thread and blew up)."""
     blocks = block_starts.size - 1
-    for _ in range(n):
+    for step in range(n):
         for b in prange(blocks + 1):
             _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
                               boundary)
         for b in prange(blocks):
             _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
                             uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal)
+                            below, horizontal, time + step * float(dt), drive, saved, sponge,
+                            totals)
 
 
 @njit(**_JIT)
@@ -138,11 +158,13 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
 
 @njit(**_JIT)
 def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                    parameters, gravity, block_starts, boundary, below, horizontal):
+                    parameters, gravity, block_starts, boundary, below, horizontal, time, drive,
+                    saved, sponge, totals):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     below[b, :, :] = boundary[b]
     leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
                   vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
-                  boundary[b + 1], horizontal[b])
+                  boundary[b + 1], horizontal[b], position, velocity, time, drive, saved, sponge,
+                  totals[b])

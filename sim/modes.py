@@ -178,7 +178,7 @@ def static_offset(model: Model) -> np.ndarray:
     the solution of K u = m g per component, through the sine transform (K is separable for any
     masses).  Zeros without gravity."""
     offset = np.zeros((model.dim, model.ny, model.nx))
-    if not model.has_gravity:
+    if not model.has_gravity and not _pulls_free_ends(model):
         return offset
     if model.row_ends != "walls":
         return _ring_static_offset(model, offset)
@@ -205,12 +205,23 @@ def _ring_static_offset(model: Model, offset: np.ndarray) -> np.ndarray:
     masses = np.asarray(model.masses, dtype=float).ravel()
     for component, (k_columns, k_rows, _, _) in enumerate(polarisations(model)):
         g = float(model.gravity[component])
-        if g == 0.0:
+        force = (masses * g).reshape(model.ny, model.nx)
+        if component == 0 and _pulls_free_ends(model):
+            # each free end's one spring pulls it inward with the rest tension T
+            force[:, 0] += model.tension
+            force[:, -1] -= model.tension
+        if not np.any(force):
             continue
         matrix = stiffness_matrix(model.nx, model.ny, k_columns, k_rows, model.row_ends)
-        solution = np.linalg.lstsq(matrix, masses * g, rcond=None)[0]
+        solution = np.linalg.lstsq(matrix, force.ravel(), rcond=None)[0]
         offset[component] = solution.reshape(model.ny, model.nx)
     return offset
+
+
+def _pulls_free_ends(model: Model) -> bool:
+    """Whether the rest tension pulls free row ends inward (free ends of a pre-tensioned
+    lattice: the linearised law's constant term T no longer cancels there)."""
+    return model.row_ends == "free" and model.tension != 0.0
 
 
 def gravity_release_energy(model: Model) -> float:

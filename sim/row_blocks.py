@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from sim.instruments import drive_row
 from sim.kernels import row_accelerations, vertical_springs
 from sim.row_updates import (
     components,
@@ -33,7 +34,7 @@ from sim.row_updates import (
     sweep_buffers,
     verlet_drift,
 )
-from sim.wavefront import wavefront, write_deferred
+from sim.wavefront import stage_time, wavefront, write_deferred
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -123,11 +124,13 @@ def verlet_steps_parallel(
 @njit(**_JIT)
 def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
                 uniform_inverse_mass, parameters, dashpot, drag, gravity, source_position,
-                source_velocity, target_position, target_velocity, sum_position, sum_velocity):
+                source_velocity, target_position, target_velocity, sum_position, sum_velocity,
+                time, drive, drive_power):
     """One stage of ``method`` on rows j0 .. j1-1: the forces of the stage input (``source_*``,
     full arrays) and ``stage_update`` with the next input into ``target_*``.  Reads
     ``position``/``velocity`` of its own rows only, except as the input of stage 0.  Returns the
-    dissipated power (W) as ``force_rows`` counts it."""
+    dissipated power (W) as ``force_rows`` counts it; with a drive table the drives act at
+    ``time`` (s) and ``drive_power[0]`` receives their power (W)."""
     xs, ys, zs = components(out_of_plane, source_position)
     vxs, vys, vzs = components(out_of_plane, source_velocity)
     ny = position.shape[1]
@@ -139,6 +142,8 @@ def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, veloc
         power += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
                                    parameters, dashpot, drag, gravity, below, above, horizontal,
                                    row, uniform_inverse_mass)
+        if drive is not None:
+            drive_power[0] += drive_row(j, time, drive, -1, row, vxs, vys, vzs, j)
         below, above = above, below
         stage_update(method, stage, j, j, dt, position, velocity, row, source_velocity,
                      target_position, target_velocity, sum_position, sum_velocity, position,
@@ -150,7 +155,8 @@ def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, veloc
 def runge_kutta_phases(
     method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, next_position,
-    next_velocity, sum_position, sum_velocity, block_starts,
+    next_velocity, sum_position, sum_velocity, block_starts, time=0.0, drive=None,
+    drive_work=None,
 ):
     """n steps of ``method`` (``sim.row_updates.RK4`` or ``HEUN``) with each stage one parallel
     phase over the row blocks.
@@ -161,8 +167,9 @@ def runge_kutta_phases(
     blocks = block_starts.size - 1
     count = stages(method)
     powers = np.zeros((count, blocks))
+    drive_powers = np.zeros((count, blocks, 1))
     dissipated = 0.0
-    for _ in range(n):
+    for step in range(n):
         for stage in range(count):
             source_p, source_v = stage_position, stage_velocity  # odd stages
             target_p, target_v = next_position, next_velocity
@@ -178,8 +185,13 @@ def runge_kutta_phases(
                     out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
                     parameters, dashpot, drag, gravity, source_p, source_v, target_p, target_v,
                     sum_position, sum_velocity,
+                    time + (step + stage_time(method, stage)) * float(dt), drive,
+                    drive_powers[stage, b],
                 )
         dissipated += dissipated_energy(method, dt, powers.sum(axis=1))
+        if drive is not None:
+            drive_work[0] += dissipated_energy(method, dt, drive_powers.sum(axis=1)[:, 0])
+            drive_powers[:] = 0.0
     return dissipated
 
 
@@ -187,7 +199,8 @@ def runge_kutta_phases(
 def runge_kutta_blocks(
     method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
-    sum_velocity, deferred_position, deferred_velocity, block_starts,
+    sum_velocity, deferred_position, deferred_velocity, block_starts, time=0.0, drive=None,
+    drive_work=None,
 ):
     """n steps of ``method`` with each row block's wavefront (``sim.wavefront``) on one of
     numba's threads: one parallel sweep per step plus the copy of the deferred edge rows.
@@ -202,16 +215,20 @@ def runge_kutta_blocks(
     horizontal = np.empty((blocks, 3, nx + 1), position.dtype)
     row = np.empty((blocks, 3, nx), position.dtype)
     powers = np.zeros((blocks, count))
+    drive_powers = np.zeros((blocks, count))
     dissipated = 0.0
-    for _ in range(n):
+    for step in range(n):
         for b in prange(blocks):
             wavefront(method, block_starts[b], block_starts[b + 1], dt, linear, out_of_plane,
                       position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
                       drag, gravity, stage_position[b], stage_velocity[b], sum_position[b],
                       sum_velocity[b], deferred_position[b], deferred_velocity[b], vertical[b],
-                      horizontal[b], row[b], powers[b])
+                      horizontal[b], row[b], powers[b], time + step * float(dt), drive,
+                      drive_powers[b])
         for b in prange(blocks):
             write_deferred(block_starts[b], block_starts[b + 1], count - 1, position, velocity,
                            deferred_position[b], deferred_velocity[b])
         dissipated += dissipated_energy(method, dt, powers.sum(axis=0))
+        if drive is not None:
+            drive_work[0] += dissipated_energy(method, dt, drive_powers.sum(axis=0))
     return dissipated

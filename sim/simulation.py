@@ -345,22 +345,41 @@ class Simulation:
         """n steps of the integrator; with a driver or a sponge, one at a time between their
         half actions (``sim.forcing``), else all in one compiled call."""
         forcing = self._forcing
+        integrator = self._integrator
         if forcing is None:
-            self._integrator.advance(self.state, n, self._dt)
+            integrator.advance(self.state, n, self._dt)
             return
-        # forces that depend on velocities, or a moved particle, make cached forces stale
-        refresh = forcing.moves_particles or self._model.is_damped
         dt = self._dt
-        forcing.sponge(self.state, 0.5 * dt)
+        in_step = integrator.in_step
+        drive_inside = forcing.driver is not None and "drive" in in_step
+        sponge_inside = forcing.has_sponge and "sponge" in in_step
+        integrator.drive = forcing.drive_table() if drive_inside else None
+        integrator.sponge = forcing.sponge_arrays(dt, integrator.dtype) if sponge_inside else None
+        if drive_inside and forcing.moves_particles:
+            forcing.place(self.state)  # exactly on its prescription at the start
+            integrator.invalidate()
+        drive_between = forcing.driver is not None and not drive_inside
+        sponge_between = forcing.has_sponge and not sponge_inside
+        if not drive_between and not sponge_between:
+            integrator.advance(self.state, n, dt)
+            return
+        # the rest between the steps (Strang splitting); forces that depend on velocities, or a
+        # moved particle, make cached forces stale
+        refresh = (drive_between and forcing.moves_particles) or self._model.is_damped
+        if sponge_between:
+            forcing.sponge(self.state, 0.5 * dt)
         for remaining in range(n - 1, -1, -1):
-            forcing.drive_before(self.state, dt)
+            if drive_between:
+                forcing.drive_before(self.state, dt)
             if refresh:
-                self._integrator.invalidate()
-            self._integrator.advance(self.state, 1, dt)
-            forcing.drive_after(self.state, dt)
-            forcing.sponge(self.state, dt if remaining else 0.5 * dt)
+                integrator.invalidate()
+            integrator.advance(self.state, 1, dt)
+            if drive_between:
+                forcing.drive_after(self.state, dt)
+            if sponge_between:
+                forcing.sponge(self.state, dt if remaining else 0.5 * dt)
             if refresh:
-                self._integrator.invalidate()
+                integrator.invalidate()
 
     def _save_checkpoint(self) -> None:
         """Copy the state into the preallocated checkpoint (no allocation per chunk)."""

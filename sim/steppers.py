@@ -16,7 +16,7 @@ from typing import ClassVar, NamedTuple
 import numba
 import numpy as np
 
-from sim import host_tuning, leapfrog, row_blocks, stepping, wavefront
+from sim import host_tuning, instruments, leapfrog, row_blocks, stepping, wavefront
 from sim.kernels import SpringParameters
 from sim.model import Model
 from sim.row_updates import HEUN, RK4
@@ -67,6 +67,10 @@ class Integrator:
 
     name: ClassVar[str]
     work_arrays: ClassVar[int] = 1
+    drive: np.ndarray | None = None
+    """The drive table (``sim.instruments``) the steps apply, when ``in_step`` has "drive"."""
+    sponge: tuple | None = None
+    """The absorbing layer's arrays (``sim.instruments``), when ``in_step`` has "sponge"."""
     ring_rows: ClassVar[int | None] = None
     """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
 
@@ -99,6 +103,12 @@ class Integrator:
 
     def invalidate(self) -> None:
         """The state was changed from outside (a drag, a reset): drop any cached forces."""
+
+    @property
+    def in_step(self) -> frozenset[str]:
+        """The instruments this stepper applies inside its steps ("drive", "sponge"); the
+        simulation applies the others between steps (``sim.forcing``)."""
+        return frozenset()
 
     def _common(self, state: State) -> tuple:
         k = self.kernel
@@ -146,9 +156,19 @@ class Verlet(Integrator):
         self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
         self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
         self._horizontal = np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype)
+        self._drive_power = 0.0
+        self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
+        self._block_totals = np.zeros((blocks, 2))
+        self._saved = np.zeros((1, 3))  # velocities of driven particles (m/s)
 
     def invalidate(self) -> None:
         self._cached_for = None
+
+    @property
+    def in_step(self) -> frozenset[str]:
+        if self.parallel and not self._leapfrog:
+            return frozenset()
+        return frozenset(("drive", "sponge"))
 
     def _accelerations(self, state: State) -> float:
         """a(x, v) of the state into ``work[0]`` (on the row blocks' threads when parallel);
@@ -159,36 +179,63 @@ class Verlet(Integrator):
             )
         return stepping.accelerations(*self._common(state), self.work[0])
 
+    def _driven_accelerations(self, state: State, time: float) -> None:
+        """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them."""
+        self._power = self._accelerations(state)
+        if self.drive is not None:
+            self._drive_power = instruments.drive_rows(time, self.drive, -1, self.work[0],
+                                                       state.velocities)
+
     def advance(self, state: State, n: int, dt: float) -> None:
         stamp = (state.revision, state.time)
         if self.parallel:
             self._start_threads()
         if self._cached_for != stamp:
-            self._power = self._accelerations(state)
+            self._driven_accelerations(state, state.time)
         step = self._dt(dt)
+        drive, sponge = self.drive, self.sponge
+        if drive is not None and self._saved.shape[0] < drive.shape[0]:
+            self._saved = np.zeros((drive.shape[0], 3))
+        instrumented = drive is not None or sponge is not None
+        start = state.time
         if self._leapfrog and n >= 2:
             k = self.kernel
             acceleration = self.work[0]
+            half = 0.5 * dt
+            state.driven += half * self._drive_power
             stepping.verlet_open(step, state.positions, state.velocities, acceleration)
+            if sponge is not None:
+                state.dissipated += instruments.damp_drift_layer(step, state.positions,
+                                                                 state.velocities, sponge)
             steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
+            self._block_totals[:] = 0.0
             steps(
                 n - 1, step, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
                 k.uniform_inverse_mass, k.parameters, k.gravity, self._block_starts,
-                self._boundary, self._below, self._horizontal,
+                self._boundary, self._below, self._horizontal, start + dt, drive, self._saved,
+                sponge, self._block_totals,
             )
-            self._power = self._accelerations(state)
+            state.driven += float(self._block_totals[:, 0].sum())
+            state.dissipated += float(self._block_totals[:, 1].sum())
+            self._driven_accelerations(state, start + n * dt)
             stepping.verlet_close(step, state.velocities, acceleration)
-        elif self.parallel:
+            state.driven += half * self._drive_power
+        elif self.parallel and not instrumented:
             dissipated, self._power = row_blocks.verlet_steps_parallel(
                 n, step, *self._common(state), self.work[0], self._power, self.work[1],
                 self._block_starts,
             )
             state.dissipated += dissipated
         else:
+            totals = self._totals
+            totals[:] = (0.0, 0.0, self._drive_power)
             dissipated, self._power = stepping.verlet_steps(
-                n, step, *self._common(state), self.work[0], self._power, self.work[1]
+                n, step, *self._common(state), self.work[0], self._power, self.work[1], start,
+                drive, sponge, totals,
             )
-            state.dissipated += dissipated
+            state.dissipated += dissipated + totals[1]
+            state.driven += totals[0]
+            self._drive_power = float(totals[2])
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
 
@@ -214,24 +261,31 @@ class _RungeKutta(Integrator):
                 np.zeros(edges, dtype=self.dtype) for _ in range(2)
             ]
 
-    def _one_thread(self, n: int, dt: np.floating, state: State) -> float:
+    @property
+    def in_step(self) -> frozenset[str]:
+        return frozenset(("drive",))
+
+    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
         raise NotImplementedError
 
     def advance(self, state: State, n: int, dt: float) -> None:
         if self.parallel:
             self._start_threads()
+        work = np.zeros(1)  # the drive's work (J)
+        instruments_arguments = (state.time, self.drive, work)
         if self.parallel and self._blocks is not None:
             state.dissipated += row_blocks.runge_kutta_blocks(
                 self.method, n, self._dt(dt), *self._common(state), *self._block_work,
-                self._blocks,
+                self._blocks, *instruments_arguments,
             )
         elif self.parallel:
             state.dissipated += row_blocks.runge_kutta_phases(
                 self.method, n, self._dt(dt), *self._common(state), *self._full_arrays(6),
-                self._block_starts,
+                self._block_starts, *instruments_arguments,
             )
         else:
-            state.dissipated += self._one_thread(n, self._dt(dt), state)
+            state.dissipated += self._one_thread(n, self._dt(dt), state, work)
+        state.driven += float(work[0])
         state.advance_clock(n, dt)
 
 
@@ -242,8 +296,9 @@ class Heun(_RungeKutta):
     work_arrays = 3
     ring_rows = 2
 
-    def _one_thread(self, n: int, dt: np.floating, state: State) -> float:
-        return stepping.heun_steps(n, dt, *self._common(state), *self.work)
+    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
+        return stepping.heun_steps(n, dt, *self._common(state), *self.work, state.time,
+                                   self.drive, work)
 
 
 class RungeKutta4(_RungeKutta):
@@ -253,5 +308,6 @@ class RungeKutta4(_RungeKutta):
     work_arrays = 4
     ring_rows = 4
 
-    def _one_thread(self, n: int, dt: np.floating, state: State) -> float:
-        return stepping.rk4_steps(n, dt, *self._common(state), *self.work)
+    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
+        return stepping.rk4_steps(n, dt, *self._common(state), *self.work, state.time,
+                                  self.drive, work)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from sim.instruments import damp_drift_row, drive_row
 from sim.kernels import row_accelerations, vertical_springs
 from sim.row_updates import (
     HEUN,
@@ -86,29 +87,35 @@ def euler_steps(
 def _runge_kutta_steps(
     method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
-    sum_velocity,
+    sum_velocity, time, drive, drive_work,
 ):
-    """n steps of ``method`` (RK4 or HEUN), each one wavefront over the whole lattice."""
+    """n steps of ``method`` (RK4 or HEUN), each one wavefront over the whole lattice; with a
+    drive table (``sim.instruments``) from ``time`` (s), its work (J) added to
+    ``drive_work[0]``."""
     nx = position.shape[2]
     count = stages(method)
     vertical = np.empty((count, 2, 3, nx), position.dtype)  # (stage, below/above, component, column)
     horizontal = np.empty((3, nx + 1), position.dtype)
     row = np.empty((3, nx), position.dtype)
     powers = np.zeros(count)
+    drive_powers = np.zeros(count)
     dissipated = 0.0
-    for _ in range(n):
+    for step in range(n):
         wavefront(method, 0, position.shape[1], dt, linear, out_of_plane, position, velocity,
                   inverse_mass, uniform_inverse_mass, parameters, dashpot, drag, gravity,
                   stage_position, stage_velocity, sum_position, sum_velocity, position, velocity,
-                  vertical, horizontal, row, powers)
+                  vertical, horizontal, row, powers, time + step * float(dt), drive, drive_powers)
         dissipated += dissipated_energy(method, dt, powers)
+        if drive is not None:
+            drive_work[0] += dissipated_energy(method, dt, drive_powers)
     return dissipated
 
 
 @njit(**_JIT)
 def heun_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity, first_acceleration, stage_position, stage_velocity,
+    drag, gravity, first_acceleration, stage_position, stage_velocity, time=0.0, drive=None,
+    drive_work=None,
 ):
     """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector.
 
@@ -118,13 +125,15 @@ def heun_steps(
     """
     return _runge_kutta_steps(HEUN, n, dt, linear, out_of_plane, position, velocity, inverse_mass,
                               uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                              stage_position, stage_velocity, stage_position, first_acceleration)
+                              stage_position, stage_velocity, stage_position, first_acceleration,
+                              time, drive, drive_work)
 
 
 @njit(**_JIT)
 def rk4_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity, stage_position, stage_velocity, sum_position, sum_velocity,
+    drag, gravity, stage_position, stage_velocity, sum_position, sum_velocity, time=0.0,
+    drive=None, drive_work=None,
 ):
     """Classic fourth-order Runge-Kutta on (x, v).
 
@@ -135,13 +144,15 @@ def rk4_steps(
     """
     return _runge_kutta_steps(RK4, n, dt, linear, out_of_plane, position, velocity, inverse_mass,
                               uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                              stage_position, stage_velocity, sum_position, sum_velocity)
+                              stage_position, stage_velocity, sum_position, sum_velocity, time,
+                              drive, drive_work)
 
 
 @njit(**_JIT)
 def verlet_steps(
     n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity, acceleration, previous_power, predicted_velocity,
+    drag, gravity, acceleration, previous_power, predicted_velocity, time=0.0, drive=None,
+    sponge=None, totals=None,
 ):
     """Velocity Verlet: half kick, drift, new forces, half kick.  Second order, symplectic.
 
@@ -155,6 +166,11 @@ def verlet_steps(
     writes only positions and velocities in the steps between.
     With velocity-dependent forces (damping), every step is a full velocity-Verlet step whose new
     forces use the predicted velocity v + dt a, which keeps it explicit and second order.
+    Instruments (``sim.instruments``; None compiles them out): a drive table acts on the new
+    forces of each step at its end time (``time`` is the start, s); the absorbing layer
+    (``sponge``) wraps each drift of its particles in two half-step dampings.  ``totals`` (2,)
+    receives the drive's work and the layer's take (J), the accelerations of the driven rows
+    on entry already hold the drive at ``time``.
     Returns (dissipated, power).
     """
     damped = dashpot is not None or drag is not None
@@ -171,23 +187,39 @@ def verlet_steps(
     for step in range(n):
         first = step == 0 or damped
         last = step == n - 1 or damped
+        at = time + (step + 1) * float(dt)
         if first:
             verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
+            if sponge is not None:
+                totals[1] += damp_drift_row(0, dt, position, velocity, sponge, predicted_velocity,
+                                            damped)
         new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        drive_power = 0.0
         for j in range(ny):
             if first and j + 1 < ny:
                 verlet_drift(j + 1, dt, position, velocity, acceleration, predicted_velocity,
                              damped)
+                if sponge is not None:
+                    totals[1] += damp_drift_row(j + 1, dt, position, velocity, sponge,
+                                                predicted_velocity, damped)
             new_power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
                                            horizontal, row, uniform_inverse_mass)
+            if drive is not None:
+                drive_power += drive_row(j, at, drive, -1, row, vx, vy, vz, j)
             if last:
                 store_acceleration(j, row, acceleration, half, velocity)
             else:
                 kick_drift_row(j, dt, position, velocity, row)
+                if sponge is not None:
+                    totals[1] += damp_drift_row(j, dt, position, velocity, sponge,
+                                                predicted_velocity, False)
             below, above = above, below
         dissipated += half * (power + new_power)
         power = new_power
+        if drive is not None:
+            totals[0] += half * (totals[2] + drive_power)
+            totals[2] = drive_power
     return dissipated, power
 
 

@@ -15,13 +15,16 @@ rows of an inner edge during the step: those rows' new state goes to the block's
 (``deferred_slot``), copied into the state once every block is done (``write_deferred``).
 
 Arrays as in ``sim.row_updates``; ``powers`` (stages,) receives each stage's dissipated power
-(W) of the springs of the block's own rows.
+(W) of the springs of the block's own rows.  With a drive table (``sim.instruments``; None
+compiles it out) each stage's row accelerations get the drives at the stage's time, and
+``drive_powers`` (stages,) receives the power they feed into the block's own rows.
 """
 
 from __future__ import annotations
 
 from numba import njit
 
+from sim.instruments import drive_row
 from sim.kernels import row_accelerations, vertical_springs
 from sim.row_updates import components, stage_update, stages
 
@@ -34,6 +37,15 @@ HEUN_HALO = 1
 RK4_RING = 8
 """Rows kept by a block's ring-buffer stage arrays (with halos, the wavefront needs 5 alive at
 once; the one block of a whole lattice needs the number of stages)."""
+
+
+@njit(**_JIT)
+def stage_time(method, stage):
+    """Time of stage ``stage``'s input in steps after the step's start (RK4: 0, 1/2, 1/2, 1;
+    Heun: 0, 1)."""
+    if stages(method) == 2:
+        return float(stage)
+    return (0.0, 0.5, 0.5, 1.0)[stage]
 
 
 @njit(**_JIT)
@@ -81,7 +93,7 @@ def wavefront(
     method, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
     uniform_inverse_mass, parameters, dashpot, drag, gravity, stage_position, stage_velocity,
     sum_position, sum_velocity, deferred_position, deferred_velocity, vertical, horizontal, row,
-    powers,
+    powers, time=0.0, drive=None, drive_powers=None,
 ):
     """One step of ``method`` (``sim.row_updates.RK4`` or ``HEUN``) on rows j0 .. j1-1.
 
@@ -99,6 +111,8 @@ def wavefront(
     ny = position.shape[1]
     ring = stage_position.shape[1]
     powers[:] = 0.0
+    if drive is not None:
+        drive_powers[:] = 0.0
     for t in range(max(j0 - halo, 0), j1 + halo):
         for stage in range(count):
             j = t - stage
@@ -115,6 +129,14 @@ def wavefront(
                 p = _stage_forces(j, first, ny, xs, ys, zs, vxs, vys, vzs, linear, inverse_mass,
                                   uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
                                   above, horizontal, row, powers, stage)
+            if drive is not None:
+                at = time + stage_time(method, stage) * dt
+                if stage == 0:
+                    q = drive_row(j, at, drive, -1, row, vx, vy, vz, j)
+                else:
+                    q = drive_row(j, at, drive, -1, row, vxs, vys, vzs, j % ring)
+                if j >= j0 and j < j1:
+                    drive_powers[stage] += q
             if j >= j0 and j < j1:
                 powers[stage] += p
             deferred = deferred_slot(j, j0, j1, ny, halo)

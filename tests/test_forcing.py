@@ -136,6 +136,55 @@ def test_a_displacement_driver_follows_its_prescription():
     assert displacement == pytest.approx(expected, abs=2e-3)
 
 
+def prescribed_chain_exact(particles: int, driven: int, amplitude: float, frequency: float,
+                           damping: float, time: float) -> np.ndarray:
+    """x-displacements (m) at ``time`` of a linear chain of unit masses between walls with
+    dashpots ``damping`` beside its springs, particle ``driven`` moved as
+    A sin(omega t) from rest at t = 0 and the others starting at rest: the free particles obey
+    u'' = k L u + c L u' + (k b u_d + c b u_d') with L the chain's second difference and b its
+    coupling to the driven particle, solved exactly (eigenvectors for the transient, a complex
+    amplitude for the steady state)."""
+    omega = 2 * math.pi * frequency
+    free = [i for i in range(particles) if i != driven]
+    n = len(free)
+    second = -2 * np.eye(particles) + np.eye(particles, k=1) + np.eye(particles, k=-1)
+    coupling = second[free, driven]
+    system = np.zeros((2 * n, 2 * n))
+    system[:n, n:] = np.eye(n)
+    system[n:, :n] = STIFFNESS * second[np.ix_(free, free)]
+    system[n:, n:] = damping * second[np.ix_(free, free)]
+    sine, cosine = np.zeros(2 * n), np.zeros(2 * n)
+    sine[n:] = STIFFNESS * coupling * amplitude
+    cosine[n:] = damping * coupling * amplitude * omega
+    steady = np.linalg.solve(1j * omega * np.eye(2 * n) - system, cosine - 1j * sine)
+    values, vectors = np.linalg.eig(system)
+    transient = vectors @ (np.exp(values * time) * np.linalg.solve(vectors, -steady.real))
+    state = transient.real + (steady * np.exp(1j * omega * time)).real
+    displacement = np.full(particles, amplitude * math.sin(omega * time))
+    displacement[free] = state[:n]
+    return displacement
+
+
+@pytest.mark.parametrize(("integrator", "steps", "order"), [("verlet", 400, 1.8), ("rk4", 100, 3.5)])
+def test_a_displacement_driver_with_dashpots_converges_at_the_integrators_order(integrator, steps,
+                                                                                order):
+    """The neighbours of a prescribed particle feel a position and velocity consistent with its
+    prescribed motion inside the step, so halving dt divides the error by 2^order."""
+    particles, driven, amplitude, frequency, damping, duration = 6, 2, 0.05, 0.7, 0.6, 2.0
+    expected = prescribed_chain_exact(particles, driven, amplitude, frequency, damping, duration)
+    errors = []
+    for count in (steps, 2 * steps):
+        model = sim.Model.create(particles, 1, stiffness=STIFFNESS, damping=damping, linear=True,
+                                 driver=dict(column=driven, kind="displacement", direction="x",
+                                             amplitude=amplitude, frequency=frequency, ramp=0.0))
+        simulation = sim.Simulation(model, integrator=integrator, dt=duration / count)
+        simulation.step(count)
+        displacement = simulation.positions[:, 0] - simulation.rest_positions[:, 0]
+        errors.append(np.abs(displacement - expected).max())
+    assert errors[1] < 1e-4 * amplitude
+    assert math.log2(errors[0] / errors[1]) > order
+
+
 # --- the absorbing layer ---------------------------------------------------------------------
 
 
@@ -225,3 +274,49 @@ def test_bad_driver_and_boundary_values_are_refused_clearly(parameters, message)
 def test_the_exact_solver_refuses_a_driven_scene():
     with pytest.raises(ValueError, match="driver"):
         sim.Simulation(sim.scenes.build("resonance", linear=True), integrator="exact")
+
+
+def instrumented_grid(**changes) -> sim.scenes.Scene:
+    """The nonlinear pre-tensioned grid with a force driver and absorbing walls, undamped: the
+    scene the fused leapfrog loops run."""
+    parameters = dict(nx=40, ny=24, boundary="absorbing", sponge_width=6,
+                      driver=dict(column=20, row=12, direction="y", amplitude=0.05,
+                                  frequency=0.8, ramp=1.0))
+    return sim.scenes.build("grid", **{**parameters, **changes})
+
+
+def test_a_driver_and_a_sponge_run_inside_the_fused_steps(monkeypatch):
+    simulation = sim.Simulation(instrumented_grid(), integrator="verlet")
+    calls = []
+    advance = simulation._integrator.advance
+    monkeypatch.setattr(simulation._integrator, "advance",
+                        lambda state, n, dt: (calls.append(n), advance(state, n, dt)))
+    simulation.step(64)
+    assert calls == [64]
+
+
+@pytest.mark.parametrize("kind", ["force", "displacement"])
+def test_the_balance_closes_with_the_instruments_inside_verlets_steps(kind):
+    """Work fed in and energy taken out are counted inside the fused loops: what the driver
+    put in is what the lattice holds plus what the layer took out, to Verlet's accuracy."""
+    scene = instrumented_grid(driver=dict(column=20, row=12, direction="y", amplitude=0.05,
+                                          frequency=0.8, ramp=1.0, kind=kind))
+    simulation = sim.Simulation(scene, integrator="verlet", dt=0.01)
+    start = simulation.energy().balance
+    simulation.step(3000)
+    energy = simulation.energy()
+    exchanged = abs(energy.driven) + energy.dissipated
+    assert abs(energy.driven) > 0.01 and energy.dissipated > 1.0
+    assert abs(energy.balance - start) < 2e-3 * exchanged
+
+
+def test_threads_run_the_instruments_like_one_thread():
+    runs = []
+    for threads in (1, 2):
+        simulation = sim.Simulation(instrumented_grid(), integrator="verlet", dt=0.01,
+                                    threads=threads)
+        simulation.step(500)
+        runs.append((simulation.positions.copy(), simulation.energy()))
+    np.testing.assert_allclose(runs[1][0], runs[0][0], rtol=0, atol=1e-12)
+    assert runs[1][1].driven == pytest.approx(runs[0][1].driven, rel=1e-9)
+    assert runs[1][1].dissipated == pytest.approx(runs[0][1].dissipated, rel=1e-9)

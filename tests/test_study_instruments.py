@@ -12,7 +12,7 @@ import pytest
 
 import sim
 from app.cli import main
-from app.study import reflection, response, response_modes
+from app.study import reflection, reflection_angle, response, response_modes
 
 STIFFNESS = 35.0
 
@@ -99,6 +99,24 @@ def test_the_sponge_reflects_under_one_percent_where_fixed_walls_reflect_everyth
     assert absorbed > 0  # measured, not assumed: some energy does come back
     assert study.fixed_walls is not None and study.fixed_walls[0] > 0.9
     assert study.as_dict()["measurements"][0]["reflected"]["30"] == absorbed
+
+
+def test_at_45_degrees_the_default_layer_absorbs_where_fixed_walls_reflect_everything():
+    """The oblique measurement: a strip half a wave wide carries two plane waves at +-45
+    degrees to the walls; fixed walls send them back whole, the default layer does not."""
+    rows, q_x, q_y, fitted = reflection_angle.strip_geometry(20.0, 45.0)
+    assert q_x == pytest.approx(q_y) and fitted == pytest.approx(20.0, rel=0.05)
+    absorbed = reflection.measure_reflection(30, 20.0, angle=45.0)
+    assert 0 < absorbed <= 0.01
+    assert reflection.measure_reflection(30, 20.0, "fixed", angle=45.0) > 0.9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("angle", [0.0, 45.0])
+@pytest.mark.parametrize("wavelength", [5.0, 20.0])
+def test_the_default_layer_reflects_at_most_one_percent_at_normal_and_oblique_incidence(
+        wavelength, angle):
+    assert reflection.measure_reflection(30, wavelength, angle=angle) <= 0.01
 
 
 @pytest.mark.parametrize("arguments, words", [

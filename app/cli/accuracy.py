@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from app.cli.arguments import add_scene_arguments, positive_float, scene_from_arguments
+from app.cli.cluster import add_cluster_arguments, executor_from
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -83,6 +84,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "the recommendation uses float64)",
     )
     add_output_arguments(parser, picture="SCENE-work-precision.png")
+    add_cluster_arguments(parser)
     parser.set_defaults(handler=command_accuracy)
 
 
@@ -112,11 +114,12 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
         runs.append((8 * until / min(dts), particles, most_accurate(scene.model)))
         check_plan(runs, "accuracy")
     planned = 2 * len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
-    with progress_bar(planned, arguments.quiet) as bar:
+    with executor_from(arguments) as executor, progress_bar(planned, arguments.quiet) as bar:
         study = accuracy_study(
             scene, integrators=integrators, dts=dts, until=arguments.until,
             tolerance=arguments.tolerance, refine=not arguments.no_refine,
             progress=advance(bar), precisions=arguments.precisions or ("float64", "float32"),
+            executor=executor,
         )
         bar.total = bar.n
     data = study.as_dict()

@@ -32,10 +32,11 @@ wavelength not to reflect, so long waves need wider layers.
 
 EPILOG = """\
 examples:
-  oscillators reflection                                  # widths 20,30,40; 6 wavelengths
+  oscillators reflection                                  # widths 20,30,40; 7 wavelengths
   oscillators reflection --plot docs/images/reflection.png
   oscillators reflection --widths 30 --wavelengths 10,40,80 --distance 300 --json
   oscillators reflection --widths 30 --strength 1.0      # a steeper sponge
+  oscillators reflection --widths 30 --angle 45           # waves arriving at 45 degrees
 
 Python: from app.study.reflection import reflection_study
 """
@@ -53,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--wavelengths", type=_numbers, default=None, metavar="L,L,...",
-        help="wavelengths in spacings a, from 2.5 (default 5,10,20,30,40,60)",
+        help="wavelengths in spacings a, from 2.5 (default 5,10,20,30,40,60,80)",
     )
     parser.add_argument(
         "--strength", type=positive_float, default=None, metavar="S",
@@ -66,6 +67,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--no-control", action="store_true",
                         help="skip the fixed-wall control runs")
+    parser.add_argument(
+        "--angle", type=float, choices=(0.0, 45.0), default=0.0,
+        help="incidence in degrees from the walls' normal: 0 (the chain) or 45 (out-of-plane "
+        "waves on a strip half a wave wide; slower)",
+    )
     add_output_arguments(parser, picture="reflection.png")
     parser.set_defaults(handler=command_reflection)
 
@@ -107,12 +113,13 @@ def command_reflection(arguments: argparse.Namespace) -> int:
     strength = arguments.strength or DEFAULT_SPONGE_STRENGTH
     control = not arguments.no_control
     reflection.check_plan(widths, wavelengths, arguments.distance)
-    check_plan(reflection.planned_runs(widths, wavelengths, arguments.distance, control),
-               "reflection")
+    check_plan(reflection.planned_runs(widths, wavelengths, arguments.distance, control,
+                                       arguments.angle), "reflection")
     runs = len(wavelengths) * (len(widths) + int(control))
     with progress_bar(runs, arguments.quiet) as bar:
         study = reflection.reflection_study(
-            widths, wavelengths, strength, arguments.distance, control, progress=advance(bar))
+            widths, wavelengths, strength, arguments.distance, control, progress=advance(bar),
+            angle=arguments.angle)
     data = study.as_dict()
     save_picture(arguments, data, reflection.plot_reflection, study)
     emit(arguments, data, reflection.format_report(study))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from app.cli.arguments import bounded_int, positive_float, scene_from_arguments
+from app.cli.cluster import add_cluster_arguments, executor_from
 from app.cli.study_output import (
     add_output_arguments,
     advance,
@@ -75,6 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="relative width at which the bisection stops (default 0.005; from 1e-6 to 1)",
     )
     add_output_arguments(parser)
+    add_cluster_arguments(parser)
     parser.set_defaults(handler=command_stability)
 
 
@@ -101,10 +103,10 @@ def command_stability(arguments: argparse.Namespace) -> int:
     else:
         cases = stability.default_cases(arguments.cases)
     integrators = arguments.integrators or None
-    with progress_bar(None, arguments.quiet) as bar:
+    with executor_from(arguments) as executor, progress_bar(None, arguments.quiet) as bar:
         study = stability.stability_study(
             cases, integrators=integrators, steps=arguments.steps,
-            precision=arguments.precision, progress=advance(bar),
+            precision=arguments.precision, progress=advance(bar), executor=executor,
         )
     if arguments.plot:
         write_picture(arguments.plot, stability.plot_stability, study)

@@ -21,6 +21,7 @@ An integrator without time-step error that applies to the scene (``kernel`` Fals
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -36,6 +37,7 @@ from app.study.accuracy_reference import (
     reference_solution,
 )
 from app.study.accuracy_runs import Measurer, Run, jsonable, precisions_of, warm_up
+from app.study.executor import serial
 from sim.integrators import FORCE_EVALUATIONS, ORDERS, describe, descriptions, most_accurate
 from sim.observables import highest_frequency
 
@@ -159,6 +161,7 @@ def accuracy_study(
     progress: ProgressCallback | None = None,
     minimum_seconds: float = 0.02,
     precisions: Sequence[str] = ("float64", "float32"),
+    executor: Any = None,
 ) -> AccuracyStudy:
     """Measure error and wall time of every integrator at every dt on ``scene`` (see module doc).
 
@@ -167,7 +170,8 @@ def accuracy_study(
     relative position error of the recommendation.  ``progress`` is called with a short label
     before every run (the CLI drives a progress bar with it).  ``precisions``: the compiled
     integrators run in each of them (float64 always; the others only show on the picture and in
-    the table).
+    the table).  The runs at the given dts go through ``executor`` (``app.study.executor``:
+    default serial in this process, or a Dask cluster), ``progress`` called as each completes.
     """
     integrators = [sim.integrators.check_integrator_name(name) for name in integrators]
     precisions = ["float64"] + [
@@ -194,17 +198,16 @@ def accuracy_study(
     omega_max = highest_frequency(scene.model)
     smallest_dt = min(dt for steps in plan.values() for dt in steps)
     reference = reference_solution(scene, until, min(smallest_dt, until / 16), progress)
-    warm_up(scene, integrators, precisions)
+    executor = executor or serial()
+    executor.prepare(warm_up, scene, integrators, precisions)
     modes = normal_modes_or_none(scene)
     measure = Measurer(scene, until, reference, limits, omega_max, modes, minimum_seconds)
-    runs: list[Run] = []
-    for name in integrators:
-        for precision in precisions_of(name, precisions):
-            for dt in plan[name]:
-                if progress:
-                    suffix = "" if precision == "float64" else f" {precision}"
-                    progress(f"{name} dt={dt:.3g}{suffix}")
-                runs.append(measure(name, dt, precision=precision))
+    tasks = [(name, dt, precision) for name in integrators
+             for precision in precisions_of(name, precisions) for dt in plan[name]]
+    labels = [f"{name} dt={dt:.3g}{'' if precision == 'float64' else ' ' + precision}"
+              for name, dt, precision in tasks]
+    runs: list[Run] = executor.map(functools.partial(_measure_task, measure), tasks, labels,
+                                   progress)
     orders = {
         name: convergence_order(
             [run for run in runs if run.integrator == name and run.precision == "float64"],
@@ -234,6 +237,12 @@ def accuracy_study(
         limits=limits, reference=reference, runs=runs, orders=orders,
         recommendation=recommendation, exact=exact,
     )
+
+
+def _measure_task(measure: Measurer, task: tuple[str, float, str]) -> Run:
+    """One run of the sweep: (integrator, dt, precision) measured by ``measure``."""
+    name, dt, precision = task
+    return measure(name, dt, precision=precision)
 
 
 def exact_solver(model: sim.Model) -> str | None:

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 import sim
+from app.study import reflection_angle
 from sim.forcing import DEFAULT_SPONGE_STRENGTH, SPONGE_POWER
 from sim.integrators import describe, most_accurate
 
@@ -53,7 +54,7 @@ PACKET_AMPLITUDE = 0.01
 """Peak displacement of the packet (m); the springs are linearised, so only ratios matter."""
 
 DEFAULT_WIDTHS = (20, 30, 40)
-DEFAULT_WAVELENGTHS = (5.0, 10.0, 20.0, 30.0, 40.0, 60.0)
+DEFAULT_WAVELENGTHS = (5.0, 10.0, 20.0, 30.0, 40.0, 60.0, 80.0)
 
 SHORTEST_WAVELENGTH = 2.5
 """Shortest wavelength (in spacings) measured: at lambda = 2 a the group velocity is zero."""
@@ -106,9 +107,13 @@ def chain_energy(simulation: sim.Simulation, first: int, stop: int) -> float:
 
 def measure_reflection(width: int, wavelength: float, boundary: str = "absorbing",
                        strength: float = DEFAULT_SPONGE_STRENGTH,
-                       distance: int = DISTANCE) -> float:
+                       distance: int = DISTANCE, angle: float = 0.0) -> float:
     """Energy fraction left between the layers at t = 2 distance / c_g (see the module
-    docstring); with ``boundary="fixed"`` the same interior of a chain with fixed walls."""
+    docstring); with ``boundary="fixed"`` the same interior of a chain with fixed walls.
+    ``angle`` 45 (degrees from the wall's normal) measures oblique incidence on a strip
+    instead (``app.study.reflection_angle``)."""
+    if angle:
+        return reflection_angle.measure(width, wavelength, angle, strength, distance, boundary)
     scene = packet_scene(width, wavelength, boundary, strength, distance)
     simulation = sim.Simulation(scene)
     particles = scene.model.nx
@@ -130,6 +135,8 @@ class ReflectionStudy:
     distance: int
     fractions: np.ndarray
     fixed_walls: tuple[float, ...] | None
+    angle: float = 0.0
+    """Incidence angle (degrees from the walls' normal)."""
 
     def as_dict(self) -> dict[str, Any]:
         rows = []
@@ -146,6 +153,7 @@ class ReflectionStudy:
             chain=dict(stiffness=STIFFNESS, mass=MASS, spacing=1.0, distance=self.distance,
                        integrator=chain_integrator(), dt=DT),
             sponge_strength=self.strength, sponge_power=SPONGE_POWER, widths=list(self.widths),
+            angle=self.angle,
             measurements=rows,
         )
 
@@ -161,25 +169,27 @@ class ReflectionStudy:
 def reflection_study(
     widths: Sequence[int] = DEFAULT_WIDTHS, wavelengths: Sequence[float] = DEFAULT_WAVELENGTHS,
     strength: float = DEFAULT_SPONGE_STRENGTH, distance: int = DISTANCE, control: bool = True,
-    progress: ProgressCallback | None = None,
+    progress: ProgressCallback | None = None, angle: float = 0.0,
 ) -> ReflectionStudy:
-    """Measure every (wavelength, width) pair, and the fixed-wall control per wavelength."""
+    """Measure every (wavelength, width) pair, and the fixed-wall control per wavelength, at
+    normal incidence (``angle`` 0) or 45 degrees."""
     check_plan(widths, wavelengths, distance)
     fractions = np.empty((len(wavelengths), len(widths)))
     fixed: list[float] = []
     for row, wavelength in enumerate(wavelengths):
         for column, width in enumerate(widths):
             fractions[row, column] = measure_reflection(width, wavelength, "absorbing", strength,
-                                                        distance)
+                                                        distance, angle)
             if progress:
                 progress(f"lambda = {wavelength:g} a, width {width}")
         if control:
-            fixed.append(measure_reflection(max(widths), wavelength, "fixed", strength, distance))
+            fixed.append(measure_reflection(max(widths), wavelength, "fixed", strength, distance,
+                                            angle))
             if progress:
                 progress(f"lambda = {wavelength:g} a, fixed walls")
     return ReflectionStudy(tuple(int(w) for w in widths), tuple(float(w) for w in wavelengths),
                            float(strength), int(distance), fractions,
-                           tuple(fixed) if control else None)
+                           tuple(fixed) if control else None, float(angle))
 
 
 def check_plan(widths: Sequence[int], wavelengths: Sequence[float], distance: int) -> None:
@@ -204,15 +214,17 @@ def check_plan(widths: Sequence[int], wavelengths: Sequence[float], distance: in
 
 
 def planned_runs(widths: Sequence[int], wavelengths: Sequence[float], distance: int,
-                 control: bool = True) -> list[tuple[float, int, str]]:
+                 control: bool = True, angle: float = 0.0) -> list[tuple[float, int, str]]:
     """(steps, particles, integrator) of every run, for the CLI's time and step limits."""
     runs = []
     integrator = chain_integrator()
     for wavelength in wavelengths:
-        steps = 2 * distance / group_velocity(wavelength) / DT
-        runs += [(steps, 2 * (distance + width), integrator) for width in widths]
+        rows, q_x, q_y, _ = reflection_angle.strip_geometry(wavelength, angle)
+        speed = reflection_angle.group_velocity_x(q_x, q_y) if angle else group_velocity(wavelength)
+        steps = 2 * distance / speed / DT
+        runs += [(steps, 2 * (distance + width) * rows, integrator) for width in widths]
         if control:
-            runs.append((steps, 2 * (distance + max(widths)), integrator))
+            runs.append((steps, 2 * (distance + max(widths)) * rows, integrator))
     return runs
 
 
@@ -226,13 +238,22 @@ def format_report(study: ReflectionStudy) -> str:
         f"sponge_strength {study.strength:g}",
         "",
     ]
+    if study.angle:
+        lines[0] = (f"reflected energy fraction at {study.angle:g} degrees from the walls' "
+                    f"normal: out-of-plane waves on a strip one half wave wide "
+                    f"(app.study.reflection_angle), {study.distance} particles from the packet "
+                    f"to each layer; c_g along the normal; sponge_strength {study.strength:g}")
     header = f"{'lambda/a':>8s} {'c_g (m/s)':>9s}" + "".join(
         f" {f'width {width}':>11s}" for width in study.widths)
     if study.fixed_walls is not None:
         header += f" {'fixed walls':>11s}"
     lines.append(header)
     for index, wavelength in enumerate(study.wavelengths):
-        line = f"{wavelength:8g} {group_velocity(wavelength):9.3f}" + "".join(
+        speed = group_velocity(wavelength)
+        if study.angle:  # along the walls' normal, at the wavelength that fits the strip
+            _, q_x, q_y, _ = reflection_angle.strip_geometry(wavelength, study.angle)
+            speed = reflection_angle.group_velocity_x(q_x, q_y)
+        line = f"{wavelength:8g} {speed:9.3f}" + "".join(
             f" {study.fractions[index, column]:11.2e}" for column in range(len(study.widths)))
         if study.fixed_walls is not None:
             line += f" {study.fixed_walls[index]:11.3f}"
@@ -282,7 +303,8 @@ def plot_reflection(study: ReflectionStudy, path: str) -> None:
     axis.set_yscale("log")
     axis.set_xlabel("wavelength / a")
     axis.set_ylabel("reflected energy (%)")
-    axis.set_title(f"reflection off the absorbing layer (sponge_strength {study.strength:g}; "
+    angle = f", {study.angle:g} deg" if study.angle else ""
+    axis.set_title(f"reflection off the absorbing layer{angle} (sponge_strength {study.strength:g}; "
                    f"{describe(chain_integrator()).short_label} dt = {DT:g} s)", fontsize=10)
     axis.grid(True, which="major", alpha=0.3)
     axis.legend(fontsize=8, loc="lower right")

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 import sim
+from app.study.executor import serial
 from sim.integrators import describe
 
 ProgressCallback = Callable[[str], None]
@@ -265,46 +266,46 @@ def measured_limit(
 def stability_study(
     cases: Sequence[Case], integrators: Sequence[str] | None = None, steps: int = 400,
     precision: float = 0.005, progress: ProgressCallback | None = None,
+    executor: Any = None,
 ) -> StabilityStudy:
-    """Measured against theoretical stability limits for every case and integrator."""
+    """Measured against theoretical stability limits for every case and integrator.  Each
+    (case, integrator) is one independent run of ``executor`` (``app.study.executor``; default
+    serial in this process); ``progress`` is called as each completes."""
     names = [sim.integrators.check_integrator_name(n) for n in (integrators or sim.INTEGRATORS)]
-    limits: list[Limit] = []
-    for case in cases:
-        scene = perturbed(case.scene)
-        probe = sim.Simulation(scene)
-        for name in names:
-            started = time.perf_counter()
-            stability = probe.stability(name)
-            omega_max = stability.omega_max
-            guess = stability.dt or (2.0 / omega_max if omega_max else 0.01)
-            if not math.isfinite(guess):
-                guess = 0.01
-            run_steps = case.steps or steps
-            label = (lambda text, case=case: progress(f"{case.name}: {text}")) if progress else None
-            measured, trials = measured_limit(scene, name, guess, run_steps, precision,
-                                              progress=label)
-            below: list[float] = []
-            if measured:
-                for fraction in WINDOW_SCAN:
-                    if label:
-                        label(f"{name} scan below the limit, dt={fraction * measured:.4g}")
-                    check = trial(scene, name, fraction * measured, run_steps)
-                    trials.append(check)
-                    if not check.stable:
-                        below.append(check.dt)
-            failures = [t.reason for t in trials if not t.stable]
-            limits.append(
-                Limit(
-                    case=case.name, integrator=name, measured=measured, theory=stability.dt,
-                    omega_max=omega_max,
-                    ratio=measured / stability.dt if measured and stability.dt else None,
-                    trials=len(trials), smallest_tried=min(t.dt for t in trials),
-                    silent_nan=any(t.silent_nan for t in trials),
-                    first_failure=failures[0] if failures else "",
-                    wall_seconds=time.perf_counter() - started, unstable_below=below,
-                )
-            )
-    return StabilityStudy(list(cases), limits)
+    tasks = [(case, name, case.steps or steps, precision) for case in cases for name in names]
+    labels = [f"{case.name}: {name}" for case, name, _, _ in tasks]
+    limits = (executor or serial()).map(case_limit, tasks, labels, progress)
+    return StabilityStudy(list(cases), list(limits))
+
+
+def case_limit(task: tuple[Case, str, int, float]) -> Limit:
+    """The measured limit of one (case, integrator, steps per trial, bisection precision)."""
+    case, name, run_steps, precision = task
+    started = time.perf_counter()
+    scene = perturbed(case.scene)
+    stability = sim.Simulation(scene).stability(name)
+    omega_max = stability.omega_max
+    guess = stability.dt or (2.0 / omega_max if omega_max else 0.01)
+    if not math.isfinite(guess):
+        guess = 0.01
+    measured, trials = measured_limit(scene, name, guess, run_steps, precision)
+    below: list[float] = []
+    if measured:
+        for fraction in WINDOW_SCAN:
+            check = trial(scene, name, fraction * measured, run_steps)
+            trials.append(check)
+            if not check.stable:
+                below.append(check.dt)
+    failures = [t.reason for t in trials if not t.stable]
+    return Limit(
+        case=case.name, integrator=name, measured=measured, theory=stability.dt,
+        omega_max=omega_max,
+        ratio=measured / stability.dt if measured and stability.dt else None,
+        trials=len(trials), smallest_tried=min(t.dt for t in trials),
+        silent_nan=any(t.silent_nan for t in trials),
+        first_failure=failures[0] if failures else "",
+        wall_seconds=time.perf_counter() - started, unstable_below=below,
+    )
 
 
 def format_report(study: StabilityStudy) -> str:

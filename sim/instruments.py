@@ -1,0 +1,224 @@
+"""Numba kernels of the instruments inside the step: driven particles read from one small table,
+and the absorbing layer's damping over the border rows and columns.
+
+**The drive table** (``DRIVE_FIELDS`` columns, one row per driven particle, float64): row j and
+column i of the particle, its unit direction (dx, dy, dz), amplitude (N for a force, m for a
+displacement), angular frequency omega (rad/s), phase (rad), start (s), ramp (s), kind
+(``FORCE`` or ``DISPLACEMENT``), inverse mass (1/kg) and rest position (x, y, z) (m).  The drive
+of a particle is A s(t) sin(omega (t - start) + phase) along its direction, s the start-up
+envelope (1 - cos(pi (t - start) / ramp)) / 2 during the ramp, 1 after it and 0 before ``start``.
+A force is added to the particle's acceleration after the lattice forces; a prescribed
+displacement replaces its acceleration by the prescription's second derivative, so that every
+integrator moves it along the prescription to its own order and its neighbours feel a position
+and velocity consistent with that motion inside the step.  The kernels return the power (W) the
+drive feeds in, F . v with F the drive's force (for a displacement, the force that makes the
+particle follow: m a_prescribed - F_lattice).
+
+**The layer** (``sponge``): ``factors`` (ny, nx) exp(-rate dt) per particle, ``roots`` their
+square roots, ``masses`` (ny, nx) kg and ``widths`` (4,) int64 (left, right, bottom, top
+layer depths in particles, 0 where a wall has none).  ``damp_drift_row`` wraps a drift of the
+particles of row j that are in the layer in two half-step dampings (exact integration of the
+drag), applied after the row's plain update, so the interior loop is unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+
+FORCE = 0
+DISPLACEMENT = 1
+ROW, COLUMN, DIRECTION, AMPLITUDE, OMEGA, PHASE, START, RAMP, KIND, INVERSE_MASS, REST = (
+    0, 1, 2, 5, 6, 7, 8, 9, 10, 11, 12
+)
+DRIVE_FIELDS = 15
+"""Columns of the drive table (the last three are the rest position x, y, z)."""
+
+
+@njit(**_JIT)
+def drive_signal(time, table, d):
+    """(value, rate, second derivative) of s(t) sin(omega (t - start) + phase) of driven
+    particle d at ``time`` (s); multiply by the amplitude."""
+    elapsed = time - table[d, START]
+    if elapsed < 0.0:
+        return 0.0, 0.0, 0.0
+    omega = table[d, OMEGA]
+    ramp = table[d, RAMP]
+    angle = omega * elapsed + table[d, PHASE]
+    sine = math.sin(angle)
+    cosine = math.cos(angle)
+    if ramp <= 0.0 or elapsed >= ramp:
+        return sine, omega * cosine, -omega * omega * sine
+    turn = math.pi * elapsed / ramp
+    envelope = 0.5 * (1.0 - math.cos(turn))
+    envelope_rate = 0.5 * math.pi / ramp * math.sin(turn)
+    envelope_second = 0.5 * (math.pi / ramp) ** 2 * math.cos(turn)
+    return (envelope * sine, envelope_rate * sine + envelope * omega * cosine,
+            envelope_second * sine + 2.0 * envelope_rate * omega * cosine
+            - envelope * omega * omega * sine)
+
+
+@njit(**_JIT)
+def _drive_one(d, time, table, kinds, row, vx, vy, vz, r):
+    """``drive_row`` for driven particle d alone."""
+    kind = int(table[d, KIND])
+    if kinds >= 0 and kind != kinds:
+        return 0.0
+    i = int(table[d, COLUMN])
+    value, _, second = drive_signal(time, table, d)
+    inverse_mass = table[d, INVERSE_MASS]
+    power = 0.0
+    speeds = (float(vx[r, i]), float(vy[r, i]), 0.0)
+    count = 2
+    if vz is not None:
+        speeds = (speeds[0], speeds[1], float(vz[r, i]))
+        count = 3
+    for c in range(count):
+        speed = speeds[c]
+        direction = table[d, DIRECTION + c]
+        if kind == FORCE:
+            force = table[d, AMPLITUDE] * value * direction
+            row[c, i] += force * inverse_mass
+            power += force * speed
+        else:
+            prescribed = table[d, AMPLITUDE] * second * direction
+            power += (prescribed - float(row[c, i])) * speed / inverse_mass
+            row[c, i] = prescribed
+    return power
+
+
+@njit(**_JIT)
+def drive_row(j, time, table, kinds, row, vx, vy, vz, r):
+    """Apply the drives of the particles of row j at ``time`` to that row's accelerations
+    ``row`` (3, nx) (m/s^2), the lattice forces' alone on entry: add a force's F / m, or replace
+    the acceleration by a prescribed displacement's.  Only drives whose kind is ``kinds``
+    (``FORCE``, ``DISPLACEMENT``, or -1 for both) act.  ``vx, vy, vz`` are the velocities of the
+    same input (vz None in a planar scene), row j stored at index r.  Returns the drive's power
+    (W)."""
+    power = 0.0
+    for d in range(table.shape[0]):
+        if int(table[d, ROW]) == j:
+            power += _drive_one(d, time, table, kinds, row, vx, vy, vz, r)
+    return power
+
+
+@njit(**_JIT)
+def drive_rows(time, table, kinds, acceleration, velocity):
+    """``drive_row`` on full (dim, ny, nx) arrays, every driven particle; returns the power (W)."""
+    power = 0.0
+    for d in range(table.shape[0]):
+        j = int(table[d, ROW])
+        if velocity.shape[0] == 3:
+            power += _drive_one(d, time, table, kinds, acceleration[:, j, :], velocity[0],
+                                velocity[1], velocity[2], j)
+        else:
+            power += _drive_one(d, time, table, kinds, acceleration[:, j, :], velocity[0],
+                                velocity[1], None, j)
+    return power
+
+
+@njit(**_JIT)
+def place_driven(time, table, position, velocity):
+    """Set every prescribed particle to its prescribed position and velocity at ``time``."""
+    dim = position.shape[0]
+    for d in range(table.shape[0]):
+        if int(table[d, KIND]) != DISPLACEMENT:
+            continue
+        j = int(table[d, ROW])
+        i = int(table[d, COLUMN])
+        value, rate, _ = drive_signal(time, table, d)
+        for c in range(dim):
+            direction = table[d, DIRECTION + c]
+            position[c, j, i] = table[d, REST + c] + table[d, AMPLITUDE] * value * direction
+            velocity[c, j, i] = table[d, AMPLITUDE] * rate * direction
+
+
+@njit(**_JIT)
+def _damp_drift_span(j, i0, i1, dt, position, velocity, factors, roots, masses, predicted,
+                     damped):
+    dim = position.shape[0]
+    taken = 0.0
+    for i in range(i0, i1):
+        root = roots[j, i]
+        factor = factors[j, i]
+        speed_squared = 0.0
+        for c in range(dim):
+            v = velocity[c, j, i]
+            speed_squared += float(v) * float(v)
+            position[c, j, i] -= dt * (1 - root) * v
+            velocity[c, j, i] = v * factor
+            if damped:
+                predicted[c, j, i] *= factor
+        taken += 0.5 * masses[j, i] * speed_squared * (1.0 - float(factor) * float(factor))
+    return taken
+
+
+@njit(**_JIT)
+def damp_drift_row(j, dt, position, velocity, sponge, predicted, damped):
+    """Turn the plain drift x += dt v of the layer's particles in row j into half damping,
+    drift, half damping: x -= dt (1 - sqrt(f)) v; v *= f (v the drifted velocity, f the
+    particle's factor); with ``damped`` the predicted whole-step velocities (``predicted``)
+    are damped by f too.  Returns the kinetic energy the layer took out (J)."""
+    factors, roots, masses, widths = sponge
+    nx = position.shape[2]
+    ny = position.shape[1]
+    left, right, bottom, top = widths[0], widths[1], widths[2], widths[3]
+    if j < bottom or j >= ny - top:
+        return _damp_drift_span(j, 0, nx, dt, position, velocity, factors, roots, masses,
+                                predicted, damped)
+    taken = _damp_drift_span(j, 0, min(left, nx), dt, position, velocity, factors, roots, masses,
+                             predicted, damped)
+    taken += _damp_drift_span(j, max(nx - right, left), nx, dt, position, velocity, factors,
+                              roots, masses, predicted, damped)
+    return taken
+
+
+@njit(**_JIT)
+def damp_drift_layer(dt, position, velocity, sponge):
+    """``damp_drift_row`` over every row (J taken out): after a drift of the whole lattice."""
+    taken = 0.0
+    for j in range(position.shape[1]):
+        taken += damp_drift_row(j, dt, position, velocity, sponge, velocity, False)
+    return taken
+
+
+@njit(**_JIT)
+def save_driven(j, table, velocity, saved):
+    """Keep the velocities (m/s) of row j's driven particles in ``saved`` (drives, 3) before a
+    fused kick and drift that does not know them (``leapfrog_drive``)."""
+    for d in range(table.shape[0]):
+        if int(table[d, ROW]) == j:
+            i = int(table[d, COLUMN])
+            for c in range(velocity.shape[0]):
+                saved[d, c] = velocity[c, j, i]
+
+
+@njit(**_JIT)
+def leapfrog_drive(j, time, dt, table, position, velocity, saved):
+    """Correct the plain leapfrog kick and drift of row j's driven particles (v' = v + dt a,
+    x' = x + dt v', a the lattice's, v in ``saved``) for their drives at ``time`` (s): v'' = v +
+    dt a_driven, x'' = x' + dt (v'' - v').  Returns the drive's work (J): its force times the
+    mean of the velocities before and after, times dt."""
+    work = 0.0
+    for d in range(table.shape[0]):
+        if int(table[d, ROW]) != j:
+            continue
+        i = int(table[d, COLUMN])
+        value, _, second = drive_signal(time, table, d)
+        inverse_mass = table[d, INVERSE_MASS]
+        for c in range(position.shape[0]):
+            lattice_velocity = float(velocity[c, j, i])
+            before = saved[d, c]
+            direction = table[d, DIRECTION + c]
+            if int(table[d, KIND]) == FORCE:
+                added = table[d, AMPLITUDE] * value * direction * inverse_mass
+            else:
+                added = table[d, AMPLITUDE] * second * direction - (lattice_velocity - before) / dt
+            after = lattice_velocity + dt * added
+            position[c, j, i] += dt * dt * added
+            velocity[c, j, i] = after
+            work += added / inverse_mass * 0.5 * (before + after) * dt
+    return work
