@@ -280,6 +280,11 @@ class Model:
                 or self.walls.absorbing)
 
     @property
+    def driven(self) -> bool:
+        """Whether a driver or a source feeds energy in (its work is ``State.driven``)."""
+        return self.driver is not None or bool(self.sources)
+
+    @property
     def periodic(self) -> bool:
         """Whether each row is a ring (``boundary="periodic"``)."""
         return self.walls.periodic

@@ -43,6 +43,8 @@ class IntensityScreen:
         self._sum = np.zeros(model.ny)
         self._elapsed = 0.0
         self._last_time: float | None = None
+        self.completed = 0
+        """Whole periods completed since the start or the last ``reset``."""
 
     def observe(self, time: float, positions: np.ndarray) -> None:
         """Add the displacement at ``time`` (s) from ``positions`` ((n_particles, dim) m), held
@@ -62,6 +64,7 @@ class IntensityScreen:
             interval -= take
             if self._elapsed >= self.period * (1.0 - 1e-12):
                 self._means.append(self._sum / self._elapsed)
+                self.completed += 1
                 self._sum = np.zeros_like(self._sum)
                 self._elapsed = 0.0
 
@@ -83,3 +86,4 @@ class IntensityScreen:
         self._sum = np.zeros_like(self._sum)
         self._elapsed = 0.0
         self._last_time = None
+        self.completed = 0
