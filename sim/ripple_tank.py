@@ -30,8 +30,8 @@ SPONGE = 20
 """Depth of the absorbing layer along every wall (particles)."""
 FRINGE_FREQUENCY = 0.33
 """Driving frequency of two-sources and double-slit (Hz): lambda = 7.8 a on the membrane."""
-SINGLE_SLIT_FREQUENCY = 0.4
-"""Driving frequency of single-slit (Hz): lambda = 6.3 a."""
+SINGLE_SLIT_FREQUENCY = 0.33
+"""Driving frequency of single-slit (Hz): lambda = 7.8 a."""
 
 
 def _membrane(nx: int, ny: int, **extra: Any) -> dict[str, Any]:
@@ -50,10 +50,11 @@ _POINT = dict(direction="z", amplitude=0.02, frequency=FRINGE_FREQUENCY, kind="f
 PARAMETERS: dict[str, dict[str, Any]] = {
     "two-sources": _membrane(140, 140, sources=[dict(_POINT, column=70, row=62),
                                                 dict(_POINT, column=70, row=78, phase=0.0)]),
-    "single-slit": _membrane(190, 161, sources=_plane_wave(SINGLE_SLIT_FREQUENCY),
-                             barriers=[{"column": 45, "openings": [[73, 87]]}]),
-    "double-slit": _membrane(190, 161, sources=_plane_wave(FRINGE_FREQUENCY),
-                             barriers=[{"column": 45, "openings": [[69, 71], [89, 91]]}]),
+    # 201 rows: the walls' layers start 80 a from the axis, beyond the fringes the screen shows
+    "single-slit": _membrane(190, 201, sources=_plane_wave(SINGLE_SLIT_FREQUENCY),
+                             barriers=[{"column": 45, "openings": [[91, 109]]}]),
+    "double-slit": _membrane(190, 201, sources=_plane_wave(FRINGE_FREQUENCY),
+                             barriers=[{"column": 45, "openings": [[89, 91], [109, 111]]}]),
 }
 
 DESCRIPTIONS = {
@@ -61,7 +62,7 @@ DESCRIPTIONS = {
     "out-of-plane u_z of a pre-tensioned membrane, absorbing walls), driven in phase at "
     f"{FRINGE_FREQUENCY} Hz (lambda = 7.8 a): fixed nodal lines fan out between them.  Change "
     "the second source's phase to swing the nodal lines.",
-    "single-slit": "A plane wave from the left (lambda = 6.3 a) through one slit 16 a wide in a "
+    "single-slit": "A plane wave from the left (lambda = 7.8 a) through one slit 20 a wide in a "
     "barrier of pinned particles; absorbing walls.  The screen near the right wall shows the "
     "central maximum and its first minima at w sin(theta) = lambda.",
     "double-slit": "A plane wave from the left (lambda = 7.8 a) through two slits 20 a apart in "

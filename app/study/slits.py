@@ -11,7 +11,8 @@ screen (intensity against y, m) with the theory lines as a PNG.
 from __future__ import annotations
 
 import dataclasses
-import math
+import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +32,8 @@ class SlitMeasurement:
     m^2 along ``column``; ``fringes`` one dict per theory line (order, kind, theory y,
     measured y or None, difference in m); ``wavelength`` (m, the lattice's) and
     ``continuum_wavelength`` (m, c / f with the long-wave speed) and ``distance`` barrier to
-    screen (m)."""
+    screen (m); ``field`` (ny, nx) the displacement component at the end (m), ``barrier_x``
+    and ``screen_x`` (m), ``extent`` (x0, x1, y0, y1) of the lattice (m)."""
 
     scene: str
     column: int
@@ -42,6 +44,11 @@ class SlitMeasurement:
     wavelength: float
     continuum_wavelength: float
     distance: float
+    field: np.ndarray
+    barrier_x: float
+    screen_x: float
+    extent: tuple[float, float, float, float]
+    centre: float
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -86,10 +93,17 @@ def measure(scene: sim.Scene, *, column: int | None = None, duration: float | No
                      "difference": None if found is None else found - fringe.y})
     wave = sim.lattice_waves.polarisation(model, setup.component)
     speed = wave.long_wave_speeds()[0]
-    x0, _ = model.origin
+    x0, y0 = model.origin
+    component = "xyz".index(setup.component)
+    shape = (model.ny, model.nx, model.dim)
+    field = (simulation.positions.reshape(shape)[..., component]
+             - model.rest_positions.reshape(shape)[..., component])
+    screen_x = x0 + column * model.spacing
+    extent = (x0, x0 + (model.nx - 1) * model.spacing, y0, y0 + (model.ny - 1) * model.spacing)
     return SlitMeasurement(scene.name, column, simulation.time, y, intensity, rows,
                            setup.wavelength(model), speed / setup.frequency,
-                           x0 + column * model.spacing - setup.barrier_x)
+                           screen_x - setup.barrier_x, np.array(field), setup.barrier_x, screen_x,
+                           extent, setup.centre)
 
 
 def _fringe_spacing(fringes: list, model: Any) -> float:
@@ -118,39 +132,64 @@ def _extremum(y: np.ndarray, intensity: np.ndarray, near: float, reach: float,
 
 
 def plot(measurement: SlitMeasurement, path: str | Path) -> Path:
-    """The screen as a PNG at ``path``: intensity (relative to its peak) against y (m) along the
-    screen, the theory lines dashed, the measured fringes as dots."""
+    """A PNG at ``path``: left, the wave field at the end (colour: displacement) with the
+    barrier, the screen and the theory rays from the slits' centre; right, the screen's
+    intensity (relative to its peak) against y with the theory lines dashed and the measured
+    fringes as dots."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     path = Path(path)
-    peak = float(measurement.intensity.max()) or 1.0
-    figure, axes = plt.subplots(figsize=(7.0, 4.0), dpi=110)
-    axes.plot(measurement.y, measurement.intensity / peak, color="#1f4e79", lw=1.8,
-              label="measured <u²> (whole periods)")
-    for index, fringe in enumerate(measurement.fringes):
+    m = measurement
+    figure, (left, right) = plt.subplots(1, 2, figsize=(11.0, 5.0), dpi=100,
+                                         gridspec_kw={"width_ratios": [1.25, 1.0]})
+    limit = float(np.abs(m.field).max()) or 1.0
+    left.imshow(m.field, origin="lower", extent=m.extent, cmap="RdBu_r", vmin=-limit, vmax=limit,
+                interpolation="nearest")
+    left.axvline(m.barrier_x, color="black", lw=1.0)
+    left.axvline(m.screen_x, color="#2e7d32", lw=1.5, label="screen")
+    for fringe in m.fringes:
         colour = "#c0392b" if fringe["kind"] == "maximum" else "#7d3c98"
-        axes.axvline(fringe["theory_y"], color=colour, ls="--", lw=1.2,
-                     label=f"theory {fringe['kind']}a (λ lattice)" if index == 0 else None)
-        axes.text(fringe["theory_y"], 1.03, f"m={fringe['order']}", ha="center", fontsize=8)
+        left.plot([m.barrier_x, m.screen_x], [m.centre, fringe["theory_y"]], color=colour,
+                  ls="--", lw=1.0)
+    left.set_xlim(m.extent[0], m.extent[1])
+    left.set_ylim(m.extent[2], m.extent[3])
+    left.set_xlabel("x (m)")
+    left.set_ylabel("y (m)")
+    left.set_title(f"{m.scene} at t = {m.time:.0f} s (colour: displacement)", fontsize=9)
+    left.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16))
+
+    peak = float(m.intensity.max()) or 1.0
+    right.plot(m.y, m.intensity / peak, color="#1f4e79", lw=1.8,
+               label="measured <u²> (whole periods)")
+    for index, fringe in enumerate(m.fringes):
+        colour = "#c0392b" if fringe["kind"] == "maximum" else "#7d3c98"
+        right.axvline(fringe["theory_y"], color=colour, ls="--", lw=1.2,
+                      label=f"theory {fringe['kind']} (lattice λ)" if index == 0 else None)
+        right.text(fringe["theory_y"], 1.04, f"m={fringe['order']}", ha="center", fontsize=8,
+                   backgroundcolor="white")
         if fringe["measured_y"] is not None:
-            at = int(np.argmin(np.abs(measurement.y - fringe["measured_y"])))
-            axes.plot([fringe["measured_y"]], [measurement.intensity[at] / peak], "o",
-                      color=colour, ms=5)
-    axes.set_xlabel("y along the screen (m)")
-    axes.set_ylabel("intensity / peak")
-    axes.set_ylim(0, 1.1)
-    axes.set_title(f"{measurement.scene}: screen {measurement.distance:.0f} m beyond the barrier, "
-                   f"λ = {measurement.wavelength:.2f} m (continuum {measurement.continuum_wavelength:.2f})",
-                   fontsize=9)
-    axes.legend(fontsize=8, loc="upper right")
+            at = int(np.argmin(np.abs(m.y - fringe["measured_y"])))
+            right.plot([fringe["measured_y"]], [m.intensity[at] / peak], "o", color=colour, ms=5)
+    right.set_xlabel("y along the screen (m)")
+    right.set_ylabel("intensity / peak")
+    right.set_ylim(0, 1.12)
+    right.set_title(f"screen {m.distance:.0f} m beyond the barrier; λ = {m.wavelength:.2f} m "
+                    f"(continuum c/f = {m.continuum_wavelength:.2f} m)", fontsize=9)
+    right.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
     figure.tight_layout()
-    temporary = path.with_name(f".{path.name}.{math.floor(1e6 * np.random.random())}.tmp")
-    figure.savefig(temporary, format="png")
-    plt.close(figure)
-    temporary.replace(path)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            figure.savefig(stream, format="png")
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(figure)
     return path
 
 
