@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from sim import boundaries, forcing_kernels, instruments
+from sim import boundaries, forcing_kernels, sources
 
 DRIVER_KINDS = ("force", "displacement")
 SPONGE_POWER = 2
@@ -68,20 +68,24 @@ class Driver:
     """A sinusoidal drive on particle (``column``, ``row``).
 
     ``direction``: unit 3-vector (given as x, y, z or a 2-/3-vector, normalised);
-    ``amplitude`` A (m); ``frequency`` f (Hz); ``kind`` "force" (F = A k sin 2 pi f t, N) or
-    "displacement" (u = A sin 2 pi f t, m); ``start`` (s) and ``ramp`` (s) of the envelope.
+    ``amplitude`` A (m); ``frequency`` f (Hz); ``kind`` "force" (F = A k sin(2 pi f t + phase),
+    N) or "displacement" (u = A sin(2 pi f t + phase), m); ``start`` (s) and ``ramp`` (s) of the
+    envelope; ``phase`` (rad).  ``row`` may be "all" (a source driving its whole column,
+    ``sim.sources``).
     """
 
     column: int = 0
-    row: int = 0
+    row: int | str = 0
     direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
     amplitude: float = 0.05
     frequency: float = 1.0
     kind: str = "force"
     start: float = 0.0
     ramp: float = 2.0
+    phase: float = 0.0
 
-    FIELDS = ("column", "row", "direction", "amplitude", "frequency", "kind", "start", "ramp")
+    FIELDS = ("column", "row", "direction", "amplitude", "frequency", "kind", "start", "ramp",
+              "phase")
 
     @classmethod
     def create(cls, value: Any) -> Driver:
@@ -104,6 +108,9 @@ class Driver:
         merged = {**dataclasses.asdict(cls()), **fields}
         for name in ("column", "row"):
             raw = merged[name]
+            if name == "row" and isinstance(raw, str) and raw.strip().lower() == "all":
+                merged[name] = "all"
+                continue
             number = _number(name, raw)
             if isinstance(raw, bool) or not number.is_integer() or number < 0:
                 raise ForcingError(f"driver {name} must be a whole number >= 0, got {raw!r}")
@@ -112,13 +119,14 @@ class Driver:
         if kind not in DRIVER_KINDS:
             raise ForcingError(f"driver kind must be one of {', '.join(DRIVER_KINDS)}, got {kind!r}")
         return cls(
-            column=int(merged["column"]), row=int(merged["row"]),
+            column=int(merged["column"]), row=merged["row"],
             direction=_unit_vector(merged["direction"]),
             amplitude=_number("amplitude", merged["amplitude"], positive=True),
             frequency=_number("frequency", merged["frequency"], positive=True, allow_zero=False),
             kind=kind,
             start=_number("start", merged["start"], positive=True),
             ramp=_number("ramp", merged["ramp"], positive=True),
+            phase=_number("phase", merged["phase"]),
         )
 
     @property
@@ -137,13 +145,13 @@ class Driver:
         return 0.5 * (1.0 - math.cos(phase)), 0.5 * math.pi / self.ramp * math.sin(phase)
 
     def signal(self, time: float) -> tuple[float, float]:
-        """(value, rate) of the drive at ``time``: s(t) sin(omega (t - start)) and its derivative
+        """(value, rate) of the drive at ``time``: s(t) sin(omega (t - start) + phase) and its rate
         (times A for a displacement in m, times A k for a force in N)."""
         envelope, envelope_rate = self.envelope(time)
         if envelope == 0.0:
             return 0.0, 0.0
         omega = self.angular_frequency
-        phase = omega * (time - self.start)
+        phase = omega * (time - self.start) + self.phase
         return (envelope * math.sin(phase),
                 envelope_rate * math.sin(phase) + envelope * omega * math.cos(phase))
 
@@ -157,8 +165,30 @@ class Driver:
         what = "force A k" if self.kind == "force" else "displacement"
         axis = next((name for name, vector in _DIRECTIONS.items() if vector == self.direction),
                     "(" + ", ".join(f"{c:.3g}" for c in self.direction) + ")")
-        return (f"driven ({what}) at particle ({self.column}, {self.row}) along {axis}, "
-                f"A={self.amplitude:g} m, f={self.frequency:g} Hz")
+        where = (f"column {self.column}" if self.row == "all"
+                 else f"particle ({self.column}, {self.row})")
+        phase = f", phase {self.phase:g} rad" if self.phase else ""
+        return (f"driven ({what}) at {where} along {axis}, "
+                f"A={self.amplitude:g} m, f={self.frequency:g} Hz{phase}")
+
+
+PIN = Driver(kind="displacement", amplitude=0.0, ramp=0.0)
+"""The drive of a barrier's pinned particle: held at rest."""
+
+
+def check_sources(value: Any) -> tuple[Driver, ...]:
+    """Validated sources (``sim.sources``) from a list of drivers, tables or "key=value,..."
+    texts (one text may hold several sources separated by ";")."""
+    if value is None or value is False:
+        return ()
+    if isinstance(value, str):
+        value = [part for part in value.split(";") if part.strip()]
+    elif isinstance(value, (dict, Driver)):
+        value = [value]
+    try:
+        return tuple(Driver.create(item) for item in value)
+    except TypeError:
+        raise ForcingError(f"sources must be a list of source tables, got {value!r}") from None
 
 
 def parse_driver_text(text: str) -> dict[str, Any]:
@@ -302,16 +332,14 @@ class Forcing:
     def __init__(self, model: Any) -> None:
         self.model = model
         self.driver: Driver | None = model.driver
+        # (driver, row j, column i) per driven or pinned particle
+        self.entries = sources.entries(model, PIN)
         self._masses = np.ascontiguousarray(model.masses, dtype=np.float64)
         self._rates = sponge_rates(model) if model.walls.absorbing else None
         sides = model.sponge_sides if self._rates is not None else ()
         self._layer = tuple(model.sponge_width if side in sides else 0 for side in SIDES)
         self._factors: dict[tuple[float, type], np.ndarray] = {}
-        if self.driver is not None:
-            driver = self.driver
-            rest = model.rest_positions[driver.row * model.nx + driver.column]
-            self._rest = tuple(float(c) for c in rest) + (0.0,) * (3 - model.dim)  # (x, y, z) m
-            self._mass = float(model.masses[driver.row, driver.column])
+        if self.entries:
             parameters = model.kernel_parameters
             self._spring_arguments = (
                 bool(model.linear), float(parameters.stiffness), float(parameters.rest_length),
@@ -324,24 +352,19 @@ class Forcing:
     def has_sponge(self) -> bool:
         return self._rates is not None
 
+    @property
+    def drives(self) -> bool:
+        """Whether any particle is driven or pinned (a driver, sources or barriers)."""
+        return bool(self.entries)
+
     def drive_table(self) -> np.ndarray | None:
-        """The driver as a row of the drive table the compiled steps read (``sim.instruments``),
-        or None without a driver."""
-        driver = self.driver
-        if driver is None:
+        """The drivers, sources and pinned particles as the drive table the compiled steps read
+        (``sim.instruments``, one row per particle), or None without any."""
+        if not self.entries:
             return None
-        table = np.zeros((1, instruments.DRIVE_FIELDS))
-        row = table[0]
-        row[instruments.ROW], row[instruments.COLUMN] = driver.row, driver.column
-        row[instruments.DIRECTION:instruments.DIRECTION + 3] = driver.direction
-        force = driver.kind == "force"
-        row[instruments.AMPLITUDE] = driver.amplitude * (self.model.stiffness if force else 1.0)
-        row[instruments.OMEGA] = driver.angular_frequency
-        row[instruments.START], row[instruments.RAMP] = driver.start, driver.ramp
-        row[instruments.KIND] = instruments.FORCE if force else instruments.DISPLACEMENT
-        row[instruments.INVERSE_MASS] = 1.0 / self._mass
-        row[instruments.REST:instruments.REST + 3] = self._rest
-        return table
+        if getattr(self, "_table", None) is None:
+            self._table = sources.drive_table(self.model, self.entries)
+        return self._table
 
     def sponge_arrays(self, dt: float, dtype: type) -> tuple | None:
         """The absorbing layer for steps of ``dt`` in ``dtype`` as the compiled steps take it
@@ -366,7 +389,7 @@ class Forcing:
 
     @property
     def moves_particles(self) -> bool:
-        return self.driver is not None and self.driver.kind == "displacement"
+        return any(driver.kind == "displacement" for driver, _, _ in self.entries)
 
     def sponge(self, state: Any, span: float) -> None:
         """Damp the layer over ``span`` seconds (exactly: v *= exp(-rate * span))."""
@@ -383,48 +406,52 @@ class Forcing:
         )
 
     def _kick(self, state: Any, time: float, dt: float) -> None:
-        driver = self.driver
-        value, _ = driver.signal(time)
-        if value == 0.0:
-            return
-        impulse = 0.5 * dt * driver.amplitude * self.model.stiffness * value / self._mass
-        dvx, dvy, dvz = (impulse * c for c in driver.direction)
-        state.driven += forcing_kernels.kick_particle(
-            state.velocities, driver.row, driver.column, dvx, dvy, dvz if self.model.dim == 3 else 0.0,
-            self._mass,
-        )
+        for driver, j, i in self.entries:
+            if driver.kind != "force":
+                continue
+            value, _ = driver.signal(time)
+            if value == 0.0:
+                continue
+            mass = float(self._masses[j, i])
+            impulse = 0.5 * dt * driver.amplitude * self.model.stiffness * value / mass
+            dvx, dvy, dvz = (impulse * c for c in driver.direction)
+            state.driven += forcing_kernels.kick_particle(
+                state.velocities, j, i, dvx, dvy, dvz if self.model.dim == 3 else 0.0, mass,
+            )
 
     def _place(self, state: Any, time: float) -> None:
-        driver = self.driver
-        value, rate = driver.signal(time)
-        position = (r + driver.amplitude * value * d for r, d in zip(self._rest, driver.direction,
-                                                                      strict=True))
-        velocity = (driver.amplitude * rate * d for d in driver.direction)
-        j, i = driver.row, driver.column
-        before = self._local_energy(state)
-        forcing_kernels.place_particle(state.positions, state.velocities, j, i, *position, *velocity)
-        state.driven += self._local_energy(state) - before
+        rest_positions = self.model.rest_positions
+        for driver, j, i in self.entries:
+            if driver.kind != "displacement":
+                continue
+            value, rate = driver.signal(time)
+            rest = tuple(float(c) for c in rest_positions[j * self.model.nx + i])
+            rest = rest + (0.0,) * (3 - len(rest))  # (x, y, z) m
+            position = (r + driver.amplitude * value * d
+                        for r, d in zip(rest, driver.direction, strict=True))
+            velocity = (driver.amplitude * rate * d for d in driver.direction)
+            before = self._local_energy(state, j, i)
+            forcing_kernels.place_particle(state.positions, state.velocities, j, i, *position,
+                                           *velocity)
+            state.driven += self._local_energy(state, j, i) - before
 
-    def _local_energy(self, state: Any) -> float:
-        """Kinetic, spring and gravity energy that involve the driven particle (J)."""
-        j, i = self.driver.row, self.driver.column
-        energy = forcing_kernels.local_energy(state.positions, state.velocities, j, i, self._mass,
+    def _local_energy(self, state: Any, j: int, i: int) -> float:
+        """Kinetic, spring and gravity energy that involve particle (j, i) (J)."""
+        mass = float(self._masses[j, i])
+        energy = forcing_kernels.local_energy(state.positions, state.velocities, j, i, mass,
                                               *self._spring_arguments)
         for c in range(self.model.dim):
-            energy -= self._mass * self.model.gravity[c] * float(state.positions[c, j, i])
+            energy -= mass * self.model.gravity[c] * float(state.positions[c, j, i])
         return energy
 
     def drive_before(self, state: Any, dt: float) -> None:
         """The driver's first half: a half kick at the step's start time, or the prescribed
         position and velocity at that time."""
-        if self.driver is None:
-            return
-        if self.driver.kind == "force":
+        if self.entries:
             self._kick(state, state.time, dt)
-        else:
             self._place(state, state.time)
 
     def drive_after(self, state: Any, dt: float) -> None:
         """The driver's second half: a half kick at the step's end time (force drivers)."""
-        if self.driver is not None and self.driver.kind == "force":
+        if self.entries:
             self._kick(state, state.time, dt)

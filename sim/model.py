@@ -157,6 +157,8 @@ class Model:
     gravity: tuple[float, float, float]
     linear: bool
     driver: Any = None
+    sources: tuple = ()
+    barriers: tuple = ()
     boundary: str = "fixed"
     sponge_width: int = 30
     sponge_strength: float = 0.5
@@ -178,6 +180,8 @@ class Model:
         gravity: float | tuple[float, ...] | np.ndarray = 0.0,
         linear: bool = False,
         driver: Any = None,
+        sources: Any = (),
+        barriers: Any = (),
         boundary: str = "fixed",
         sponge_width: int = 30,
         sponge_strength: float | None = None,
@@ -203,6 +207,7 @@ class Model:
         gravity_vector = _gravity_vector(gravity)
         linear = schema.flag(linear, "linear", error=ModelError)
         from sim import forcing
+        from sim import sources as sources_module
 
         if sponge_strength is None:
             sponge_strength = forcing.DEFAULT_SPONGE_STRENGTH
@@ -211,8 +216,16 @@ class Model:
                 boundary, sponge_width, sponge_strength
             )
             driver = None if driver is None or driver is False else forcing.Driver.create(driver)
-        except forcing.ForcingError as error:
+            sources = forcing.check_sources(sources)
+            barriers = sources_module.check_barriers(barriers)
+            sources_module.check_in_lattice(sources, barriers, nx, ny, int(dim))
+        except (forcing.ForcingError, sources_module.SourceError) as error:
             raise ModelError(str(error)) from None
+        if driver is not None and driver.row == sources_module.ALL_ROWS:
+            driver = dataclasses.replace(driver, row=0) if ny == 1 else driver
+            if ny > 1:
+                raise ModelError('the driver drives one particle; a whole column (row "all") '
+                                 "is a source (scene key sources)")
         if driver is not None and not (driver.column < nx and driver.row < ny):
             raise ModelError(f"the driven particle (column {driver.column}, row {driver.row}) is "
                              f"outside the {nx}x{ny} lattice")
@@ -230,7 +243,8 @@ class Model:
         return cls(
             nx=nx, ny=ny, dim=int(dim), spacing=spacing, masses=masses, stiffness=stiffness,
             rest_length=rest_length, damping=damping, drag=drag, gravity=gravity_vector,
-            linear=bool(linear), driver=driver, boundary=boundary, sponge_width=sponge_width,
+            linear=bool(linear), driver=driver, sources=sources, barriers=barriers,
+            boundary=boundary, sponge_width=sponge_width,
             sponge_strength=sponge_strength, sponge_sides=sides,
         )
 
@@ -246,7 +260,8 @@ class Model:
         return dict(
             nx=self.nx, ny=self.ny, dim=self.dim, spacing=self.spacing, stiffness=self.stiffness,
             rest_length=self.rest_length, damping=self.damping, drag=self.drag,
-            gravity=self.gravity, linear=self.linear, driver=self.driver, boundary=self.boundary,
+            gravity=self.gravity, linear=self.linear, driver=self.driver, sources=self.sources,
+            barriers=self.barriers, boundary=self.boundary,
             sponge_width=self.sponge_width, sponge_strength=self.sponge_strength,
             sponge_sides=self.sponge_sides,
         )
@@ -259,7 +274,13 @@ class Model:
     @property
     def has_forcing(self) -> bool:
         """Whether a driver or an absorbing layer acts between the steps (``sim.forcing``)."""
-        return self.driver is not None or self.walls.absorbing
+        return (self.driver is not None or bool(self.sources) or bool(self.barriers)
+                or self.walls.absorbing)
+
+    @property
+    def driven(self) -> bool:
+        """Whether a driver or a source feeds energy in (its work is ``State.driven``)."""
+        return self.driver is not None or bool(self.sources)
 
     @property
     def periodic(self) -> bool:
@@ -407,6 +428,8 @@ class Model:
                           f"({self.sponge_width}-particle sponge)")
         if self.driver is not None:
             extras.append(self.driver.describe())
+        extras.extend(source.describe().replace("driven", "source", 1) for source in self.sources)
+        extras.extend(barrier.describe() for barrier in self.barriers)
         masses = (
             f"m={self.masses.flat[0]:g}"
             if self.uniform_mass

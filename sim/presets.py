@@ -19,6 +19,9 @@ interference-open the same behind absorbing walls
 resonance         a 12-particle chain driven at its third mode's frequency
 bandgap           an ionic chain driven inside its band gap
 membrane          24x24 drum skin in 3-D, pre-tensioned, a bump pushed out of the plane
+two-sources       ripple tank (u_z of a membrane): two point sources, their nodal lines
+single-slit       ripple tank: a plane wave through one slit in a barrier
+double-slit       ripple tank: a plane wave through two slits in a barrier
 ================= ==============================================================================
 """
 
@@ -31,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from sim import ripple_tank
 from sim.model import Model
 
 PAPER_STIFFNESS = 35.0
@@ -213,6 +217,11 @@ PRESETS: dict[str, Preset] = {
             dict(nx=24, ny=24, dim=3, stiffness=PAPER_STIFFNESS, rest_length=0.9), "rk4", 0.02,
             _membrane_bump, duration=40.0,
         ),
+    ] + [
+        # the ripple tank: waves cross the 190-column tank in about 70 s
+        Preset(name, ripple_tank.DESCRIPTIONS[name], parameters, "verlet", 0.05, _rest,
+               duration=90.0)
+        for name, parameters in ripple_tank.PARAMETERS.items()
     ]
 }
 

@@ -52,7 +52,9 @@ _ZIP_MAGIC = b"PK\x03\x04"
 _HEADER = """\
 # coupled-oscillators scene file: edit freely; units are SI (m, kg, s, N/m, N s/m).
 # [model.driver], if any, is a sinusoidal driver: kind force (A k sin 2 pi f t, N) or
-# displacement (A sin 2 pi f t, m).  [initial] displacements are rows [particle index, dx, dy(, dz)]
+# displacement (A sin 2 pi f t, m); [[model.sources]] are more of them (row = "all" drives a column,
+# phase in rad) and [[model.barriers]] pin a column (or row) except its openings [[first, last]].
+# [initial] displacements are rows [particle index, dx, dy(, dz)]
 # of displacements from rest (m).
 
 """
@@ -85,6 +87,10 @@ def _scene_document(scene: Scene, array_file_name: str) -> tuple[dict[str, Any],
                            sponge_sides=list(model.sponge_sides))
     if model.driver is not None:
         model_table["driver"] = model.driver.as_table()
+    if model.sources:
+        model_table["sources"] = [source.as_table() for source in model.sources]
+    if model.barriers:
+        model_table["barriers"] = [barrier.as_table() for barrier in model.barriers]
     document: dict[str, Any] = {
         "format": FORMAT_VERSION, "name": str(scene.name), "description": str(scene.description),
         "integrator": str(scene.integrator), "dt": float(scene.dt),

@@ -95,7 +95,8 @@ def _checked_array(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
 
 OVERRIDES = (
     "nx", "ny", "spacing", "mass", "stiffness", "rest_length", "damping", "drag", "gravity",
-    "linear", "dim", "driver", "boundary", "sponge_width", "sponge_strength", "sponge_sides",
+    "linear", "dim", "driver", "sources", "barriers", "boundary", "sponge_width", "sponge_strength",
+    "sponge_sides",
 )
 """Keywords accepted by ``build`` (plus ``integrator``, ``dt`` and ``precision``)."""
 

@@ -351,14 +351,14 @@ class Simulation:
             return
         dt = self._dt
         in_step = integrator.in_step
-        drive_inside = forcing.driver is not None and "drive" in in_step
+        drive_inside = forcing.drives and "drive" in in_step
         sponge_inside = forcing.has_sponge and "sponge" in in_step
         integrator.drive = forcing.drive_table() if drive_inside else None
         integrator.sponge = forcing.sponge_arrays(dt, integrator.dtype) if sponge_inside else None
         if drive_inside and forcing.moves_particles:
             forcing.place(self.state)  # exactly on its prescription at the start
             integrator.invalidate()
-        drive_between = forcing.driver is not None and not drive_inside
+        drive_between = forcing.drives and not drive_inside
         sponge_between = forcing.has_sponge and not sponge_inside
         if not drive_between and not sponge_between:
             integrator.advance(self.state, n, dt)

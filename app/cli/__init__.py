@@ -39,12 +39,13 @@ from app.cli import (
     run,
     scenes,
     serve,
+    slits,
     stability,
 )
 from app.cli.arguments import EPILOG, OneLineErrorParser
 
 COMMANDS = (scenes, run, bench, serve, record, accuracy, stability, dispersion, continuum,
-            response, reflection, movie)
+            response, reflection, slits, movie)
 """The command modules, in the order ``oscillators --help`` lists them."""
 
 

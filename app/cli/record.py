@@ -151,6 +151,11 @@ def register(subparsers: Any) -> None:
         "(one entity tree per integrator, shared timelines)",
     )
     parser.add_argument(
+        "--screen", type=int, metavar="COLUMN",
+        help="an intensity screen on this column: <u^2> over whole periods of the drive, with "
+        "the fringe theory of a slit barrier (screen/intensity, screen/rows/<j>)",
+    )
+    parser.add_argument(
         "--probe", action="append", type=_probe_choice, metavar="I,J",
         help="record the displacement of the particle in column I, row J (from 0) every frame, "
         "and its spectrum at the end; repeatable",
@@ -328,7 +333,7 @@ def command_record(arguments: argparse.Namespace) -> int:
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
         positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,
         raw_dtype=arguments.raw_dtype, exaggeration=arguments.exaggerate, frame_interval=0.0,
-        probes=tuple(probes), modes=arguments.modes,
+        probes=tuple(probes), modes=arguments.modes, screen=arguments.screen,
     )
     if arguments.every is None:
         arguments.every = default_every(steps, len(simulations), options, scene.model)

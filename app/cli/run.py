@@ -113,7 +113,7 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
     print(f"ran {simulation.step_count} steps to t = {simulation.time:.4g} s in {elapsed:.2f} s "
           f"({summary['steps_per_second'] or 0:.0f} steps/s)")
     print(f"{'energy (J)':12s} {'start':>12s} {'end':>12s}")
-    driven = simulation.model.driver is not None
+    driven = simulation.model.driven
     terms = ("kinetic", "spring", "gravity", "potential", "dissipated")
     for key in terms + (("driven",) if driven else ()) + ("total",):
         label = "driver work" if key == "driven" else key
@@ -123,8 +123,10 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
     print(f"energy balance error: {summary['energy_balance_error']:+.3%} of the energy in play "
           f"({balance_error:+.3g} J of {summary['energy_scale']:.4g} J; {kept} should stay "
           "constant)")
-    if driven:
+    if simulation.model.driver is not None:
         print(f"driver: {simulation.model.driver.describe()}")
+    for source in simulation.model.sources:
+        print(f"source: {source.describe()}")
     for probe in summary.get("probes", []):
         peaks = "; ".join(
             f"{peak['frequency']:.4g} Hz" + (f" ({peak['nearest_mode']})"

@@ -13,6 +13,7 @@ import dataclasses
 import app.recording.instruments as instruments
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.scales import QUANTITIES
+from app.recording.screen import check_screen
 from sim.model import Model
 
 DETAIL_LIMIT = 2500
@@ -50,6 +51,7 @@ class RecordingOptions:
     queue_frames: frames that may wait for the worker before the simulation is held back.
     probes: (column, row) of particles whose displacement is recorded every frame, with their
         spectra at the end (``app.recording.instruments``).
+    screen: column of an intensity screen (``app.recording.screen``), or None.
     modes: record the energy per normal mode (``sim.modes.mode_energies``).
     modes_every: recorded frames between two mode-energy frames; None: as often as
         ``instruments.MODES_BUDGET_BYTES`` allows for the expected number of frames.
@@ -68,6 +70,7 @@ class RecordingOptions:
     background: bool = True
     queue_frames: int = 4
     probes: tuple[tuple[int, int], ...] = ()
+    screen: int | None = None
     modes: bool = False
     modes_every: int | None = None
 
@@ -91,6 +94,7 @@ class RecordingOptions:
         positions_every = _positions_every(self.positions, detailed)
         surface = detailed and model.dim == 3 and positions_every > 0
         probes = instruments.check_probes(self.probes, model)
+        screen = check_screen(self.screen, model)
         if self.modes_every is not None and not (
                 isinstance(self.modes_every, int) and self.modes_every >= 1):
             raise ValueError(f"modes_every must be a whole number >= 1, got {self.modes_every!r}")
@@ -105,6 +109,7 @@ class RecordingOptions:
             springs=detailed and positions_every == 1 and not surface,
             surface=surface,
             probes=probes,
+            screen=screen,
             modes_every=modes_every,
         )
 
@@ -138,6 +143,7 @@ class LoggingPlan:
     surface: bool = False
     probes: tuple[tuple[int, int], ...] = ()
     modes_every: int = 0
+    screen: int | None = None
 
     def describe(self) -> str:
         parts = []
@@ -156,6 +162,8 @@ class LoggingPlan:
             parts.append(f"{self.quantity} field as {self.field} image")
         if self.probes:
             parts.append("probes at " + ", ".join(f"({i}, {j})" for i, j in self.probes))
+        if self.screen is not None:
+            parts.append(f"intensity screen on column {self.screen}")
         if self.modes_every == 1:
             parts.append("mode energies every frame")
         elif self.modes_every:

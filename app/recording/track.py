@@ -21,6 +21,7 @@ from app.recording.lattice import LatticeView
 from app.recording.layout import TreePaths, tree_paths
 from app.recording.options import LoggingPlan
 from app.recording.scales import ColourScales
+from app.recording.screen import ScreenLog
 from sim.model import Model
 from sim.runner import Frame
 
@@ -48,12 +49,14 @@ class Track:
         self._integrator: str | None = None
         self._dt: float | None = None
         self.lattice = LatticeView(self.paths, model, plan, scales, exaggeration)
-        self.energy = EnergyView(self.paths, name, driven=model.driver is not None)
+        self.energy = EnergyView(self.paths, name, driven=model.driven)
         self.field = (FieldView(self.paths.field, plan.field, plan.quantity, scales.axis,
                                 field_scale, jpeg_quality=jpeg_quality, raw_dtype=raw_dtype)
                       if plan.field else None)
         self.probes = (instruments.ProbeLog(self.paths, model, plan.probes)
                        if plan.probes else None)
+        self.screen = (ScreenLog(self.paths, model, plan.screen)
+                       if plan.screen is not None else None)
         self.modes = (instruments.ModeLog(self.paths, model, scales.energy, basis=modal_basis)
                       if plan.modes_every else None)
         self.probe_notes: list[str] = []
@@ -65,6 +68,8 @@ class Track:
         self.energy.log_static(self.stream)
         if self.probes is not None:
             self.probes.log_static(self.stream)
+        if self.screen is not None:
+            self.screen.log_static(self.stream)
 
     def log_frame(self, frame: Frame) -> None:
         stream, plan = self.stream, self.plan
@@ -81,6 +86,8 @@ class Track:
         self.energy.log_frame(stream, frame.energy, frame.energy_balance_error, frame.dt)
         if self.probes is not None:
             self.probes.log_frame(stream, frame.time, frame.positions)
+        if self.screen is not None:
+            self.screen.log_frame(stream, frame.time, frame.positions)
         if (self.modes is not None and frame.velocities is not None
                 and self.frames_logged % plan.modes_every == 0):
             self.modes.log_frame(stream, frame.positions, frame.velocities)
@@ -109,7 +116,7 @@ class Track:
         self.lattice.model = model
         if masses_changed:
             self.lattice.log_masses(self.stream)
-        if model.driver is not None:
+        if model.driven:
             self.energy.add_driver(self.stream)
         if self.probes is not None and not same_lattice:
             self.probe_notes = self.probes.finish(self.stream, model.driver)

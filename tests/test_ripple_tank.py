@@ -1,0 +1,131 @@
+"""The ripple tank: presets built on the membrane's u_z, the intensity screen in recordings and
+the ``slits`` command, and (slow) the double slit's fringes against the far-field theory with the
+lattice's own wavelength."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sim
+from app.cli import main
+from sim import ripple_tank, scene_files
+from tests.test_recording import read_chunks, temporal
+from tests.test_recording_instruments import tensor
+
+TOLERANCE = 3.5
+"""How far (m, 3.5 spacings, 7 % of its distance from the axis) a measured double-slit maximum
+m = +-1 may lie from the far-field line (measured: 2.8 m beyond it, docs/instruments.md)."""
+
+
+@pytest.mark.parametrize("name", ["two-sources", "single-slit", "double-slit"])
+def test_ripple_tank_presets_drive_the_membranes_u_z_behind_absorbing_walls(name):
+    model = sim.scenes.build(name).model
+    assert model.dim == 3 and model.walls.absorbing and model.sources
+    assert all(source.direction == (0.0, 0.0, 1.0) for source in model.sources)
+    wave = sim.lattice_waves.polarisation(model, "z")
+    along, across = wave.long_wave_speeds()
+    assert along == pytest.approx(across)  # isotropic at long wavelengths
+    # speed sqrt(T / (a m)), T = k (a - L): sqrt(35 * 0.2) m/s
+    assert along == pytest.approx(math.sqrt(35.0 * (1.0 - 0.8)))
+
+
+def test_slit_setup_reads_the_barrier_and_uses_the_lattices_wavelength():
+    model = sim.scenes.build("double-slit").model
+    setup = ripple_tank.SlitSetup.of(model)
+    assert setup.centre == pytest.approx(0.0)
+    low, high = (0.5 * sum(opening) for opening in setup.openings)
+    assert high - low == pytest.approx(20.0)
+    # the lattice's u_z dispersion: omega = 2 sqrt(T / (a m)) sin(q a / 2)
+    omega = 2 * math.pi * setup.frequency
+    q = 2 * math.asin(omega / (2 * math.sqrt(7.0)))
+    assert setup.wavelength(model) == pytest.approx(2 * math.pi / q, rel=1e-9)
+    assert setup.wavelength(model) < math.sqrt(7.0) / setup.frequency  # shorter than c / f
+    maxima = {fringe.order: fringe.y for fringe in setup.theory(model, 164)}
+    distance = 164 - 45
+
+    def wavelength_along(angle: float) -> float:  # the same dispersion along a slanted line
+        low, high = 0.0, math.pi
+        for _ in range(200):
+            middle = 0.5 * (low + high)
+            value = 4 * 7.0 * (math.sin(middle * math.cos(angle) / 2) ** 2
+                               + math.sin(middle * math.sin(angle) / 2) ** 2)
+            low, high = (middle, high) if value < omega**2 else (low, middle)
+        return 2 * math.pi / low
+
+    low, high = 0.0, 1.2  # d sin(theta) = lambda(theta) by bisection
+    for _ in range(200):
+        theta = 0.5 * (low + high)
+        low, high = (theta, high) if 20.0 * math.sin(theta) < wavelength_along(theta) else (low, theta)
+    assert maxima[1] == pytest.approx(distance * math.tan(theta), rel=1e-6)
+    assert maxima[-1] == pytest.approx(-maxima[1])
+
+
+@pytest.fixture(scope="module")
+def small_slits(tmp_path_factory) -> Path:
+    """A 50x41 tank with two slits, saved as a scene file."""
+    model = sim.Model.create(
+        50, 41, dim=3, stiffness=35.0, rest_length=0.8, linear=True, boundary="absorbing",
+        sponge_width=8,
+        sources=[dict(column=10, row="all", direction="z", amplitude=0.01, frequency=0.33,
+                      kind="force", ramp=2.0)],
+        barriers=[{"column": 18, "openings": [[15, 17], [23, 25]]}],
+    )
+    scene = sim.Scene(name="small-slits", model=model, integrator="verlet", dt=0.05,
+                      duration=30.0)
+    return scene_files.save(scene, tmp_path_factory.mktemp("slits") / "small-slits.toml")
+
+
+def test_a_recording_holds_the_intensity_screen(small_slits, tmp_path):
+    path = tmp_path / "slits.rrd"
+    assert main(["record", str(small_slits), "--duration", "30", "--every", "4", "--screen", "36",
+                 "-o", str(path), "--quiet"]) == 0
+    chunks = read_chunks(path)
+    profiles = temporal(chunks, "/screen/intensity", "BarChart:values")
+    assert len(profiles) >= 4
+    last = tensor(profiles[max(profiles)])
+    assert last.shape == (41,) and last.max() > 0
+    # the tank is mirror-symmetric about its middle row
+    np.testing.assert_allclose(last, last[::-1], rtol=1e-6, atol=1e-12 * last.max())
+    rows = {chunk.entity_path for chunk in chunks if chunk.entity_path.startswith("/screen/rows/")}
+    assert "/screen/rows/20" in rows  # m = 0
+
+
+def test_a_screen_off_the_lattice_is_refused(small_slits, tmp_path, capsys):
+    assert main(["record", str(small_slits), "--duration", "1", "--screen", "80",
+                 "-o", str(tmp_path / "x.rrd"), "--quiet"]) == 2
+    assert "screen" in capsys.readouterr().err
+
+
+def test_the_slits_command_reports_the_fringes_and_draws_the_screen(small_slits, tmp_path,
+                                                                    capsys):
+    picture = tmp_path / "screen.png"
+    assert main(["slits", str(small_slits), "--screen", "36", "--json", "--plot", str(picture),
+                 "--quiet"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert {fringe["order"] for fringe in data["fringes"]} >= {0}
+    central = next(fringe for fringe in data["fringes"] if fringe["order"] == 0)
+    assert central["measured_y"] == pytest.approx(0.0, abs=1e-6)
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_slits_command_refuses_a_scene_without_slits(capsys):
+    assert main(["slits", "grid", "--quiet", "--no-plot"]) == 2
+    assert "barrier" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_double_slit_maxima_agree_with_the_lattice_theory():
+    from app.study import slits
+
+    measurement = slits.measure(sim.scenes.build("double-slit"))
+    fringes = {fringe["order"]: fringe for fringe in measurement.fringes}
+    assert {-1, 0, 1} <= set(fringes)
+    assert fringes[0]["measured_y"] == pytest.approx(0.0, abs=0.1)
+    for order in (-1, 1):
+        assert fringes[order]["measured_y"] * order > 0
+        assert abs(fringes[order]["difference"]) <= TOLERANCE
