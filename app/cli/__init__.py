@@ -10,6 +10,7 @@
                                             walls' reflection against wavelength
     oscillators movie SCENE -o FILE         an MP4, WebM or GIF movie of a run or a recording
     oscillators continuum [string|membrane] one body at several N against the wave equation
+    oscillators slits [SCENE]               a slit scene's intensity screen against theory
 
 Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
 ``--set nx=40 --set gravity=9.81 --set damping=0.5``; a driver with
