@@ -31,6 +31,10 @@ from sim.model import Model
 from sim.modes import polarisations
 
 COMPONENTS = ("x", "y", "z")
+CONTOUR_SAMPLES = 720
+"""Angles of q at which a frequency's contour is sampled to find a ray."""
+ZOOM_SAMPLES, ZOOM_ROUNDS = 41, 4
+"""Each finer sampling of the contour around the best angle: samples and rounds."""
 
 
 class WaveError(ValueError):
@@ -49,6 +53,7 @@ class Polarisation:
     across_rows: float
     mass: float
     spacing: float
+    _contours: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     def omega(self, qx: np.ndarray | float, qy: np.ndarray | float) -> np.ndarray:
         """Angular frequency (rad/s) of the plane wave with wave vector (qx, qy) (rad/m)."""
@@ -111,31 +116,62 @@ class Polarisation:
         """omega / |q| (m/s) along ``angle``."""
         return omega / self.wavenumber(omega, angle)
 
-    def ray(self, omega: float, direction: float, samples: int = 721) -> tuple[float, float]:
+    def ray(self, omega: float, direction: float) -> tuple[float, float]:
         """The wave vector (qx, qy) (rad/m) on the frequency-``omega`` contour whose group
         velocity points along ``direction`` (rad from +x): the wave a source sends that way.
 
-        The contour is sampled at ``samples`` angles of q, the sample whose group velocity is
-        closest in direction is refined by bisection on the angle between its neighbours.
+        The contour is sampled at ``CONTOUR_SAMPLES`` angles of q (once per frequency); around
+        the sample whose group velocity is closest in direction, ``ZOOM_ROUNDS`` finer samplings
+        narrow the angle down to about 1e-8 rad.
         """
-        angles = np.linspace(-math.pi, math.pi, samples, endpoint=False)
-        vectors = [self._vector(omega, angle) for angle in angles]
-        offsets = np.array([_angle_between(math.atan2(*self.group_velocity(*q)[::-1]), direction)
-                            for q in vectors])
-        best = int(np.argmin(np.abs(offsets)))
-        step = 2.0 * math.pi / samples
-        low, high = angles[best] - step, angles[best] + step
-        offset_low = _angle_between(self._ray_direction(omega, low), direction)
-        if offset_low * _angle_between(self._ray_direction(omega, high), direction) > 0.0:
-            return vectors[best]
+        angles, directions = self._contour(float(omega))
+        offsets = np.abs(_angles_between(directions, direction))
+        if np.all(np.isnan(offsets)):
+            raise WaveError(f"omega = {omega:.4g} rad/s is above every frequency the lattice carries")
+        best = int(np.nanargmin(offsets))
+        half_width = 2.0 * math.pi / CONTOUR_SAMPLES
+        centre = float(angles[best])
+        for _ in range(ZOOM_ROUNDS):
+            fine = np.linspace(centre - half_width, centre + half_width, ZOOM_SAMPLES)
+            fine_directions = self._ray_directions(omega, fine)
+            offsets = np.abs(_angles_between(fine_directions, direction))
+            centre = float(fine[int(np.nanargmin(offsets))])
+            half_width *= 2.0 / (ZOOM_SAMPLES - 1)
+        q = float(self._wavenumbers(omega, np.array([centre]))[0])
+        return q * math.cos(centre), q * math.sin(centre)
+
+    def _contour(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
+        """Angles of q (rad) round the frequency-``omega`` contour and the directions (rad) of
+        the group velocity there (NaN where the lattice carries no such wave); cached."""
+        cached = self._contours.get(omega)
+        if cached is None:
+            angles = np.linspace(-math.pi, math.pi, CONTOUR_SAMPLES, endpoint=False)
+            cached = (angles, self._ray_directions(omega, angles))
+            self._contours[omega] = cached
+        return cached
+
+    def _wavenumbers(self, omega: float, angles: np.ndarray) -> np.ndarray:
+        """|q| (rad/m) along each of ``angles`` at ``omega`` by bisection, all at once (NaN
+        where omega is above the highest frequency along that angle)."""
+        cos, sin = np.cos(angles), np.sin(angles)
+        edge = math.pi / self.spacing / np.maximum(np.abs(cos), np.abs(sin))
+        low, high = np.zeros_like(edge), edge.copy()
         for _ in range(60):
             middle = 0.5 * (low + high)
-            offset = _angle_between(self._ray_direction(omega, middle), direction)
-            if (offset < 0.0) == (offset_low < 0.0):
-                low, offset_low = middle, offset
-            else:
-                high = middle
-        return self._vector(omega, 0.5 * (low + high))
+            below = self.omega(middle * cos, middle * sin) < omega
+            low = np.where(below, middle, low)
+            high = np.where(below, high, middle)
+        q = 0.5 * (low + high)
+        q[self.omega(edge * cos, edge * sin) < omega * (1.0 - 1e-12)] = np.nan
+        return q
+
+    def _ray_directions(self, omega: float, angles: np.ndarray) -> np.ndarray:
+        """Directions (rad) of the group velocity at the contour points along ``angles``."""
+        q = self._wavenumbers(omega, angles)
+        a = self.spacing
+        vx = self.across_columns * np.sin(q * np.cos(angles) * a)
+        vy = self.across_rows * np.sin(q * np.sin(angles) * a)
+        return np.arctan2(vy, vx)
 
     def phase(self, omega: float, dx: float, dy: float) -> float:
         """Phase (rad) a wave of angular frequency ``omega`` gathers from a point source to the
@@ -146,14 +182,6 @@ class Polarisation:
         qx, qy = self.ray(omega, math.atan2(dy, dx))
         return qx * dx + qy * dy
 
-    def _vector(self, omega: float, angle: float) -> tuple[float, float]:
-        q = self.wavenumber(omega, angle)
-        return q * math.cos(angle), q * math.sin(angle)
-
-    def _ray_direction(self, omega: float, angle: float) -> float:
-        vx, vy = self.group_velocity(*self._vector(omega, angle))
-        return math.atan2(vy, vx)
-
     def _zone_edge(self, angle: float) -> float:
         """|q| (rad/m) where the ray from the origin along ``angle`` leaves the first zone."""
         edge = math.pi / self.spacing
@@ -161,9 +189,9 @@ class Polarisation:
         return edge / largest
 
 
-def _angle_between(angle: float, reference: float) -> float:
-    """angle - reference wrapped into (-pi, pi] (rad)."""
-    return (angle - reference + math.pi) % (2.0 * math.pi) - math.pi
+def _angles_between(angles: np.ndarray, reference: float) -> np.ndarray:
+    """angles - reference wrapped into [-pi, pi) (rad)."""
+    return (angles - reference + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def polarisation(model: Model, component: str) -> Polarisation:
