@@ -62,7 +62,7 @@ def drive_signal(time, table, d):
 
 
 @njit(**_JIT)
-def _drive_one(d, time, table, kinds, row, vx, vy, vz, r):
+def _drive_one(d, time, table, kinds, row, vx, vy, vz, r, lead=0.0):
     """``drive_row`` for driven particle d alone."""
     kind = int(table[d, KIND])
     if kinds >= 0 and kind != kinds:
@@ -82,26 +82,27 @@ def _drive_one(d, time, table, kinds, row, vx, vy, vz, r):
         if kind == FORCE:
             force = table[d, AMPLITUDE] * value * direction
             row[c, i] += force * inverse_mass
-            power += force * speed
+            power += force * (speed + lead * float(row[c, i]))
         else:
             prescribed = table[d, AMPLITUDE] * second * direction
-            power += (prescribed - float(row[c, i])) * speed / inverse_mass
+            power += (prescribed - float(row[c, i])) * (speed + lead * prescribed) / inverse_mass
             row[c, i] = prescribed
     return power
 
 
 @njit(**_JIT)
-def drive_row(j, time, table, kinds, row, vx, vy, vz, r):
+def drive_row(j, time, table, kinds, row, vx, vy, vz, r, lead=0.0):
     """Apply the drives of the particles of row j at ``time`` to that row's accelerations
     ``row`` (3, nx) (m/s^2), the lattice forces' alone on entry: add a force's F / m, or replace
     the acceleration by a prescribed displacement's.  Only drives whose kind is ``kinds``
     (``FORCE``, ``DISPLACEMENT``, or -1 for both) act.  ``vx, vy, vz`` are the velocities of the
-    same input (vz None in a planar scene), row j stored at index r.  Returns the drive's power
-    (W)."""
+    same input (vz None in a planar scene), row j stored at index r; when they lag ``time`` by
+    ``lead`` (s), as a leapfrog's half-step velocities do, the particle's velocity at ``time`` is
+    taken as v + lead * a with its new acceleration a.  Returns the drive's power (W)."""
     power = 0.0
     for d in range(table.shape[0]):
         if int(table[d, ROW]) == j:
-            power += _drive_one(d, time, table, kinds, row, vx, vy, vz, r)
+            power += _drive_one(d, time, table, kinds, row, vx, vy, vz, r, lead)
     return power
 
 

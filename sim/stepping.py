@@ -206,7 +206,9 @@ def verlet_steps(
                                            parameters, dashpot, drag, gravity, below, above,
                                            horizontal, row, uniform_inverse_mass)
             if drive is not None:
-                drive_power += drive_row(j, at, drive, -1, row, vx, vy, vz, j)
+                # undamped, the velocities are the half-step ones: v(t) = v(t - dt/2) + dt/2 a
+                drive_power += drive_row(j, at, drive, -1, row, vx, vy, vz, j,
+                                         0.0 if damped else float(half))
             if last:
                 store_acceleration(j, row, acceleration, half, velocity)
             else:
