@@ -74,8 +74,10 @@ def _check_dt(dt: Any) -> float:
 
 class _ParticleView:
     """A ``Simulation`` attribute that is a writable (n_particles, dim) view of one of its state's
-    arrays (the ``State`` method ``view_method`` gives it); reading or assigning it counts as an
-    edit of the state (the energy references are taken again)."""
+    arrays (the ``State`` method ``view_method`` gives it).  Assigning it is an edit of the state
+    (the energy references are taken again); reading it is not: the simulation remembers the
+    state as it was when the view was handed out and counts an edit only if the values written
+    through the view changed it (so looking never changes a trajectory)."""
 
     def __init__(self, view_method: str, doc: str) -> None:
         self.view_method = view_method
@@ -84,7 +86,7 @@ class _ParticleView:
     def __get__(self, simulation: Simulation | None, owner: type | None = None) -> Any:
         if simulation is None:
             return self
-        simulation._state_touched()
+        simulation._view_handed_out()
         return getattr(simulation.state, self.view_method)()
 
     def __set__(self, simulation: Simulation, value: np.ndarray) -> None:
@@ -129,6 +131,7 @@ class Simulation:
         self._driven_at_reference = 0.0
         self._energy_cache: tuple[tuple, observables.Energy] | None = None
         self._checkpoint = self.state.copy()
+        self._watched: State | None = None
 
     # --- state -----------------------------------------------------------------------------------
 
@@ -160,6 +163,25 @@ class Simulation:
         self.state.revision += 1
         self._reference_energy = None
         self._balance_reference = None
+        self._watched = None
+
+    def _view_handed_out(self) -> None:
+        """A writable view is leaving: keep a copy of the state to tell later whether it was
+        written through (``_sync``)."""
+        if self._watched is None:
+            self._watched = self.state.copy()
+
+    def _sync(self) -> None:
+        """Count an edit if the state's values differ (bit for bit) from when a view was last
+        handed out; reading a view changes nothing."""
+        watched = self._watched
+        if watched is None:
+            return
+        self._watched = None
+        state = self.state
+        if not (_same_bits(watched.positions, state.positions)
+                and _same_bits(watched.velocities, state.velocities)):
+            self._state_touched()
 
     def peek_positions(self) -> np.ndarray:
         """A copy of the positions (n_particles, dim) that does not count as an edit (for viewers)."""
@@ -269,6 +291,7 @@ class Simulation:
 
         Computed once per state: the blow-up check after each chunk of steps computes it anyway,
         so a viewer asking for it afterwards gets it for free."""
+        self._sync()
         key = (self.state.revision, self.state.step, self.state.time, id(self._model))
         if self._energy_cache is None or self._energy_cache[0] != key:
             self._energy_cache = (key, observables.energy(self._model, self.state))
@@ -279,6 +302,7 @@ class Simulation:
         or its parameters changed): (kinetic + potential + dissipated - its value then) divided by
         ``energy_scale()``.  Exactly 0 for the exact dynamics; its sign says whether the
         integrator gains (+) or loses (-) energy."""
+        self._sync()
         scale = self.energy_scale()
         if scale <= 0.0:
             return 0.0
@@ -326,6 +350,7 @@ class Simulation:
         if isinstance(n, bool) or int(n) != n or n < 0:
             raise ValueError(f"n must be a whole number of steps >= 0, got {n!r}")
         remaining = int(n)
+        self._sync()
         if self._reference_energy is None:
             self._reference_energy = self._energy_scale()
         if self._balance_reference is None:
@@ -411,3 +436,11 @@ class Simulation:
                 f"its value when the run started)"
             )
         return None
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two arrays of one shape and type hold the same bits (NaNs included)."""
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    bits = f"u{a.dtype.itemsize}"
+    return bool(np.array_equal(a.view(bits), b.view(bits)))
