@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from app.cli import (
     accuracy,
     bench,
+    choose,
     dispersion,
     movie,
     record,
@@ -41,7 +42,7 @@ from app.cli import (
 )
 from app.cli.arguments import EPILOG, OneLineErrorParser
 
-COMMANDS = (scenes, run, bench, serve, record, accuracy, stability, dispersion, response,
+COMMANDS = (scenes, run, bench, serve, record, choose, accuracy, stability, dispersion, response,
             reflection, movie)
 """The command modules, in the order ``oscillators --help`` lists them."""
 
