@@ -3,7 +3,8 @@ scene's duration, verified by running exactly that setting (``app.study.choose``
 measured error and wall time and the runner-ups.
 
 Exit codes: 0 a setting met the tolerance, 1 none did (the best reached is shown), 2 bad input.
-With ``--json`` stdout is one JSON document; ``-o PATH`` also writes it to a file.
+With ``--json`` stdout is one JSON document; files are written only when named: ``-o PATH``
+(the JSON) and ``--plot PATH.png`` (every run, error against wall time).
 """
 
 from __future__ import annotations
@@ -67,6 +68,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print the result as one JSON document")
     parser.add_argument("-o", "--output", metavar="PATH.json",
                         help="also write the result as JSON to this file")
+    parser.add_argument("--plot", metavar="PATH.png",
+                        help="also save the picture of every run (error against wall time)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_choose)
 
@@ -105,9 +108,11 @@ class _Bar:
 
 
 def command_choose(arguments: argparse.Namespace) -> int:
+    from app.cli.study_output import check_plot_path
     from app.study.choose import choose
 
     scene = scene_from_arguments(arguments)
+    check_plot_path(arguments)
     if arguments.output:
         _check_output(arguments.output)
     bar = _Bar(arguments.quiet)
@@ -117,14 +122,19 @@ def command_choose(arguments: argparse.Namespace) -> int:
     finally:
         bar.close()
     data = choice.as_dict()
+    if arguments.plot:
+        from app.study.choose_report import plot_choice
+
+        plot_choice(data, arguments.plot)
     if arguments.output:
         _write_json(arguments.output, data)
     if arguments.json:
         print(json.dumps(data, indent=2))
     else:
         print(format_choice(choice))
-        if arguments.output:
-            print(f"written to {Path(arguments.output).resolve()}")
+        for written in (arguments.output, arguments.plot):
+            if written:
+                print(f"written to {Path(written).resolve()}")
     return 0 if choice.answer is not None else 1
 
 
