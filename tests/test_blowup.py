@@ -76,3 +76,24 @@ def test_a_particle_far_beyond_the_lattice_is_a_blow_up() -> None:
     assert "from its rest position" in rule.problem(simulation.model, state, simulation.energy())
     state.velocities[0, 0, 0] = np.nan
     assert "NaN" in rule.problem(simulation.model, state, simulation.energy())
+
+
+def test_a_recording_from_a_zero_joule_start_ends_with_the_blow_up(tmp_path: Path) -> None:
+    from app.recording import Recorder
+    from sim.runner import Runner
+    from tests.test_recording import read_chunks, temporal, texts
+
+    scene = sim.scenes.build("catenary")
+    limit = sim.Simulation(scene, integrator="verlet").stable_dt()
+    simulation = sim.Simulation(scene, integrator="verlet", dt=1.01 * limit)
+    runner = Runner(simulation)
+    path = tmp_path / "catenary.rrd"
+    with pytest.raises(sim.BlowUpError):
+        with Recorder(path, scene) as recorder:
+            recorder.attach(runner)
+            runner.advance(400, every=5)
+    chunks = read_chunks(path)
+    errors = [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
+    assert len(errors) == 1 and "blew up" in errors[0][1] and "stability limit" in errors[0][1]
+    assert max(temporal(chunks, "/energy/total", "Scalars:scalars")) <= errors[0][0]
+    assert max(entry[0] for entry in texts(chunks, "/log")) == errors[0][0]
