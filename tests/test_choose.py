@@ -101,3 +101,11 @@ def test_cli_says_when_nothing_meets_and_exits_nonzero(tmp_path: Path) -> None:
     assert result.returncode == 1
     assert "nothing met the tolerance" in result.stdout and "best reached" in result.stdout
     assert json.loads((tmp_path / "choice.json").read_text())["met"] is False
+
+
+def test_accuracy_json_is_one_document_and_writes_no_picture(tmp_path: Path) -> None:
+    result = _cli(tmp_path, "accuracy", "chain", "--integrators", "verlet", "--dts", "0.02",
+                  "0.01", "--until", "1", "--precisions", "float64", "--json", "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert "runs" in json.loads(result.stdout)
+    assert list(tmp_path.iterdir()) == []
