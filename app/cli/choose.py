@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from app.cli.arguments import positive_float, scene_from_arguments
+from app.cli.arguments import positive_float, positive_int, scene_from_arguments
 
 DESCRIPTION = """\
 The cheapest integrator and time step that meet an error tolerance over the scene's whole
@@ -65,6 +65,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--set", dest="overrides", action="append", metavar="KEY=VALUE",
         help="override a scene parameter (as for `run`); repeatable",
     )
+    parser.add_argument("--threads", type=positive_int, default=1,
+                        help="threads each run's compiled sweeps use, as row blocks (default: 1)")
     parser.add_argument("--json", action="store_true", help="print the result as one JSON document")
     parser.add_argument("-o", "--output", metavar="PATH.json",
                         help="also write the result as JSON to this file")
@@ -118,7 +120,8 @@ def command_choose(arguments: argparse.Namespace) -> int:
     bar = _Bar(arguments.quiet)
     try:
         choice = choose(scene, arguments.tolerance, measure=arguments.error,
-                        integrators=arguments.integrators, progress=bar)
+                        integrators=arguments.integrators, progress=bar,
+                        threads=arguments.threads)
     finally:
         bar.close()
     data = choice.as_dict()

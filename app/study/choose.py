@@ -207,7 +207,7 @@ class _Runner:
 
 
 def reference_field(
-    scene: sim.Scene, duration: float, tolerance: float, run: _Runner,
+    scene: sim.Scene, duration: float, tolerance: float, run: _Runner, threads: int = 1,
 ) -> tuple[np.ndarray, Reference, list[RunOutcome]] | None:
     """The field reference at ``duration`` (see the module docstring) and the numerical runs it
     took (RK4 settings whose error is then known for free); None when a converged numerical
@@ -222,10 +222,10 @@ def reference_field(
     order = describe(name).order or 1
     limit = sim.Simulation(scene).stable_dt(name) or 1.0 / (highest_frequency(scene.model) or 1)
     steps, dt = steps_for(duration, min(0.25 * limit, duration / 32))
-    coarse = run([RunTask(scene, name, dt, steps, "reference")])[0]
+    coarse = run([RunTask(scene, name, dt, steps, "reference", threads)])[0]
     outcomes = [coarse]
     for _ in range(MAX_HALVINGS):
-        task = RunTask(scene, name, dt / 2, 2 * steps, "reference")
+        task = RunTask(scene, name, dt / 2, 2 * steps, "reference", threads)
         if estimated_seconds(task) > REFERENCE_BUDGET_SECONDS:
             return None
         fine = run([task])[0]
@@ -242,7 +242,7 @@ def reference_field(
         predicted = dt * (wanted / change) ** (1.0 / order)
         if predicted < dt / 5:  # far off: jump to the predicted pair, skipping halvings
             steps, dt = steps_for(duration, predicted)
-            coarse = run([RunTask(scene, name, dt, steps, "reference")])[0]
+            coarse = run([RunTask(scene, name, dt, steps, "reference", threads)])[0]
             outcomes.append(coarse)
         else:
             coarse, dt, steps = fine, dt / 2, 2 * steps
@@ -252,12 +252,13 @@ def reference_field(
 def choose(
     scene: sim.Scene, tolerance: float, measure: str | None = None,
     integrators: Sequence[str] | None = None, duration: float | None = None,
-    map_runs: MapRuns = serial_map, progress: Progress | None = None,
+    map_runs: MapRuns = serial_map, progress: Progress | None = None, threads: int = 1,
 ) -> Choice:
     """The cheapest verified setting meeting ``tolerance`` (see the module docstring).
 
     ``measure`` "field" or "energy" (None: field where a reference is affordable, else energy);
-    ``duration`` (s) defaults to the scene's; ``map_runs`` carries out each batch of runs."""
+    ``duration`` (s) defaults to the scene's; ``map_runs`` carries out each batch of runs;
+    ``threads`` the threads each run's compiled sweeps use."""
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"the tolerance must be a positive number, got {tolerance!r}")
     if measure is not None and measure not in MEASURES:
@@ -270,7 +271,7 @@ def choose(
     reference_field_now = None
     reference_runs: list[RunOutcome] = []
     if measure in (None, "field"):
-        found = reference_field(scene, duration, tolerance, run)
+        found = reference_field(scene, duration, tolerance, run, threads)
         if found is None:
             if measure == "field":
                 raise ValueError("no converged reference is affordable for the field error on "
@@ -298,7 +299,7 @@ def choose(
 
     def task_at(name: str, dt: float, role: str) -> RunTask:
         steps, dt = steps_for(duration, min(dt, duration))
-        return RunTask(scene, name, dt, steps, role)
+        return RunTask(scene, name, dt, steps, role, threads)
 
     def start_dt(name: str) -> float:
         limit = limits[name]
