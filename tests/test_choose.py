@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import sim
 from app.study.choose import choose
@@ -109,3 +110,21 @@ def test_accuracy_json_is_one_document_and_writes_no_picture(tmp_path: Path) -> 
     assert result.returncode == 0, result.stderr
     assert "runs" in json.loads(result.stdout)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", [name for name in sim.scenes.names()
+                                    if sim.scenes.build(name).model.n_particles < 5000])
+def test_every_preset_choice_run_by_run_meets_its_tolerance(preset: str, tmp_path: Path) -> None:
+    """The chosen setting, run with `oscillators run` over the scene's duration, exits 0 and its
+    energy error (the measure `run` reports) is within the tolerance when that is the measure."""
+    result = _cli(tmp_path, "choose", preset, "--tolerance", "0.01", "--error", "energy",
+                  "--json", "--quiet")
+    assert result.returncode == 0, result.stdout + result.stderr
+    data = json.loads(result.stdout)
+    run = _cli(tmp_path, "run", preset, "--integrator", data["integrator"], "--dt",
+               repr(data["dt"]), "--json", "--quiet")
+    assert run.returncode == 0, run.stderr
+    summary = json.loads(run.stdout)
+    assert summary["steps"] == data["steps"]
+    assert abs(summary["energy_balance_error"]) <= 0.01
