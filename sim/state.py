@@ -73,8 +73,13 @@ class State:
         self.revision += 1
 
     def advance_clock(self, n: int, dt: float) -> None:
+        """n steps of dt later.  The time is summed one step at a time, so it does not depend
+        on how the steps were grouped into calls (n steps at once = n single steps, bit for bit)."""
         self.step += n
-        self.time += n * dt
+        time = self.time
+        for _ in range(n):
+            time += dt
+        self.time = time
 
     def particle_positions(self) -> np.ndarray:
         """(n_particles, dim) view of the positions (m)."""

@@ -210,7 +210,8 @@ def test_damped_euler_limit_is_beta_over_omega_squared():
 
 def test_energy_drift_signatures_of_the_integrators():
     drifts = {}
-    for integrator, chunk in (("euler", 5), ("rk4", 100), ("verlet", 100)):
+    # explicit Euler over 0.8 s only: longer, its energy grows past what counts as a blow-up
+    for integrator, chunk in (("euler", 1), ("rk4", 100), ("verlet", 100)):
         simulation = _random_lattice(integrator, 0.3, seed=11)
         simulation.dt = 0.02
         start = simulation.energy().total

@@ -5,6 +5,7 @@
     oscillators bench                       kernel speed against plain numpy (interference scene)
     oscillators serve [SCENE]               the web app (viser)
     oscillators record SCENE                a rerun .rrd recording
+    oscillators choose SCENE --tolerance T  the cheapest integrator and step meeting T, verified
     oscillators accuracy / stability        the speed/accuracy study and stability map
     oscillators response / reflection       a driven scene's resonance curve; the absorbing
                                             walls' reflection against wavelength
@@ -31,6 +32,7 @@ from collections.abc import Sequence
 from app.cli import (
     accuracy,
     bench,
+    choose,
     continuum,
     dispersion,
     movie,
@@ -45,8 +47,8 @@ from app.cli import (
 )
 from app.cli.arguments import EPILOG, OneLineErrorParser
 
-COMMANDS = (scenes, run, bench, serve, record, accuracy, stability, dispersion, continuum,
-            response, reflection, slits, movie)
+COMMANDS = (scenes, run, bench, serve, record, choose, accuracy, stability, dispersion,
+            continuum, response, reflection, slits, movie)
 """The command modules, in the order ``oscillators --help`` lists them."""
 
 

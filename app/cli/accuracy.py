@@ -101,6 +101,8 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
     from app.study.accuracy_report import format_report, plot_work_precision
 
     scene = scene_from_arguments(arguments)
+    if arguments.json and not arguments.plot:
+        arguments.no_plot = True  # machine output: a file only when --plot names one
     default_plot(arguments, scene_picture(scene, "work-precision"))
     if arguments.integrator and not arguments.integrators:
         arguments.integrators = [arguments.integrator]

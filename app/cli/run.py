@@ -52,8 +52,10 @@ def command_run(arguments: argparse.Namespace) -> int:
     simulation = simulation_from_arguments(arguments)
     steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
     limit = simulation.stability()
-    print(f"{simulation.scene.summary()}")
-    print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}")
+    talk = sys.stderr if arguments.json else sys.stdout  # --json: stdout is the document alone
+    print(f"{simulation.scene.summary()}", file=talk)
+    print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}",
+          file=talk)
     start_energy = simulation.energy()
     chunk = max(1, steps // 200)
     probes = None
@@ -74,6 +76,7 @@ def command_run(arguments: argparse.Namespace) -> int:
         chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
     started = time.perf_counter()
     status = 0
+    stopped = None
     with tqdm(total=steps, unit="step", disable=arguments.quiet, dynamic_ncols=True) as bar:
         done = 0
         try:
@@ -86,7 +89,8 @@ def command_run(arguments: argparse.Namespace) -> int:
                     probes.add(simulation.time, simulation.state.particle_positions())
         except BlowUpError as error:
             bar.close()
-            print(f"\nstopped: {error}", file=sys.stderr)
+            stopped = str(error)
+            print(f"stopped: {stopped}", file=sys.stderr)
             status = 3
     elapsed = time.perf_counter() - started
     end_energy = simulation.energy()
@@ -96,7 +100,7 @@ def command_run(arguments: argparse.Namespace) -> int:
         "steps_per_second": simulation.step_count / elapsed if elapsed > 0 else None,
         "energy_start": start_energy.as_dict(), "energy_end": end_energy.as_dict(),
         "energy_balance_error": simulation.energy_balance_error(),
-        "energy_scale": simulation.energy_scale(),
+        "energy_scale": simulation.energy_scale(), "blew_up": stopped,
     }
     if probes is not None:
         summary["probes"] = _probe_report(probes)

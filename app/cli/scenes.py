@@ -21,6 +21,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def command_scenes(arguments: argparse.Namespace) -> int:
+    from app.study.choose_runs import RunTask, run_setting
     from sim import ModelError, Simulation, scenes
     from sim.prediction import predictor_for
 
@@ -36,12 +37,14 @@ def command_scenes(arguments: argparse.Namespace) -> int:
         except ModelError:  # driven or absorbing: no free-mode prediction
             accuracy = "driven or absorbing (no prediction)"
         if arguments.measure:
-            simulation.step(steps)
-            accuracy += f", measured {100 * simulation.energy_balance_error():+.2g} %"
+            outcome = run_setting(RunTask(scene, scene.integrator, scene.dt, steps, "measure"))
+            accuracy += (f", measured: blew up ({outcome.blew_up})" if outcome.blew_up else
+                         f", measured energy error {100 * outcome.energy_error:.2g} %")
         print(f"{name:13s} {scene.description}")
         print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s, "
               f"{scene.duration:g} s worth watching; {accuracy} over that time")
     print("\nthe predicted error comes from the linearised lattice's normal modes (exact for "
-          "linear scenes); --measure runs each preset to check it.")
+          "linear scenes); --measure runs each preset to check it (the run and the energy error "
+          "of `oscillators choose`; `choose SCENE --tolerance TOL` finds the cheapest setting).")
     print("override any parameter with --set key=value; see `oscillators run --help`.")
     return 0

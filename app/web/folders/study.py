@@ -1,9 +1,10 @@
 """The page's "Speed vs accuracy" folder: measure the integrators on the scene as it is now.
 
-*Measure on this scene* runs the study of ``oscillators accuracy`` (``app.study.accuracy``) in
-viser's thread pool: every integrator at several dt against a reference solution, timed from the
-scene's current state.  The folder shows the work-precision picture (full size in a modal) and the
-recommendation, which *Apply the recommendation* sets as ordinary commands.  Lattices above
+*Measure on this scene* runs the code of ``oscillators choose`` (``app.study.choose``) in
+viser's thread pool on the scene's current state: the cheapest integrator and dt whose field error
+over the scene's duration is within the tolerance (in %, like the Accuracy folder's), verified by
+running it.  The folder shows every run's error against its wall time (full size in a modal) and
+the verified setting, which *Apply the recommendation* sets exactly, as ordinary commands.  Lattices above
 ``STUDY_PARTICLE_LIMIT`` particles are left to the command line.
 """
 
@@ -34,13 +35,14 @@ class StudyFolder(Folder):
         gui = host.server.gui
         with gui.add_folder("Speed vs accuracy", expand_by_default=False):
             self.tolerance = gui.add_number(
-                "Target error", initial_value=1e-3, min=1e-10, max=0.5, step=1e-4,
-                hint="relative position error at the end of the run that the recommendation must meet",
+                "Tolerance (%)", initial_value=1.0, min=1e-6, max=100.0, step=0.1,
+                hint="largest field error (relative L2 distance of the displacement field from a "
+                "reference) at the end of the scene's duration that the chosen setting must meet",
             )
             self.button = gui.add_button(
                 "Measure on this scene", icon=viser.Icon.CHART_LINE,
-                hint="time every integrator at several dt against a reference solution "
-                "(the same study as `oscillators accuracy`)",
+                hint="find the cheapest integrator and dt meeting the tolerance, verified by "
+                "running it over the scene's duration (the same code as `oscillators choose`)",
             )
             self.text = gui.add_html("")
             self.image = gui.add_image(np.full((8, 8, 3), 255, np.uint8), visible=False)
@@ -80,7 +82,8 @@ class StudyFolder(Folder):
             if self.button.disabled:
                 return
             try:
-                tolerance = number(self.tolerance.value, "target error", 1e-10, 0.5)
+                tolerance = number(self.tolerance.value, "tolerance (%)", 0.0, 100.0,
+                                   low_open=True) / 100
             except InputRefused as error:
                 say(self.text, error)
                 return
@@ -93,46 +96,57 @@ class StudyFolder(Folder):
                 self.button.disabled = False
 
     def measure(self, tolerance: float) -> None:
-        """Run the study on the scene's current state and show its picture and recommendation
-        (``tolerance``: the relative position error the recommendation must meet)."""
+        """Choose on the scene's current state (``app.study.choose``, the code of `oscillators
+        choose`) and show every run's picture and the verified setting (``tolerance``: the
+        relative error it must meet, a fraction)."""
         import imageio.v3 as imageio
 
-        from app.study.accuracy import accuracy_study
-        from app.study.accuracy_report import plot_work_precision
+        from app.study.choose import choose
+        from app.study.choose_report import plot_choice
 
         scene = self.host.runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
         if scene.model.n_particles > STUDY_PARTICLE_LIMIT:
             self.text.content = as_html(
                 f"This lattice has {scene.model.n_particles:,} particles; the page measures up to "
-                f"{STUDY_PARTICLE_LIMIT:,}. Run `oscillators accuracy` with this scene's file "
+                f"{STUDY_PARTICLE_LIMIT:,}. Run `oscillators choose` with this scene's file "
                 "(Scene → Files → Download this scene) from the command line instead."
             )
             return
-        total = [0]
+        text = self.text
 
-        def progress(label: str) -> None:
-            total[0] += 1
-            self.text.content = as_html(f"measuring… run {total[0]}: {label}")
+        class _Progress:
+            runs = 0
 
-        study = accuracy_study(scene, tolerance=tolerance, progress=progress,
-                               precisions=tuple(dict.fromkeys(("float64", scene.precision))))
+            def planned(self, seconds: float) -> None:
+                pass
+
+            def finished(self, seconds: float, label: str) -> None:
+                self.runs += 1
+                text.content = as_html(f"measuring… run {self.runs}: {label}")
+
+        choice = choose(scene, tolerance, progress=_Progress())
+        data = choice.as_dict()
         with tempfile.TemporaryDirectory() as folder:
             picture = Path(folder) / "work_precision.png"
             with MATPLOTLIB_LOCK:  # the Modes folder draws in another thread
-                plot_work_precision(study, str(picture))
+                plot_choice(data, str(picture))
             image = imageio.imread(picture)
         self._picture = np.ascontiguousarray(image[..., :3])
         self.image.image = self._picture
         self.image.visible = True
         self.full_size.visible = True
-        recommendation = study.recommendation
-        if recommendation.integrator is not None and recommendation.dt is not None:
-            self._recommendation = (recommendation.integrator, float(recommendation.dt))
+        answer = choice.answer
+        if answer is not None:
+            self._recommendation = (answer.integrator, float(answer.dt))
             self.apply.visible = True
+            self.text.content = as_html(
+                f"Recommendation (verified by running it over {choice.duration:.4g} s): "
+                f"{answer.describe()}; {choice.measure} error within {tolerance:.3g}. Apply sets "
+                "exactly this integrator and dt.", bold=True)
         else:
             self._recommendation = None
             self.apply.visible = False
-        self.text.content = as_html(
-            f"Recommendation: {recommendation.reason}. Wall times are of one whole run of each "
-            f"configuration from the scene's state to T = {study.until:.4g} s of simulated time "
-            "(compilation excluded).", bold=True)
+            best = choice.best_reached
+            self.text.content = as_html(
+                f"Nothing met {tolerance:.3g} ({choice.measure} error)"
+                + (f"; the best reached: {best.describe()}" if best else "") + ".", bold=True)

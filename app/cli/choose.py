@@ -1,0 +1,192 @@
+"""``oscillators choose``: the cheapest (integrator, dt) that meets an error tolerance over a
+scene's duration, verified by running exactly that setting (``app.study.choose``), with its
+measured error and wall time and the runner-ups.
+
+Exit codes: 0 a setting met the tolerance, 1 none did (the best reached is shown), 2 bad input.
+With ``--json`` stdout is one JSON document; files are written only when named: ``-o PATH``
+(the JSON) and ``--plot PATH.png`` (every run, error against wall time).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from app.cli.arguments import positive_float, positive_int, scene_from_arguments
+
+DESCRIPTION = """\
+The cheapest integrator and time step that meet an error tolerance over the scene's whole
+duration.  The answer is verified before it is shown: exactly that setting is run from the
+scene's initial state to the end and its error measured.
+
+  field error   relative L2 distance of the final displacement field from a reference (it
+                sees phase: a wave in the wrong place is an error); the reference is the exact
+                normal-mode solution of a linear scene, else RK4 halved until halving changes
+                the field by less than a tenth of the tolerance.  Default where affordable.
+  energy error  the relative energy-balance error at the end (blind to phase).
+
+Candidates: each integrator is probed at half its stability limit, the step that should meet
+the tolerance is predicted from the measured error and the integrator's order, and run.
+"""
+
+EPILOG = """\
+examples:
+  oscillators choose grid --tolerance 0.01
+  oscillators choose chain --tolerance 1e-3 --set linear=true          # exact reference
+  oscillators choose catenary --tolerance 0.01 --error energy --integrators verlet,rk4
+  oscillators choose interference --tolerance 0.05 --json -o choice.json
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``choose`` command to ``oscillators``."""
+    from sim.errors import MEASURES
+
+    parser = subparsers.add_parser(
+        "choose", help="the cheapest integrator and dt that meet a tolerance (verified)",
+        description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "scene", help="preset name (see `oscillators scenes`) or a .toml or .zip scene file"
+    )
+    parser.add_argument("--tolerance", type=positive_float, required=True, metavar="TOL",
+                        help="largest acceptable relative error at the end of the run")
+    parser.add_argument("--error", choices=MEASURES, default=None,
+                        help="error measure (default: field where a reference is affordable, "
+                        "else energy)")
+    parser.add_argument("--integrators", type=_names, default=None, metavar="A,B",
+                        help="integrators to consider, comma-separated (default: all that apply)")
+    parser.add_argument(
+        "--set", dest="overrides", action="append", metavar="KEY=VALUE",
+        help="override a scene parameter (as for `run`); repeatable",
+    )
+    parser.add_argument("--threads", type=positive_int, default=1,
+                        help="threads each run's compiled sweeps use, as row blocks (default: 1)")
+    parser.add_argument("--json", action="store_true", help="print the result as one JSON document")
+    parser.add_argument("-o", "--output", metavar="PATH.json",
+                        help="also write the result as JSON to this file")
+    parser.add_argument("--plot", metavar="PATH.png",
+                        help="also save the picture of every run (error against wall time)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(handler=command_choose)
+
+
+def _names(text: str) -> list[str]:
+    from sim.integrators import IntegratorError, check_integrator_name
+
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one integrator name")
+    try:
+        return [check_integrator_name(name) for name in names]
+    except IntegratorError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+class _Bar:
+    """The tqdm bar on stderr, counting estimated seconds of computing (so its ETA is time)."""
+
+    def __init__(self, quiet: bool) -> None:
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=0.0, unit="s", disable=quiet, dynamic_ncols=True, file=sys.stderr,
+                        bar_format="{l_bar}{bar}| {elapsed}<{remaining} {postfix}")
+
+    def planned(self, seconds: float) -> None:
+        self.bar.total += seconds
+        self.bar.refresh()
+
+    def finished(self, seconds: float, label: str) -> None:
+        self.bar.set_postfix_str(label, refresh=False)
+        self.bar.update(seconds)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def command_choose(arguments: argparse.Namespace) -> int:
+    from app.cli.study_output import check_plot_path
+    from app.study.choose import choose
+
+    scene = scene_from_arguments(arguments)
+    check_plot_path(arguments)
+    if arguments.output:
+        _check_output(arguments.output)
+    bar = _Bar(arguments.quiet)
+    try:
+        choice = choose(scene, arguments.tolerance, measure=arguments.error,
+                        integrators=arguments.integrators, progress=bar,
+                        threads=arguments.threads)
+    finally:
+        bar.close()
+    data = choice.as_dict()
+    if arguments.plot:
+        from app.study.choose_report import plot_choice
+
+        plot_choice(data, arguments.plot)
+    if arguments.output:
+        _write_json(arguments.output, data)
+    if arguments.json:
+        print(json.dumps(data, indent=2))
+    else:
+        print(format_choice(choice))
+        for written in (arguments.output, arguments.plot):
+            if written:
+                print(f"written to {Path(written).resolve()}")
+    return 0 if choice.answer is not None else 1
+
+
+def format_choice(choice: Any) -> str:
+    """The choice as text: the answer (or that none met the tolerance) and the runner-ups."""
+    lines = [f"{choice.scene}: {choice.duration:g} s, {choice.measure} error, tolerance "
+             f"{choice.tolerance:g}"]
+    if choice.reference is not None:
+        lines.append(f"reference: {choice.reference.describe()}")
+    if choice.note:
+        lines.append(choice.note)
+    answer = choice.answer
+    if answer is not None:
+        lines.append(f"choose: --integrator {answer.integrator} --dt {answer.dt!r}")
+        lines.append(f"  verified: {answer.describe()}; energy error {answer.energy_error:.3g}"
+                     + (f", field error {answer.field_error:.3g}"
+                        if answer.field_error is not None else ""))
+    else:
+        best = choice.best_reached
+        lines.append(f"nothing met the tolerance {choice.tolerance:g}"
+                     + (f"; the best reached: {best.describe()}" if best else ""))
+    if choice.runner_ups:
+        lines.append("runner-ups (verified):")
+        lines += [f"  {run.describe()}" for run in choice.runner_ups]
+    for name, reason in choice.skipped.items():
+        lines.append(f"not run: {name}, {reason}")
+    lines.append(f"{len(choice.runs)} runs in all")
+    return "\n".join(lines)
+
+
+def _check_output(path: str) -> None:
+    target = Path(path)
+    if target.is_dir():
+        raise ValueError(f"-o {path} is a directory; give a file name")
+    if not target.parent.is_dir():
+        raise ValueError(f"-o {path}: the directory {target.parent} does not exist")
+    if target.is_symlink():
+        raise ValueError(f"-o {path} is a symbolic link; give a plain file name")
+
+
+def _write_json(path: str, data: dict[str, Any]) -> None:
+    """Write atomically: an exclusive temporary file beside the target, renamed when complete."""
+    target = Path(path)
+    _check_output(path)
+    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+    try:
+        with os.fdopen(handle, "w") as stream:
+            json.dump(data, stream, indent=2)
+        os.replace(temporary, target)
+    except BaseException:
+        os.unlink(temporary)
+        raise

@@ -1,0 +1,99 @@
+"""Every blow-up is caught: from a start at rest (0 J, a lattice that only sags under gravity),
+an unstable step stops the run with one line naming the integrator, dt, time and stability
+limit, and the CLI exits 3; a run whose energy grows a thousandfold is not a result."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sim
+from sim.blowup import BlowUpRule
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _cli(*arguments: str) -> subprocess.CompletedProcess:
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run(
+        [sys.executable, "-m", "app.cli", *arguments], capture_output=True, text=True,
+        cwd=ROOT, env=environment, timeout=300,
+    )
+
+
+def test_catenary_just_past_the_verlet_limit_exits_3_with_the_reason() -> None:
+    limit = sim.Simulation(sim.scenes.build("catenary"), integrator="verlet").stable_dt()
+    dt = 1.01 * limit
+    result = _cli("run", "catenary", "--integrator", "verlet", "--dt", repr(dt), "--quiet")
+    assert result.returncode == 3, result.stdout + result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("stopped: ")
+    message = lines[0]
+    assert "Verlet" in message and f"dt = {dt:.6g} s" in message
+    assert "t = " in message and f"stability limit is dt = {limit:.6g} s" in message
+
+
+def test_a_thousandfold_energy_gain_is_a_blow_up_and_json_stays_one_document() -> None:
+    result = _cli("run", "grid", "--integrator", "heun", "--dt", "0.05", "--quiet", "--json")
+    assert result.returncode == 3
+    summary = json.loads(result.stdout)  # nothing but the document on stdout
+    assert "blew up" in summary["blew_up"]
+    start, end = summary["energy_start"]["total"], summary["energy_end"]["total"]
+    assert end < 1000 * start  # stopped well before the energy was off by a factor of 1000
+
+
+def test_the_exact_supply_of_a_sagging_damped_lattice_is_never_exceeded() -> None:
+    """From rest under gravity with dashpots, the energy of motion plus the dissipated energy
+    equals the gravitational energy released (energy balance), so a stable run never trips the
+    rule; the same run with the gravity's release ignored would have."""
+    scene = sim.scenes.build("catenary", nx=6, ny=4)
+    simulation = sim.Simulation(scene, integrator="rk4", dt=0.01)
+    start = simulation.energy()
+    assert start.kinetic == 0.0 and start.spring == 0.0
+    rule = BlowUpRule.starting_from(scene.model, start)
+    simulation.step(500)
+    energy = simulation.energy()
+    spent = energy.kinetic + energy.spring + energy.dissipated
+    released = start.gravity - energy.gravity
+    assert spent == pytest.approx(released, rel=1e-6)
+    assert rule.problem(scene.model, simulation.state, energy) is None
+    assert spent > 100 * rule.floor
+
+
+def test_a_particle_far_beyond_the_lattice_is_a_blow_up() -> None:
+    simulation = sim.Simulation(sim.scenes.build("chain"), integrator="verlet", dt=0.01)
+    simulation.step(10)
+    rule = BlowUpRule.starting_from(simulation.model, simulation.energy())
+    state = simulation.state.copy()
+    assert rule.problem(simulation.model, state, simulation.energy()) is None
+    state.positions[1, 0, 2] += 20 * 6 * simulation.model.spacing  # 20 chain lengths away
+    assert "from its rest position" in rule.problem(simulation.model, state, simulation.energy())
+    state.velocities[0, 0, 0] = np.nan
+    assert "NaN" in rule.problem(simulation.model, state, simulation.energy())
+
+
+def test_a_recording_from_a_zero_joule_start_ends_with_the_blow_up(tmp_path: Path) -> None:
+    from app.recording import Recorder
+    from sim.runner import Runner
+    from tests.test_recording import read_chunks, temporal, texts
+
+    scene = sim.scenes.build("catenary")
+    limit = sim.Simulation(scene, integrator="verlet").stable_dt()
+    simulation = sim.Simulation(scene, integrator="verlet", dt=1.01 * limit)
+    runner = Runner(simulation)
+    path = tmp_path / "catenary.rrd"
+    with pytest.raises(sim.BlowUpError):
+        with Recorder(path, scene) as recorder:
+            recorder.attach(runner)
+            runner.advance(400, every=5)
+    chunks = read_chunks(path)
+    errors = [entry for entry in texts(chunks, "/log") if entry[2] == "ERROR"]
+    assert len(errors) == 1 and "blew up" in errors[0][1] and "stability limit" in errors[0][1]
+    assert max(temporal(chunks, "/energy/total", "Scalars:scalars")) <= errors[0][0]
+    assert max(entry[0] for entry in texts(chunks, "/log")) == errors[0][0]
