@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from app.cli.arguments import positive_float, positive_int, scene_from_arguments
+from app.cli.cluster import add_cluster_arguments, executor_from
 
 DESCRIPTION = """\
 The cheapest integrator and time step that meet an error tolerance over the scene's whole
@@ -73,6 +74,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--plot", metavar="PATH.png",
                         help="also save the picture of every run (error against wall time)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_cluster_arguments(parser)
     parser.set_defaults(handler=command_choose)
 
 
@@ -119,9 +121,11 @@ def command_choose(arguments: argparse.Namespace) -> int:
         _check_output(arguments.output)
     bar = _Bar(arguments.quiet)
     try:
-        choice = choose(scene, arguments.tolerance, measure=arguments.error,
-                        integrators=arguments.integrators, progress=bar,
-                        threads=arguments.threads)
+        with executor_from(arguments) as executor:
+            choice = choose(scene, arguments.tolerance, measure=arguments.error,
+                            integrators=arguments.integrators, progress=bar,
+                            threads=arguments.threads,
+                            map_runs=lambda function, tasks: executor.map(function, tasks))
     finally:
         bar.close()
     data = choice.as_dict()
