@@ -88,12 +88,15 @@ def emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> None
 
 def write_picture(path: str, plot: Callable[[Any, str], None], study: Any) -> None:
     """Draw ``study`` with ``plot`` into ``path`` (a PNG) through ``sim.files.AtomicFile``: an
-    exclusive temporary file beside it, renamed when the picture is complete."""
-    import matplotlib
+    exclusive temporary file beside it, renamed when the picture is complete.  ``plot`` draws
+    into a private temporary folder first (it may name and write files as it likes there)."""
+    import tempfile
 
     with AtomicFile(path, overwrite=True) as output, \
-            matplotlib.rc_context({"savefig.format": "png"}):
-        plot(study, output.library_path)
+            tempfile.TemporaryDirectory(prefix="oscillators-picture-") as folder:
+        drawn = Path(folder) / Path(path).name
+        plot(study, str(drawn))
+        output.file.write(drawn.read_bytes())
 
 
 def save_picture(arguments: argparse.Namespace, data: dict[str, Any],

@@ -23,7 +23,6 @@ renamed when complete (``app.recording.destination``).
 from __future__ import annotations
 
 import math
-import os
 import uuid
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -115,11 +114,10 @@ def record_continuum(body: Body, particles: Sequence[int], path: str | Path, fra
     path = Path(path)
     counts = sorted(set(int(n) for n in particles))
     duration = body.crossing_time if duration is None else float(duration)
-    destination.check_destination(path, overwrite, estimated_bytes(body, counts, frames))
-    partial = destination.partial_path(path)
+    output = destination.open_destination(path, overwrite, estimated_bytes(body, counts, frames))
     try:
         stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
-        stream.save(partial, default_blueprint=_blueprint(body, counts))
+        stream.save(output.library_path, default_blueprint=_blueprint(body, counts))
         stream.send_recording_name(f"continuum limit: {body.kind}")
         exaggeration = drawn_exaggeration(body)
         stream.log("/scene", rr.TextDocument(_document(body, counts, exaggeration, duration),
@@ -139,9 +137,9 @@ def record_continuum(body: Body, particles: Sequence[int], path: str | Path, fra
                 progress(f"frame {frame} of {frames}")
         stream.flush(timeout_sec=120.0)
         stream.disconnect()
-        os.replace(partial, path)
+        output.commit()
     except BaseException:
-        partial.unlink(missing_ok=True)
+        output.discard()
         raise
     return path
 
