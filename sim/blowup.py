@@ -57,6 +57,11 @@ class BlowUpRule:
     def starting_from(cls, model: Model, energy: Energy) -> BlowUpRule:
         """The rule for a run that starts from a state with this energy account."""
         floor = 0.5 * model.stiffness * (1e-3 * model.spacing) ** 2 * model.n_particles
+        for driver in ((model.driver,) if model.driver is not None else ()) + tuple(model.sources):
+            # a drive's work is counted as it is done, a step late on some loops: allow what a
+            # spring stretched by its amplitude holds, over every particle it drives
+            floor += RUNAWAY_FACTOR * 0.5 * model.stiffness * driver.amplitude ** 2 * max(
+                1, model.ny if getattr(driver, "row", 0) == "all" else 1)
         weight = float(model.masses.sum()) * float(np.linalg.norm(model.gravity[: model.dim]))
         size = (max(model.nx, model.ny) + 1) * model.spacing + weight / model.stiffness
         return cls(

@@ -50,7 +50,7 @@ def test_one_euler_step_changes_the_balance_by_omega_dt_squared():
     ("rk4", lambda x: (1 - x**2 / 2 + x**4 / 24) ** 2 + (x - x**3 / 6) ** 2),
 ])
 def test_energy_changes_per_step_as_the_amplification_factor_says(integrator, growth):
-    dt, steps = 0.02, 200
+    dt, steps = 0.02, 100  # Euler's energy grows 16-fold: short of a blow-up (100-fold)
     simulation, omega = single_particle(integrator, dt)
     simulation.step(steps)
     expected = growth(omega * dt) ** steps - 1
@@ -254,9 +254,9 @@ def test_run_reports_the_energy_balance_error(capsys):
     from app.cli import main
 
     assert main(["run", "single", "--set", "linear=true", "--integrator", "euler", "--dt", "0.02",
-                 "--steps", "200", "--quiet", "--json"]) == 0
+                 "--steps", "100", "--quiet", "--json"]) == 0
     output = capsys.readouterr().out
     summary = json.loads(output[output.index("{"):])
     simulation, omega = single_particle("euler", 0.02)
-    assert summary["energy_balance_error"] == pytest.approx((1 + (omega * 0.02) ** 2) ** 200 - 1,
+    assert summary["energy_balance_error"] == pytest.approx((1 + (omega * 0.02) ** 2) ** 100 - 1,
                                                              rel=1e-9)
