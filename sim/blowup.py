@@ -57,6 +57,11 @@ class BlowUpRule:
     def starting_from(cls, model: Model, energy: Energy) -> BlowUpRule:
         """The rule for a run that starts from a state with this energy account."""
         floor = 0.5 * model.stiffness * (1e-3 * model.spacing) ** 2 * model.n_particles
+        if model.walls.free_ends and model.rest_length < model.spacing:
+            # free ends under tension contract towards their equilibrium, releasing up to what
+            # each spring's pre-stretch holds
+            stretch = model.spacing - model.rest_length
+            floor += RUNAWAY_FACTOR * 0.5 * model.stiffness * stretch**2 * model.n_particles
         for driver in ((model.driver,) if model.driver is not None else ()) + tuple(model.sources):
             # a drive's work is counted as it is done, a step late on some loops: allow what a
             # spring stretched by its amplitude holds, over every particle it drives

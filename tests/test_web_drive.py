@@ -155,7 +155,7 @@ def test_a_drive_without_a_particle_inside_the_lattice_is_refused(web_app):
     assert "select the particle" in drive.message.content
     web_app.view.set_selection(np.array([model.n_particles + 5]))  # e.g. a stale selection
     press(drive.drive_button)
-    assert "particle must be in" in drive.message.content
+    assert f"at most {model.n_particles - 1}, got {model.n_particles + 5}" in drive.message.content
     assert web_app.runner.simulation.model is model
 
 

@@ -206,7 +206,7 @@ class LatticeView:
                 )
             if self.selection.size:
                 self._selection_points = scene.add_point_cloud(
-                    "/lattice/selection", xyz[self.selection], SELECTED,
+                    "/lattice/selection", xyz[self.selection[self.selection < len(xyz)]], SELECTED,
                     point_size=1.5 * model.spacing, point_shape="circle", precision="float32",
                     point_shading="flat",
                 )
@@ -230,7 +230,7 @@ class LatticeView:
         if self._image is not None and (self._image.due_now() or not frame.playing):
             self._image.show(self._particle_colors(frame), force=True)
         if self._selection_points is not None:
-            self._selection_points.points = xyz[self.selection]
+            self._selection_points.points = xyz[self.selection[self.selection < len(xyz)]]
         if self._springs is not None:
             self._springs.points = self._spring_points(model, frame.positions)
             if frame.strains is not None:
@@ -276,7 +276,7 @@ class LatticeView:
             result = np.empty((n, 3), np.uint8)
             result[:] = PARTICLE
         if self._spheres is not None or n <= SPHERE_LIMIT:
-            result[self.selection] = SELECTED
+            result[self.selection[self.selection < n]] = SELECTED  # a stale pick is not drawn
         return result
 
     def _colour_scale(self, mode: str, model: Model) -> colours.ColourScale:
