@@ -89,7 +89,7 @@ def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
     model = sim.scenes.build("chain", linear=True).model
     positions, velocities = excited_state(model, 2, 1, 0, 0.05)
     scene = sim.Scene(name="chain", model=model, initial_positions=positions,
-                      initial_velocities=velocities, integrator="exact", dt=0.1)
+                      initial_velocities=velocities, integrator="exact", dt=0.1, duration=120.0)
     app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path,
                  recordings_dir=tmp_path)
     app.start()
@@ -102,6 +102,7 @@ def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
         app.set_selection(np.array([1]))
         press(probes.probe_button)
         probes.component.value = "x"
+        app.panel.run.speed.value = "as fast as it can"  # not real time: 60 s in a few seconds
         app.runner.steps_per_frame = 2  # a frame every 0.2 s: Nyquist 2.5 Hz
         app.runner.play()
         assert wait_for(lambda: probes.series is not None and probes.series.times.size > 0
