@@ -20,11 +20,11 @@ run: install  ## install, then serve the web app on the default scene
 test: install  ## install, then run the test suite (includes one real-browser test)
 	bash scripts/ensure-chromium.sh
 	$(BIN)/ruff check sim app tests benchmarks
-	$(BIN)/python -m pytest -n auto --dist loadfile
+	$(BIN)/python -m pytest -n auto --dist worksteal
 
 test-all: install  ## every test, slow ones included
 	bash scripts/ensure-chromium.sh
-	$(BIN)/python -m pytest -n auto --dist loadfile -m ''
+	$(BIN)/python -m pytest -n auto --dist worksteal -m ''
 
 bench: install
 	$(BIN)/oscillators bench

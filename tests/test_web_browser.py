@@ -82,6 +82,7 @@ def to_screen(page, app: WebApp, xy: np.ndarray) -> tuple[float, float]:
     )
 
 
+@pytest.mark.slow  # the page tests in the default suite drive Chromium already
 def test_page_loads_and_a_gui_change_reaches_the_simulation(web_app, browser):
     page = open_page(browser, web_app)
     assert wait_for(lambda: len(web_app.server.get_clients()) == 1)
