@@ -24,8 +24,9 @@ from tests.test_web_safety import press, send, settle
 
 
 def driven_work(app: WebApp) -> float:
-    """The driver's work (J) of the running simulation, read between steps."""
-    return app.runner.post(lambda simulation: simulation.energy().driven).result(timeout=10)
+    """The driver's work (J) of the running simulation, read between steps (the first driven
+    steps compile the driven loops: on a cold cache that takes a while)."""
+    return app.runner.post(lambda simulation: simulation.energy().driven).result(timeout=180)
 
 
 class CommandSpy:
@@ -64,7 +65,7 @@ def test_driving_the_selected_particle_sets_the_driver_and_its_work_grows(web_ap
                             frequency=0.8, kind="force", start=0.0, ramp=DRIVE_RAMP)
     web_app.runner.steps_per_frame = 25
     web_app.runner.play()
-    assert wait_for(lambda: driven_work(web_app) > 0.0, timeout=10)
+    assert wait_for(lambda: driven_work(web_app) > 0.0, timeout=180)
     first = driven_work(web_app)
     assert wait_for(lambda: driven_work(web_app) > first, timeout=10)
     assert wait_for(lambda: "work done by the driver so far" in drive.state.content)
@@ -82,7 +83,7 @@ def test_stop_driving_clears_the_driver_and_keeps_its_work(web_app):
     assert web_app.runner.simulation.model.driver is not None
     web_app.runner.steps_per_frame = 25
     web_app.runner.play()
-    assert wait_for(lambda: driven_work(web_app) != 0.0, timeout=10)
+    assert wait_for(lambda: driven_work(web_app) != 0.0, timeout=180)
     web_app.runner.pause()
     press(drive.stop_button)
     assert web_app.runner.simulation.model.driver is None
