@@ -27,6 +27,7 @@ from typing import Any, Protocol
 import numpy as np
 
 import sim
+from app.study.accuracy_runs import jsonable
 from app.study.choose_runs import MapRuns, RunOutcome, RunTask, run_setting, serial_map, steps_for
 from sim.errors import (
     CONVERGED_FRACTION,
@@ -85,7 +86,7 @@ class Measured:
     role: str
 
     def as_dict(self) -> dict[str, Any]:
-        return _jsonable(dataclasses.asdict(self))
+        return jsonable(dataclasses.asdict(self))
 
     def describe(self) -> str:
         label = describe(self.integrator).short_label
@@ -137,7 +138,7 @@ class Choice:
 
     def as_dict(self) -> dict[str, Any]:
         answer = self.answer
-        return _jsonable(dict(
+        return jsonable(dict(
             scene=self.scene, duration=self.duration, tolerance=self.tolerance,
             measure=self.measure, met=answer is not None,
             integrator=answer.integrator if answer else None, dt=answer.dt if answer else None,
@@ -151,19 +152,6 @@ class Choice:
             reference=dataclasses.asdict(self.reference) if self.reference else None,
             limits=self.limits, skipped=self.skipped, note=self.note,
         ))
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {key: _jsonable(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(item) for item in value]
-    if isinstance(value, (float, np.floating)):
-        number = float(value)
-        return number if math.isfinite(number) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
 
 
 def estimated_seconds(task: RunTask) -> float:
