@@ -420,7 +420,8 @@ def test_precision_and_threads_from_the_page_are_checked_and_applied(web_app):
     settle(web_app)
     web_app.runner.play()
     steps = web_app.runner.simulation.step_count
-    assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 20)
+    # the first float32 steps compile their kernels: minutes on a loaded machine with a cold cache
+    assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 20, timeout=400)
     web_app.runner.pause()
     assert np.isfinite(web_app.runner.simulation.peek_positions()).all()
 
@@ -438,3 +439,30 @@ def test_download_a_movie_of_the_current_run(web_app):
     with av.open(str(path)) as container:
         assert sum(1 for _ in container.decode(video=0)) > 10
     path.unlink()
+
+
+def test_a_refused_value_is_replaced_by_the_value_in_use_in_every_folder(web_app):
+    """The server assigns the value in use back (viser sends it to every page), so no page keeps
+    showing a value the simulation does not use."""
+    panel = web_app.panel
+    model = web_app.runner.simulation.model
+    cases = [
+        (panel.physics.stiffness, -5.0, float(model.stiffness)),
+        (panel.physics.gravity, float("nan"), panel.physics.gravity.value),
+        (panel.scene.nx, 2.5, model.nx),
+        (panel.view.color_by, "<script>", panel.view.color_by.value),
+        (panel.view.particle_scale, 1e9, panel.view.particle_scale.value),
+        (panel.integrator.dt, -1.0, web_app.runner.simulation.dt),
+    ]
+    for handle, bad, in_use in cases:
+        send(handle, bad)
+        if handle is panel.scene.nx:
+            press(panel.scene.build_button)
+        settle(web_app)
+        assert handle.value == in_use, handle.label
+    web_app.set_selection(np.array([0]))
+    mass = panel.selection.mass.value
+    send(panel.selection.mass, -1.0)
+    settle(web_app)
+    assert panel.selection.mass.value == mass
+    assert "refused" in panel.selection.message.content

@@ -53,19 +53,32 @@ class Limits:
     scene's value, ``check`` reads a slider's value from the page against its limit."""
 
     def __init__(self, limits: dict[str, tuple[float, float]],
-                 low_open: tuple[str, ...] = ()) -> None:
+                 low_open: tuple[str, ...] = (), sliders: dict[str, Any] | None = None) -> None:
         self._limits = dict(limits)
         self._low_open = low_open
+        self._accepted: dict[str, float] = {
+            key: float(handle.value) for key, handle in (sliders or {}).items()}
+        """The last value of each slider that was shown or accepted (what the page shows back
+        when a value is refused)."""
 
     def show(self, key: str, handle: Any, value: float) -> None:
         low, high = self._limits[key]
         self._limits[key] = (min(low, value), max(high, value))
+        self._accepted[key] = value
         show_number(handle, value)
 
     def check(self, key: str, handle: Any, label: str) -> float:
-        """``handle``'s value if it lies within the limit ``key``, else ``InputRefused``."""
+        """``handle``'s value if it lies within the limit ``key``; else the slider shows its
+        last accepted value again (on every page) and ``InputRefused`` says why."""
         low, high = self._limits[key]
-        return number(handle.value, label, low, high, low_open=key in self._low_open)
+        try:
+            value = number(handle.value, label, low, high, low_open=key in self._low_open)
+        except InputRefused:
+            if key in self._accepted:
+                handle.value = self._accepted[key]
+            raise
+        self._accepted[key] = value
+        return value
 
 
 class History:

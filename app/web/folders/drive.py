@@ -166,6 +166,7 @@ class DriveFolder(Folder):
             try:
                 driver = self.drive_from_page()
             except ERRORS as error:
+                self.show_driver(self.host.runner.simulation.model)  # every page: the drive in use
                 say(self.message, error, "could not drive")
                 return
             self.message.content = ok_html(

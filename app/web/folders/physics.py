@@ -74,11 +74,23 @@ class PhysicsFolder(Folder):
             {"stiffness": (1.0, MAX_STIFFNESS), "rest_ratio": (0.5, 1.2), "damping": (0.0, 10.0),
              "gravity": (0.0, 30.0), "heavy_mass": (0.1, 20.0)},
             low_open=("stiffness", "heavy_mass"),
+            sliders={"stiffness": self.stiffness, "rest_ratio": self.rest_ratio,
+                     "damping": self.damping, "gravity": self.gravity,
+                     "heavy_mass": self.heavy_mass},
         )
         check = self.limits.check
 
+        def refused(error: BaseException) -> None:
+            """Every page shows the values in use again, and why the change was refused."""
+            self.show_scene(host.runner.simulation)
+            say(self.message, error)
+
         def report(future: Any) -> None:
-            say(self.message, future.exception())
+            error = future.exception()
+            if error is None:
+                say(self.message, None)
+            else:
+                refused(error)
 
         def physics_callback(post: Callable[[], Any]) -> Callable[[viser.GuiEvent], Any]:
             @from_user
@@ -86,7 +98,7 @@ class PhysicsFolder(Folder):
                 try:
                     future = post()
                 except InputRefused as error:
-                    say(self.message, error)
+                    refused(error)
                     return
                 future.add_done_callback(report)
 

@@ -56,6 +56,7 @@ class SceneFolder(Folder):
             try:
                 name = choice(self.preset.value, "preset", sim.scenes.names())
             except InputRefused as error:
+                self.show_scene(host.runner.simulation)  # every page: the scene in use
                 say(self.message, error)
                 return
             parameters = sim.presets.PRESETS[name].parameters
@@ -84,6 +85,7 @@ class SceneFolder(Folder):
                 scene = sim.scenes.build(name, **overrides)
                 host.replace_scene(scene, source=f"preset {name}")
             except ERRORS as error:
+                self.show_scene(host.runner.simulation)  # every page: the scene in use
                 say(self.message, error, "could not build")
                 return
             self.message.content = ok_html(f"built {name} {nx}x{ny}")

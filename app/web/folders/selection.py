@@ -37,7 +37,7 @@ class SelectionFolder(Folder):
             self.hold = gui.add_checkbox("Hold while dragging", True,
                                          hint="pin the selection to the gizmo during a drag")
             self.message = gui.add_html("")
-        self.limits = Limits({"mass": (0.1, 20.0)})
+        self.limits = Limits({"mass": (0.1, 20.0)}, sliders={"mass": self.mass})
         """The server's limit of the mass slider, widened to show a selection's mass."""
 
         @self.select_buttons.on_click
@@ -71,6 +71,7 @@ class SelectionFolder(Folder):
             try:
                 mass = self.limits.check("mass", self.mass, "mass (kg)")
             except InputRefused as error:
+                self.selection_changed(selection, host.runner.simulation.model)  # the mass in use
                 say(self.message, error)
                 return
             say(self.message, None)

@@ -51,6 +51,7 @@ class ViewSettingsFolder(Folder):
                 try:
                     apply(handle.value)
                 except InputRefused as error:
+                    self.show_settings(host.runner.simulation.model)  # every page: the ones in use
                     say(self.message, error)
                     return
                 say(self.message, None)
@@ -79,6 +80,12 @@ class ViewSettingsFolder(Folder):
         self.show_springs.disabled = model.n_springs > SPRING_HARD_LIMIT
         settings = self.host.view.settings
         settings.show_springs = settings.move_points = settings.color_by = None
+        self.show_settings(model)
+
+    def show_settings(self, model: sim.Model) -> None:
+        """Show the settings in use (assigning values posts nothing)."""
+        settings = self.host.view.settings
         self.show_springs.value = settings.springs_on(model)
         self.move_points.value = settings.points_move(model)
         self.color_by.value = settings.coloring(model)
+        self.particle_scale.value = settings.particle_scale
