@@ -261,10 +261,27 @@ def test_energy_balance_with_dashpots_drag_and_gravity(integrator, tolerance):
 # --- kernels against an independent numpy implementation -------------------------------------------
 
 
-@pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("linear", [False, True])
-@pytest.mark.parametrize("extras", [{}, {"damping": 0.7}, {"drag": 0.3, "gravity": (0.5, -9.8, 1.0)}])
-@pytest.mark.parametrize("integrator", sim.INTEGRATORS)
+EXTRAS = ({}, {"damping": 0.7}, {"drag": 0.3, "gravity": (0.5, -9.8, 1.0)})
+
+
+def _kernel_matrix() -> list:
+    """Every integrator with every combination of terms, dimension and linearity: each is a kernel
+    of its own (the flags are compile-time constants), so each costs a compilation on a cold cache.
+    The default suite runs, for every integrator, one set that covers each term, each dimension and
+    both spring laws at least once; the full product is in the slow suite."""
+    covering = {(2, False, 3), (1, True, 2), (0, True, 3)}
+    cases = []
+    for integrator in sim.INTEGRATORS:
+        for index, extras in enumerate(EXTRAS):
+            for linear in (False, True):
+                for dim in (2, 3):
+                    marks = () if (index, linear, dim) in covering else pytest.mark.slow
+                    cases.append(pytest.param(dim, linear, extras, integrator, marks=marks,
+                                              id=f"{integrator}-extras{index}-{linear}-{dim}"))
+    return cases
+
+
+@pytest.mark.parametrize("dim, linear, extras, integrator", _kernel_matrix())
 def test_steps_match_plain_numpy(dim, linear, extras, integrator):
     from sim import reference
 
