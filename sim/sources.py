@@ -97,6 +97,28 @@ class Barrier:
         return f"barrier along {self.axis} {self.index} (openings {slits})"
 
 
+def slit_openings(slits: int, width: int, separation: int, centre: int
+                  ) -> tuple[tuple[int, int], ...]:
+    """Openings (inclusive particle ranges along a barrier) of ``slits`` (1 or 2) slits of
+    ``width`` open particles each, centred on particle ``centre`` (one slit) or with centres
+    ``separation`` particles apart either side of it (two slits); raises ``SourceError`` when
+    they overlap or run below particle 0."""
+    if slits not in (1, 2):
+        raise SourceError(f"a barrier here has one or two slits, got {slits!r}")
+    if width < 1:
+        raise SourceError(f"a slit is at least one particle wide, got {width}")
+    if slits == 2 and separation <= width:
+        raise SourceError(f"two slits {width} particles wide need a separation above {width} "
+                          f"(a pinned particle between them), got {separation}")
+    centres = [centre] if slits == 1 else [centre - separation // 2,
+                                           centre - separation // 2 + separation]
+    openings = tuple((k - (width - 1) // 2, k - (width - 1) // 2 + width - 1) for k in centres)
+    if openings[0][0] < 0:
+        raise SourceError(f"the slits run past the barrier's first particle (opening "
+                          f"{list(openings[0])})")
+    return openings
+
+
 def _whole(name: str, value: Any) -> int:
     if isinstance(value, bool):
         raise SourceError(f"{name} must be a whole number >= 0, got {value!r}")
