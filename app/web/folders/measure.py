@@ -162,7 +162,7 @@ class MeasureFolder(Folder):
             points[0, k, : model.dim] = rest[row * model.nx + column, : model.dim]
         points[0, :, 2] = 0.6 * float(model.spacing)
         self.host.server.scene.add_line_segments("/tape", points=points, colors=TAPE_COLOUR,
-                                                 line_width=4.0, visible=a != b)
+                                                 thickness=0.4 * float(model.spacing), visible=a != b)
 
     def _show_watch(self) -> None:
         self.watch_button.label = "Stop stopwatch" if self.stopwatch.running else \

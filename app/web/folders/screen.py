@@ -188,7 +188,7 @@ class ScreenFolder(Folder):
         points[0, :, : model.dim] = ends[:, : model.dim]
         points[0, :, 2] = 0.5 * float(model.spacing)
         self.host.server.scene.add_line_segments(
-            "/screen_column", points=points, colors=(46, 125, 50), line_width=3.0)
+            "/screen_column", points=points, colors=(46, 125, 50), thickness=0.4 * float(model.spacing))
 
     # --- keeping in step ----------------------------------------------------------------------
 
@@ -212,6 +212,9 @@ class ScreenFolder(Folder):
         if self._watching is None:
             return
         model = frame.model
+        shown = self.host.runner.simulation.model
+        if (model.nx, model.ny, model.dim) != (shown.nx, shown.ny, shown.dim):
+            return  # a frame of the scene before
         column = self._watching[-1]
         if self._key(model, column) != self._watching:
             self._watch(model, column)
