@@ -165,9 +165,12 @@ class MeasureFolder(Folder):
                                                  thickness=0.4 * float(model.spacing), visible=a != b)
 
     def _show_watch(self) -> None:
-        self.watch_button.label = "Stop stopwatch" if self.stopwatch.running else \
-            "Start stopwatch"
-        self.reading.content = as_html(self.stopwatch.describe())
+        label = "Stop stopwatch" if self.stopwatch.running else "Start stopwatch"
+        if self.watch_button.label != label:
+            self.watch_button.label = label
+        reading = as_html(self.stopwatch.describe())
+        if self.reading.content != reading:
+            self.reading.content = reading
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         model = simulation.model

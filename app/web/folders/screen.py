@@ -6,7 +6,8 @@ chosen column, averaged over the last ``PERIODS`` whole periods of the first sou
 second a picture shows it against y (relative to its peak); for a scene with a slit barrier
 (``sim.ripple_tank.SlitSetup``) the theory lines are drawn over it: two slits' maxima at
 d sin(theta) = m lambda, one slit's minima at w sin(theta) = m lambda, theta from the slits'
-centre, lambda the lattice's own wavelength at the driving frequency (its dispersion relation);
+centre, with the lattice's own wave vector at the driving frequency along each ray
+(``sim.slits``: d q_y = 2 pi m);
 dots mark the measured extrema next to them (``app.study.slits.compare``).  The chosen column is
 drawn as a green line on the lattice.
 
@@ -177,9 +178,11 @@ class ScreenFolder(Folder):
         except (ripple_tank.SlitError, lattice_waves.WaveError) as error:
             return [], f"{text}; theory lines: {error}"
         distance = model.origin[0] + column * model.spacing - setup.barrier_x
-        law = ("d sin θ = m λ" if len(setup.openings) >= 2 else "w sin θ = m λ (minima)")
-        return fringes, f"{text}; {law}, θ from the slits' centre, screen {distance:.3g} m " \
-                        "beyond the barrier"
+        law = ("maxima at d q_y = 2π m (d sin θ = m λ" if len(setup.openings) >= 2
+               else "minima at w q_y = 2π m (w sin θ = m λ")
+        return fringes, (f"{text}; lines: {law} with q the lattice's wave vector along the ray "
+                         f"at θ from the slits' centre); screen {distance:.3g} m beyond the "
+                         "barrier")
 
     def _draw_line(self, model: sim.Model, column: int) -> None:
         rest = np.asarray(model.rest_positions)
@@ -245,6 +248,7 @@ class ScreenFolder(Folder):
                 title = f"screen at column {self._watching[-1] if self._watching else '-'}: " \
                         f"<u²> over {periods} whole period{'s' if periods != 1 else ''}"
                 self.picture.image = render_screen(y, intensity, fringes, title)
-                self.about.content = as_html(text)
+                if self.about.content != as_html(text):
+                    self.about.content = as_html(text)
             except Exception as error:  # a failed picture must not stop the page
                 self.message.content = as_html(f"no screen picture: {error}")
