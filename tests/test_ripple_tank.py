@@ -61,11 +61,19 @@ def test_slit_setup_reads_the_barrier_and_uses_the_lattices_wavelength():
             low, high = (middle, high) if value < omega**2 else (low, middle)
         return 2 * math.pi / low
 
-    low, high = 0.0, 1.2  # d sin(theta) = lambda(theta) by bisection
+    # far field on the lattice: the two slits' phases differ by q . (0, d) = d q_y, with q the
+    # wave vector whose group velocity ~ (sin q_x, sin q_y) (a = 1) points at the maximum
+    low, high = 0.0, 1.2  # the angle of q where d q_y = 2 pi, by bisection
     for _ in range(200):
-        theta = 0.5 * (low + high)
-        low, high = (theta, high) if 20.0 * math.sin(theta) < wavelength_along(theta) else (low, theta)
-    assert maxima[1] == pytest.approx(distance * math.tan(theta), rel=1e-6)
+        phi = 0.5 * (low + high)
+        qy = 2 * math.pi / wavelength_along(phi) * math.sin(phi)
+        low, high = (phi, high) if 20.0 * qy < 2 * math.pi else (low, phi)
+    q = 2 * math.pi / wavelength_along(phi)
+    ray = math.atan2(math.sin(q * math.sin(phi)), math.sin(q * math.cos(phi)))
+    assert ray > phi + math.radians(1.0)  # the ray leans off q by more than a degree
+    assert maxima[1] == pytest.approx(distance * math.tan(ray), rel=1e-5)
+    textbook = math.asin(wavelength_along(phi) / 20.0)  # d sin(theta) = lambda along q
+    assert maxima[1] > 1.05 * distance * math.tan(textbook)
     assert maxima[-1] == pytest.approx(-maxima[1])
 
 
