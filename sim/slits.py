@@ -12,7 +12,7 @@ omega leaves every opening as from a line of point sources.  Two kinds of predic
   ray and q_y = 2 pi sin(theta) / lambda: the textbook d sin(theta) = m lambda.  On the lattice q
   leans off the ray (on the membrane at lambda = 7.8 a by 1.6 deg at theta = 25 deg, although
   |q| changes by only 1 % with direction), and the lines drawn with lambda along theta instead
-  land 7 % short of the fringes;
+  land 4-9 % short of the fringes;
 * **ray phase** (no far-field approximation): the phase each opening's centre (or edge) sends to
   the screen point is the lattice's own ray phase (``Polarisation.phase``), so it holds for an
   anisotropic lattice and closer to the slits, where the far-field lines drift off.
