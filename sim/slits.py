@@ -120,24 +120,46 @@ def two_slit_intensity(wave: Polarisation, omega: float, slit_centres: tuple[flo
     return intensity / intensity.max()
 
 
+def two_source_maxima_far_field(wave: Polarisation, omega: float, separation: float,
+                                distance: float, centre: float, half_height: float,
+                                phase_difference: float) -> list[Fringe]:
+    """Maxima of two point sources ``separation`` (m) apart along y, the upper one
+    ``phase_difference`` (rad) ahead of the lower one, on a screen ``distance`` (m) away:
+    where d q_y = 2 pi m - phase_difference (the textbook d sin(theta) = (m - dphi / 2 pi)
+    lambda), theta (the ray) from the sources' centre at y = ``centre``; antiphase sources put a
+    dark line on the bisector and the bright ones swing as the difference changes."""
+    shift = math.remainder(phase_difference, 2.0 * math.pi) / (2.0 * math.pi)
+    reach = int(separation / wave.wavelength(omega, 0.0)) + 2
+    fringes = []
+    for order in range(-reach, reach + 1):
+        y = _ray_y(wave, omega, 2.0 * math.pi * (order - shift) / separation, distance)
+        if y is not None and abs(y) < half_height:
+            fringes.append(Fringe(order, "maximum", centre + y))
+    return sorted(fringes, key=lambda fringe: fringe.y)
+
+
+def _ray_y(wave: Polarisation, omega: float, qy: float, distance: float) -> float | None:
+    """y (m) a screen ``distance`` (m) away where the ray whose wave vector has this q_y (rad/m)
+    lands, or None when the lattice carries no such wave toward the screen."""
+    _, contour_qy, rays = wave.contour(omega, np.linspace(0.0, 0.5 * math.pi, CONTOUR_SAMPLES))
+    carried = np.isfinite(contour_qy) & np.isfinite(rays)
+    contour_qy, rays = contour_qy[carried], rays[carried]
+    if not contour_qy.size or abs(qy) > contour_qy[-1]:
+        return None
+    theta = float(np.interp(abs(qy), contour_qy, rays))
+    if theta >= 0.5 * math.pi * (1.0 - 1e-9):
+        return None
+    return math.copysign(distance * math.tan(theta), qy)
+
+
 def _far_field(wave: Polarisation, omega: float, size: float, distance: float, centre: float,
                half_height: float, kind: str, orders: range) -> list[Fringe]:
-    # the contour from q along +x to q along +y: q_y grows, and so does the ray's angle
-    _, qy, rays = wave.contour(omega, np.linspace(0.0, 0.5 * math.pi, CONTOUR_SAMPLES))
-    carried = np.isfinite(qy) & np.isfinite(rays)
-    qy, rays = qy[carried], rays[carried]
     fringes = []
     for order in orders:
         for sign in ((1,) if order == 0 else (1, -1)):
-            target = 2.0 * math.pi * order / size
-            if not qy.size or target > qy[-1]:
-                continue
-            theta = float(np.interp(target, qy, rays))
-            if theta >= 0.5 * math.pi * (1.0 - 1e-9):
-                continue
-            y = centre + sign * distance * math.tan(theta)
-            if abs(y - centre) < half_height:
-                fringes.append(Fringe(sign * order, kind, y))
+            y = _ray_y(wave, omega, 2.0 * math.pi * order / size, distance)
+            if y is not None and abs(y) < half_height:
+                fringes.append(Fringe(sign * order, kind, centre + sign * y))
     return sorted(fringes, key=lambda fringe: fringe.y)
 
 

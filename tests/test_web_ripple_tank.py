@@ -97,10 +97,20 @@ def test_sources_phase_difference_moves_adds_and_removes_sources(web_app):
     folder = web_app.panel.sources
     assert folder.difference.visible
     assert folder.difference.value == pytest.approx(0.5)
+    send(folder.difference, 0.0)
+    screen = web_app.panel.screen
+    centre = web_app.runner.simulation.model.origin[1] + 20.0  # between rows 16 and 24
+    in_phase = sorted(f.y - centre for f in screen._theory_of(
+        web_app.runner.simulation.model, 34, 0.33, "z")[0])
+    assert min(abs(y) for y in in_phase) < 1e-9  # a bright bisector
     send(folder.difference, math.pi)
     first, second = web_app.runner.simulation.model.sources
     assert math.remainder(second.phase - first.phase - math.pi, 2 * math.pi) == \
         pytest.approx(0.0, abs=1e-12)
+    antiphase = sorted(f.y - centre for f in screen._theory_of(
+        web_app.runner.simulation.model, 34, 0.33, "z")[0])
+    assert min(abs(y) for y in antiphase) > 2.0  # a dark bisector, bright lines either side
+    assert antiphase == pytest.approx([-y for y in reversed(antiphase)], abs=1e-9)
     model = web_app.runner.simulation.model
     for value in (float("nan"), 10.0, "1", True):
         send(folder.difference, value)

@@ -8,7 +8,9 @@ second a picture shows it against y (relative to its peak); for a scene with a s
 d sin(theta) = m lambda, one slit's minima at w sin(theta) = m lambda, theta from the slits'
 centre, with the lattice's own wave vector at the driving frequency along each ray
 (``sim.slits``: d q_y = 2 pi m);
-dots mark the measured extrema next to them (``app.study.slits.compare``).  The chosen column is
+dots mark the measured extrema next to them (``app.study.slits.compare``).  For two point
+sources in one column (two-sources) the lines are their maxima, d sin(theta) = (m - dphi / 2 pi)
+lambda with dphi the phase difference, so they swing with the Sources folder's slider.  The chosen column is
 drawn as a green line on the lattice.
 
 The screen starts again when the sources or barriers change, the time goes back (Reset) or the
@@ -29,7 +31,7 @@ from app.study.slits import compare
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, from_user, ok_html, whole_number
 from app.web.widgets import MATPLOTLIB_LOCK, say
-from sim import lattice_waves, ripple_tank
+from sim import lattice_waves, ripple_tank, slits
 from sim.runner import Frame
 from sim.screen import IntensityScreen
 
@@ -90,6 +92,19 @@ def drive_of(model: sim.Model) -> tuple[float, str] | None:
     direction = drivers[0].direction
     component = "xyz"[max(range(model.dim), key=lambda c: abs(direction[c]))]
     return drivers[0].frequency, component
+
+
+def two_sources(model: sim.Model) -> tuple | None:
+    """(lower, upper) when the model's sources are two point sources in one column at one
+    frequency (the two-sources lesson), else None."""
+    sources = tuple(model.sources)
+    if model.driver is not None or len(sources) != 2 or any(s.row == "all" for s in sources):
+        return None
+    lower, upper = sorted(sources, key=lambda source: source.row)
+    if lower.column != upper.column or lower.row == upper.row \
+            or lower.frequency != upper.frequency:
+        return None
+    return lower, upper
 
 
 class ScreenFolder(Folder):
@@ -176,13 +191,34 @@ class ScreenFolder(Folder):
             setup = ripple_tank.SlitSetup.of(model)
             fringes = setup.theory(model, column)
         except (ripple_tank.SlitError, lattice_waves.WaveError) as error:
-            return [], f"{text}; theory lines: {error}"
+            two = two_sources(model)
+            if two is None:
+                return [], f"{text}; theory lines: {error}"
+            return self._two_source_theory(model, column, wave, two, text)
         distance = model.origin[0] + column * model.spacing - setup.barrier_x
         law = ("maxima at d q_y = 2π m (d sin θ = m λ" if len(setup.openings) >= 2
                else "minima at w q_y = 2π m (w sin θ = m λ")
         return fringes, (f"{text}; lines: {law} with q the lattice's wave vector along the ray "
                          f"at θ from the slits' centre); screen {distance:.3g} m beyond the "
                          "barrier")
+
+    @staticmethod
+    def _two_source_theory(model: sim.Model, column: int, wave, pair, text: str
+                           ) -> tuple[list, str]:
+        lower, upper = pair
+        a = float(model.spacing)
+        distance = abs(column - lower.column) * a
+        if distance == 0.0:
+            return [], f"{text}; theory lines: the screen stands on the sources' column"
+        difference = upper.phase - lower.phase
+        fringes = slits.two_source_maxima_far_field(
+            wave, 2.0 * math.pi * lower.frequency, (upper.row - lower.row) * a, distance,
+            model.origin[1] + 0.5 * (upper.row + lower.row) * a,
+            0.5 * (model.ny - 1) * a, difference)
+        return fringes, (f"{text}; lines: maxima at d q_y = 2π m - Δφ (d sin θ = (m - Δφ/2π) λ "
+                         f"with q the lattice's wave vector along the ray), Δφ = "
+                         f"{math.remainder(difference, 2 * math.pi):.3g} rad of the upper source "
+                         f"over the lower; screen {distance:.3g} m from the sources")
 
     def _draw_line(self, model: sim.Model, column: int) -> None:
         rest = np.asarray(model.rest_positions)
