@@ -68,8 +68,9 @@ def two_slit_maxima_ray_phase(wave: Polarisation, omega: float, slit_centres: tu
     """Maxima where the ray phases from the two slits' centres differ by 2 pi m."""
     low, high = slit_centres
 
-    def difference(y: float) -> float:
-        return wave.phase(omega, distance, y - low) - wave.phase(omega, distance, y - high)
+    def difference(ys: np.ndarray) -> np.ndarray:
+        return (ray_phases(wave, omega, distance, ys - low)
+                - ray_phases(wave, omega, distance, ys - high))
 
     centre = 0.5 * (low + high)
     return _roots(difference, centre, half_height, "maximum", samples)
@@ -81,8 +82,9 @@ def single_slit_minima_ray_phase(wave: Polarisation, omega: float, edges: tuple[
     """Minima where the ray phases from the slit's two edges differ by 2 pi m (m != 0)."""
     low, high = edges
 
-    def difference(y: float) -> float:
-        return wave.phase(omega, distance, y - low) - wave.phase(omega, distance, y - high)
+    def difference(ys: np.ndarray) -> np.ndarray:
+        return (ray_phases(wave, omega, distance, ys - low)
+                - ray_phases(wave, omega, distance, ys - high))
 
     centre = 0.5 * (low + high)
     return [fringe for fringe in _roots(difference, centre, half_height, "minimum", samples)
@@ -163,12 +165,12 @@ def _far_field(wave: Polarisation, omega: float, size: float, distance: float, c
     return sorted(fringes, key=lambda fringe: fringe.y)
 
 
-def _roots(difference: Callable[[float], float], centre: float, half_height: float, kind: str,
+def _roots(difference: Callable[[np.ndarray], np.ndarray], centre: float, half_height: float, kind: str,
            samples: int) -> list[Fringe]:
-    """Positions y in (centre - half_height, centre + half_height) where ``difference(y)`` is a
-    whole multiple of 2 pi, with m the multiple (m > 0 above the centre)."""
+    """Positions y in (centre - half_height, centre + half_height) where ``difference(ys)`` (all
+    samples at once) is a whole multiple of 2 pi, with m the multiple (m > 0 above the centre)."""
     ys = np.linspace(centre - half_height, centre + half_height, samples)
-    cycles = np.array([difference(float(y)) for y in ys]) / (2.0 * math.pi)
+    cycles = np.asarray(difference(ys)) / (2.0 * math.pi)
     fringes = []
     for index in range(samples - 1):
         a, b = cycles[index], cycles[index + 1]
