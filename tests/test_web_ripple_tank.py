@@ -175,3 +175,18 @@ def test_the_tape_measures_spacings_and_metres_and_the_stopwatch_counts_simulate
     watch.observe(9.0, 20.0)
     assert (watch.simulated, watch.wall) == (2.0, 3.0)
     assert "0.67 s simulated per s" in watch.describe()
+
+
+def test_the_folders_follow_sources_and_barriers_changed_elsewhere(web_app):
+    web_app.replace_scene(small_double_slit(), source="test")
+    source = web_app.runner.simulation.model.sources[0]
+    changed = sim.forcing.Driver.create({**source.as_table(), "frequency": 0.21})
+    web_app.runner.post(lambda simulation: simulation.set_parameters(
+        sources=[changed], barriers=[{"column": 30, "openings": [[18, 22]]}])).result(timeout=30)
+    model = web_app.runner.simulation.model
+    frame = Frame(0, 0.0, "verlet", 0.01, model, np.array(model.rest_positions),
+                  web_app.runner.simulation.energy())
+    web_app.panel.sources.update(frame, 0.0)
+    web_app.panel.barrier.update(frame, 0.0)
+    assert web_app.panel.sources.frequency.value == 0.21
+    assert (web_app.panel.barrier.slits.value, web_app.panel.barrier.width.value) == ("one", 5)

@@ -59,6 +59,8 @@ class BarrierFolder(Folder):
     def __init__(self, host: PanelHost) -> None:
         self.host = host
         self._centre = 0
+        self._shown: tuple = ()
+        """The barriers the widgets show."""
         gui = host.server.gui
         self.folder = gui.add_folder("Barrier", expand_by_default=True)
         with self.folder:
@@ -105,6 +107,7 @@ class BarrierFolder(Folder):
 
     def show_barrier(self, model: sim.Model) -> None:
         """Show the barrier in use (assigning values posts nothing)."""
+        self._shown = model.barriers
         found = column_barrier(model)
         if found is None:
             self.geometry.content = as_html("No barrier along a column.")
@@ -132,4 +135,7 @@ class BarrierFolder(Folder):
         self.show_barrier(model)
 
     def update(self, frame: Frame, now: float) -> None:
-        return None
+        """Follow a barrier changed elsewhere (another page)."""
+        if self.folder.visible and frame.model.barriers != self._shown \
+                and frame.model is self.host.runner.simulation.model:
+            self.show_barrier(frame.model)

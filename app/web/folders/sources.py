@@ -62,6 +62,8 @@ class SourcesFolder(Folder):
     def __init__(self, host: PanelHost) -> None:
         self.host = host
         self._amplitude_limit = MAX_AMPLITUDE_SPACINGS
+        self._shown: tuple = ()
+        """The sources the widgets show."""
         gui = host.server.gui
         self.folder = gui.add_folder("Sources", expand_by_default=True)
         with self.folder:
@@ -226,6 +228,7 @@ class SourcesFolder(Folder):
         """Show the chosen source and the phase difference in use (posts nothing)."""
         self._show_choices(model)
         sources = model.sources
+        self._shown = sources
         self.difference.visible = len(sources) >= 2
         if len(sources) >= 2:
             show_number(self.difference, wrapped(sources[1].phase - sources[0].phase))
@@ -251,4 +254,7 @@ class SourcesFolder(Folder):
         self.show_sources(model)
 
     def update(self, frame: Frame, now: float) -> None:
-        return None
+        """Follow sources changed elsewhere (another page, a loaded scene)."""
+        if self.folder.visible and frame.model.sources != self._shown \
+                and frame.model is self.host.runner.simulation.model:
+            self.show_sources(frame.model)
