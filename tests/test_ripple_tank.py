@@ -162,3 +162,18 @@ def test_double_slit_maxima_agree_with_the_lattice_theory():
         textbook = math.asin(wave.wavelength(omega, math.asin(line / math.hypot(
             measurement.distance, line))) / d)
         assert abs(measured) > measurement.distance * math.tan(textbook) + 0.5
+
+
+def test_barriers_from_the_command_line_and_one_line_errors(capsys):
+    scene = sim.scenes.build(
+        "double-slit", barriers="column=45,openings=89-91 109-111;column=150,openings=none")
+    assert [barrier.as_table() for barrier in scene.model.barriers] == [
+        {"column": 45, "openings": [[89, 91], [109, 111]]}, {"column": 150, "openings": []}]
+    for text, said in (("column=45,openings=89-x", "opening end must be a whole number"),
+                       ("column=4.5", "barrier column must be a whole number"),
+                       ("colum=3", "unknown barrier field"),
+                       ("column=45,openings=91-89", "ends before it starts"),
+                       ("column=500", "outside the 190x201 lattice")):
+        assert main(["run", "double-slit", "--set", f"barriers={text}", "--steps", "1"]) == 2
+        error = capsys.readouterr().err.strip()
+        assert said in error and "\n" not in error and "Traceback" not in error
