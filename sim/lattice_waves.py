@@ -140,6 +140,15 @@ class Polarisation:
         q = float(self._wavenumbers(omega, np.array([centre]))[0])
         return q * math.cos(centre), q * math.sin(centre)
 
+    def contour(self, omega: float, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                 np.ndarray]:
+        """(qx, qy) (rad/m) of the frequency-``omega`` waves whose wave vectors point along
+        ``angles`` (rad from +x), and the directions (rad) of their group velocities (the rays);
+        NaN where the lattice carries no such wave.  All at once (no search per ray)."""
+        angles = np.asarray(angles, dtype=float)
+        q = self._wavenumbers(float(omega), angles)
+        return q * np.cos(angles), q * np.sin(angles), self._ray_directions(float(omega), angles)
+
     def _contour(self, omega: float) -> tuple[np.ndarray, np.ndarray]:
         """Angles of q (rad) round the frequency-``omega`` contour and the directions (rad) of
         the group velocity there (NaN where the lattice carries no such wave); cached."""

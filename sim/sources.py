@@ -19,11 +19,13 @@ turns them into the table (``DRIVE_FIELDS`` float64 columns).
 from __future__ import annotations
 
 import dataclasses
+import re
 from typing import Any
 
 import numpy as np
 
-from sim import instruments
+from sim import instruments, schema
+from sim.schema import shown
 
 ALL_ROWS = "all"
 
@@ -49,7 +51,7 @@ class Barrier:
             return value
         if not isinstance(value, dict):
             raise SourceError(f"a barrier is a table {{column = i, openings = [[first, last]]}}, "
-                              f"got {value!r}")
+                              f"got {shown(value)}")
         unknown = set(value) - {"column", "row", "openings"}
         if unknown:
             raise SourceError(f"unknown barrier field(s) {', '.join(sorted(unknown))}; "
@@ -60,11 +62,15 @@ class Barrier:
         axis = axes[0]
         index = _whole(f"barrier {axis}", value[axis])
         openings = []
-        for opening in value.get("openings", ()) or ():
+        listed = value.get("openings", ()) or ()
+        if isinstance(listed, (str, bytes, dict)):
+            raise SourceError(f"barrier openings are a list of [first, last], got {shown(listed)}")
+        for opening in listed:
             try:
                 first, last = opening
             except (TypeError, ValueError):
-                raise SourceError(f"a barrier opening is [first, last], got {opening!r}") from None
+                raise SourceError(f"a barrier opening is [first, last], got {shown(opening)}"
+                                  ) from None
             first, last = _whole("opening start", first), _whole("opening end", last)
             if last < first:
                 raise SourceError(f"a barrier opening ends before it starts: {opening!r}")
@@ -97,16 +103,67 @@ class Barrier:
         return f"barrier along {self.axis} {self.index} (openings {slits})"
 
 
+def slit_openings(slits: int, width: int, separation: int, centre: int
+                  ) -> tuple[tuple[int, int], ...]:
+    """Openings (inclusive particle ranges along a barrier) of ``slits`` (1 or 2) slits of
+    ``width`` open particles each, centred on particle ``centre`` (one slit) or with centres
+    ``separation`` particles apart either side of it (two slits); raises ``SourceError`` when
+    they overlap or run below particle 0."""
+    if slits not in (1, 2):
+        raise SourceError(f"a barrier here has one or two slits, got {slits!r}")
+    if width < 1:
+        raise SourceError(f"a slit is at least one particle wide, got {width}")
+    if slits == 2 and separation <= width:
+        raise SourceError(f"two slits {width} particles wide need a separation above {width} "
+                          f"(a pinned particle between them), got {separation}")
+    centres = [centre] if slits == 1 else [centre - separation // 2,
+                                           centre - separation // 2 + separation]
+    openings = tuple((k - (width - 1) // 2, k - (width - 1) // 2 + width - 1) for k in centres)
+    if openings[0][0] < 0:
+        raise SourceError(f"the slits run past the barrier's first particle (opening "
+                          f"{list(openings[0])})")
+    return openings
+
+
 def _whole(name: str, value: Any) -> int:
-    if isinstance(value, bool):
-        raise SourceError(f"{name} must be a whole number >= 0, got {value!r}")
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise SourceError(f"{name} must be a whole number >= 0, got {value!r}") from None
-    if not number.is_integer() or number < 0:
-        raise SourceError(f"{name} must be a whole number >= 0, got {value!r}")
-    return int(number)
+    """A whole number >= 0 (``sim.schema.whole_number``: no strings, no rounding)."""
+    return schema.whole_number(value, name, 0, error=SourceError)
+
+
+def parse_barrier_text(text: str) -> dict[str, Any]:
+    """A barrier table from the command line's text "column=45,openings=89-91 109-111" (or
+    row=j; openings as first-last ranges separated by spaces; none for a closed barrier)."""
+    fields: dict[str, Any] = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        if "=" not in part:
+            raise SourceError(f"barrier fields are key=value, got {shown(part)} in {shown(text)}")
+        key, raw = (item.strip() for item in part.split("=", 1))
+        if key == "openings":
+            fields[key] = [] if raw.lower() in ("", "none") else [
+                _span(span) for span in raw.split()]
+        elif key in ("column", "row"):
+            fields[key] = _whole_text(f"barrier {key}", raw)
+        else:
+            raise SourceError(f"unknown barrier field {shown(key)}; accepted: column or row, "
+                              "openings")
+    return fields
+
+
+def _span(text: str) -> list[int]:
+    """[first, last] from "first-last" (or "k": one particle)."""
+    ends = text.split("-")
+    if len(ends) not in (1, 2):
+        raise SourceError(f"a barrier opening is first-last, got {shown(text)}")
+    return [_whole_text("opening start", ends[0]), _whole_text("opening end", ends[-1])]
+
+
+def _whole_text(name: str, raw: str) -> int:
+    if not re.fullmatch(r"[0-9]{1,9}", raw.strip()):
+        raise SourceError(f"{name} must be a whole number >= 0, got {shown(raw)}")
+    return int(raw)
 
 
 def check_barriers(value: Any) -> tuple[Barrier, ...]:
@@ -116,9 +173,12 @@ def check_barriers(value: Any) -> tuple[Barrier, ...]:
     if isinstance(value, (dict, Barrier)):
         value = [value]
     if isinstance(value, str):
-        raise SourceError("barriers are given as tables in a scene file or the API, "
-                          f"got the text {value!r}")
-    return tuple(Barrier.create(item) for item in value)
+        value = [parse_barrier_text(part) for part in value.split(";") if part.strip()]
+    try:
+        return tuple(Barrier.create(item) for item in value)
+    except TypeError:
+        raise SourceError(f"barriers must be a list of barrier tables, got {shown(value)}"
+                          ) from None
 
 
 def check_in_lattice(drivers: tuple, barriers: tuple[Barrier, ...], nx: int, ny: int,

@@ -116,3 +116,14 @@ def test_the_screen_averages_whole_periods_of_a_sine():
             assert screen.intensity is None
     assert screen.whole_periods == 3
     assert screen.intensity == pytest.approx(amplitudes**2 / 2, rel=2e-2)
+
+
+def test_ray_phases_of_many_points_match_the_phase_found_ray_by_ray():
+    model = Model.create(nx=8, ny=8, dim=2, spacing=A, stiffness=K, rest_length=L)
+    wave = lattice_waves.polarisation(model, "y")  # anisotropic: q leans off the ray
+    omega = 0.6 * wave.highest_omega(0.0)
+    dx = np.array([50.0, 30.0, -20.0, 0.0, 45.0])
+    dy = np.array([0.0, 40.0, 35.0, -60.0, -45.0])
+    together = slits.ray_phases(wave, omega, dx, dy)
+    one_by_one = [wave.phase(omega, float(x), float(y)) for x, y in zip(dx, dy, strict=True)]
+    assert together == pytest.approx(one_by_one, rel=1e-6)

@@ -17,9 +17,13 @@ from sim import ripple_tank, scene_files
 from tests.test_recording import read_chunks, temporal
 from tests.test_recording_instruments import tensor
 
-TOLERANCE = 3.5
-"""How far (m, 3.5 spacings, 7 % of its distance from the axis) a measured double-slit maximum
-m = +-1 may lie from the far-field line (measured: 2.8 m beyond it, docs/instruments.md)."""
+PULL = 0.035
+"""How far (a fraction of its distance from the axis) a measured double-slit maximum m = +-1 may lie
+inside its far-field line: each slit's wave weakens away from the axis (cos(theta) / sqrt(r)),
+which pulls the intensity maxima toward it (measured: 3 % at the preset's screen 105 m away)."""
+MODEL_TOLERANCE = 0.5
+"""How far (m, half a spacing) a measured maximum may lie from the maximum of the two-slit
+intensity predicted from the dispersion relation (``sim.slits.two_slit_intensity``)."""
 
 
 @pytest.mark.parametrize("name", ["two-sources", "single-slit", "double-slit"])
@@ -57,11 +61,19 @@ def test_slit_setup_reads_the_barrier_and_uses_the_lattices_wavelength():
             low, high = (middle, high) if value < omega**2 else (low, middle)
         return 2 * math.pi / low
 
-    low, high = 0.0, 1.2  # d sin(theta) = lambda(theta) by bisection
+    # far field on the lattice: the two slits' phases differ by q . (0, d) = d q_y, with q the
+    # wave vector whose group velocity ~ (sin q_x, sin q_y) (a = 1) points at the maximum
+    low, high = 0.0, 1.2  # the angle of q where d q_y = 2 pi, by bisection
     for _ in range(200):
-        theta = 0.5 * (low + high)
-        low, high = (theta, high) if 20.0 * math.sin(theta) < wavelength_along(theta) else (low, theta)
-    assert maxima[1] == pytest.approx(distance * math.tan(theta), rel=1e-6)
+        phi = 0.5 * (low + high)
+        qy = 2 * math.pi / wavelength_along(phi) * math.sin(phi)
+        low, high = (phi, high) if 20.0 * qy < 2 * math.pi else (low, phi)
+    q = 2 * math.pi / wavelength_along(phi)
+    ray = math.atan2(math.sin(q * math.sin(phi)), math.sin(q * math.cos(phi)))
+    assert ray > phi + math.radians(1.0)  # the ray leans off q by more than a degree
+    assert maxima[1] == pytest.approx(distance * math.tan(ray), rel=1e-5)
+    textbook = math.asin(wavelength_along(phi) / 20.0)  # d sin(theta) = lambda along q
+    assert maxima[1] > 1.05 * distance * math.tan(textbook)
     assert maxima[-1] == pytest.approx(-maxima[1])
 
 
@@ -120,12 +132,48 @@ def test_the_slits_command_refuses_a_scene_without_slits(capsys):
 
 @pytest.mark.slow
 def test_double_slit_maxima_agree_with_the_lattice_theory():
-    from app.study import slits
+    """The measured maxima m = 0, +-1 of the double-slit preset, 105 m beyond the slits: on the
+    axis, just inside the far-field lines d q_y = 2 pi m (q the lattice's wave vector along each
+    ray), and on the maxima of the intensity of two point sources with the lattice's ray phase
+    and amplitude cos(theta) / sqrt(r).  The textbook line with lambda along theta, d sin(theta)
+    = m lambda(theta), lies inside the measured maxima (q leans off the ray on the lattice)."""
+    from app.study import slits as study
 
-    measurement = slits.measure(sim.scenes.build("double-slit"))
+    scene = sim.scenes.build("double-slit")
+    model = scene.model
+    measurement = study.measure(scene, column=150)
     fringes = {fringe["order"]: fringe for fringe in measurement.fringes}
     assert {-1, 0, 1} <= set(fringes)
     assert fringes[0]["measured_y"] == pytest.approx(0.0, abs=0.1)
+    setup = ripple_tank.SlitSetup.of(model)
+    wave = sim.lattice_waves.polarisation(model, "z")
+    omega = 2 * math.pi * setup.frequency
+    centres = tuple(0.5 * (low + high) for low, high in setup.openings)
+    ys = np.linspace(-90.0, 90.0, 3601)
+    predicted = sim.slits.two_slit_intensity(wave, omega, centres, measurement.distance, ys)
+    d = centres[1] - centres[0]
     for order in (-1, 1):
-        assert fringes[order]["measured_y"] * order > 0
-        assert abs(fringes[order]["difference"]) <= TOLERANCE
+        fringe = fringes[order]
+        measured, line = fringe["measured_y"], fringe["theory_y"]
+        assert 0.0 <= (line - measured) * order <= PULL * abs(line), (order, measured, line)
+        near = np.abs(ys - line) < 10.0
+        model_maximum = ys[near][np.argmax(predicted[near])]
+        assert measured == pytest.approx(model_maximum, abs=MODEL_TOLERANCE)
+        textbook = math.asin(wave.wavelength(omega, math.asin(line / math.hypot(
+            measurement.distance, line))) / d)
+        assert abs(measured) > measurement.distance * math.tan(textbook) + 0.5
+
+
+def test_barriers_from_the_command_line_and_one_line_errors(capsys):
+    scene = sim.scenes.build(
+        "double-slit", barriers="column=45,openings=89-91 109-111;column=150,openings=none")
+    assert [barrier.as_table() for barrier in scene.model.barriers] == [
+        {"column": 45, "openings": [[89, 91], [109, 111]]}, {"column": 150, "openings": []}]
+    for text, said in (("column=45,openings=89-x", "opening end must be a whole number"),
+                       ("column=4.5", "barrier column must be a whole number"),
+                       ("colum=3", "unknown barrier field"),
+                       ("column=45,openings=91-89", "ends before it starts"),
+                       ("column=500", "outside the 190x201 lattice")):
+        assert main(["run", "double-slit", "--set", f"barriers={text}", "--steps", "1"]) == 2
+        error = capsys.readouterr().err.strip()
+        assert said in error and "\n" not in error and "Traceback" not in error

@@ -32,7 +32,8 @@ units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in 
 a driver (--set driver=...) takes column, row, direction (x, y, z), amplitude A (m), frequency
 f (Hz), kind (force: A k sin 2 pi f t; displacement: A sin 2 pi f t), start, ramp (s) and
 phase (rad); --set sources=... takes several of them separated by ";" (row=all drives a whole
-column: a plane wave); barriers are given in scene files (docs/instruments.md);
+column: a plane wave); --set barriers="column=45,openings=89-91 109-111" pins a column (or
+row=j) except its openings (";" between barriers, docs/instruments.md);
 boundary=absorbing adds a sponge sponge_width particles deep (sponge_sides=left,right,... or
 auto) that takes waves out instead of reflecting them (docs/instruments.md).
 """
@@ -90,7 +91,7 @@ def parse_overrides(pairs: Sequence[str] | None) -> dict[str, Any]:
         if "=" not in pair:
             raise ValueError(f"--set takes key=value, got {pair!r}")
         key, text = (part.strip() for part in pair.split("=", 1))
-        if key in ("driver", "sources"):  # key=value lists (";" between sources), sim.forcing
+        if key in ("driver", "sources", "barriers"):  # key=value lists, ";" between (sim.forcing)
             overrides[key] = None if text.lower() in ("none", "off", "") else text
         elif key in ("boundary", "sponge_sides"):
             overrides[key] = text

@@ -22,8 +22,11 @@ column barrier with one or two openings and a source) and record its intensity s
 time-averaged squared displacement <u^2> along one column, averaged over the last 4 whole
 periods of the drive.  Beside it, the far-field theory: two slits' maxima at d sin(theta) = m
 lambda, one slit's minima at w sin(theta) = m lambda (w: the gap between the pinned particles
-either side), theta from the slits' centre, with lambda the lattice's own wavelength at the
-driving frequency (from its dispersion relation; the continuum value c / f is printed too).
+either side), theta from the slits' centre, with the lattice's own waves at the driving
+frequency (from its dispersion relation: d q_y = 2 pi m, q the wave vector whose ray points at
+theta, which leans off the ray on a lattice; the continuum wavelength c / f is printed too).
+The measured maxima lie a few per cent inside the lines: each slit's wave weakens away from
+the axis, which pulls the bright fringes toward it (docs/instruments.md, "Sources and slits").
 """
 
 EPILOG = """\

@@ -84,13 +84,7 @@ def measure(scene: sim.Scene, *, column: int | None = None, duration: float | No
     if intensity is None:
         raise ValueError(f"the run of {duration:g} s is shorter than one period ({period:g} s)")
     y = np.asarray(model.rest_positions[screen.rows, 1])
-    spacing = _fringe_spacing(fringes, model)
-    rows = []
-    for fringe in fringes:
-        found = _extremum(y, intensity, fringe.y, 0.3 * spacing, fringe.kind)
-        rows.append({"order": fringe.order, "kind": fringe.kind, "theory_y": fringe.y,
-                     "measured_y": found,
-                     "difference": None if found is None else found - fringe.y})
+    rows = compare(y, intensity, fringes, model)
     wave = sim.lattice_waves.polarisation(model, setup.component)
     speed = wave.long_wave_speeds()[0]
     x0, y0 = model.origin
@@ -104,6 +98,21 @@ def measure(scene: sim.Scene, *, column: int | None = None, duration: float | No
                            setup.wavelength(model), speed / setup.frequency,
                            screen_x - setup.barrier_x, np.array(field), setup.barrier_x, screen_x,
                            extent, setup.centre)
+
+
+def compare(y: np.ndarray, intensity: np.ndarray, fringes: list, model: Any
+            ) -> list[dict[str, Any]]:
+    """One dict per theory fringe (``sim.slits.Fringe``): order, kind, theory y, the measured y
+    of the intensity's extremum within 0.3 fringe spacings of it (None if there is none inside)
+    and their difference (m); ``y`` (ny,) m and ``intensity`` (ny,) along the screen."""
+    spacing = _fringe_spacing(fringes, model)
+    rows = []
+    for fringe in fringes:
+        found = _extremum(y, intensity, fringe.y, 0.3 * spacing, fringe.kind)
+        rows.append({"order": fringe.order, "kind": fringe.kind, "theory_y": fringe.y,
+                     "measured_y": found,
+                     "difference": None if found is None else found - fringe.y})
+    return rows
 
 
 def _fringe_spacing(fringes: list, model: Any) -> float:

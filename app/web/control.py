@@ -256,6 +256,28 @@ class SimulationControl:
 
         return self.runner.post(command)
 
+    def set_sources(self, sources: Sequence[Driver]) -> concurrent.futures.Future:
+        """Replace the scene's sources (``sim.sources``) from now on; a bad one raises and changes
+        nothing.  The Future holds the model's new sources."""
+        chosen = tuple(sources)
+
+        def command(simulation: sim.Simulation) -> tuple:
+            self._change_model(simulation, sources=chosen)
+            return simulation.model.sources
+
+        return self.runner.post(command)
+
+    def set_barriers(self, barriers: Sequence[Any]) -> concurrent.futures.Future:
+        """Replace the scene's barriers (``sim.sources.Barrier``: pinned particles with openings)
+        from now on; a bad one raises and changes nothing.  The Future holds the new barriers."""
+        chosen = tuple(barriers)
+
+        def command(simulation: sim.Simulation) -> tuple:
+            self._change_model(simulation, barriers=chosen)
+            return simulation.model.barriers
+
+        return self.runner.post(command)
+
     def set_boundary(self, boundary: str, sponge_width: int) -> concurrent.futures.Future:
         """Walls "fixed", "absorbing" (behind a sponge layer ``sponge_width`` particles deep),
         "periodic" (rows closed into rings) or "free" (no wall springs at the rows' ends); a

@@ -30,15 +30,19 @@ import numpy as np
 
 import sim
 from app.web.folders.accuracy import AccuracyFolder
+from app.web.folders.barrier import BarrierFolder
 from app.web.folders.drive import DriveFolder
 from app.web.folders.energy import EnergyFolder
 from app.web.folders.integrator import IntegratorFolder
+from app.web.folders.measure import MeasureFolder
 from app.web.folders.physics import PhysicsFolder
 from app.web.folders.probes import ProbesFolder
 from app.web.folders.recording import RecordingFolder
 from app.web.folders.run import RunFolder
 from app.web.folders.scene import SceneFolder
+from app.web.folders.screen import ScreenFolder
 from app.web.folders.selection import SelectionFolder
+from app.web.folders.sources import SourcesFolder
 from app.web.folders.spectrum import SpectrumFolder
 from app.web.folders.study import StudyFolder
 from app.web.folders.view_settings import ViewSettingsFolder
@@ -48,6 +52,10 @@ from sim.runner import Frame
 
 FOLDERS: tuple[type[Folder], ...] = (
     RunFolder,
+    SourcesFolder,
+    BarrierFolder,
+    ScreenFolder,
+    MeasureFolder,
     SceneFolder,
     IntegratorFolder,
     AccuracyFolder,
