@@ -78,10 +78,16 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
     web_app.runner.play()
     steps = web_app.runner.simulation.step_count
     assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 100)
-    with page.expect_download(timeout=60_000) as download:
-        page.get_by_role("button", name="Download recording").click()
-    path = tmp_path / download.value.suggested_filename
-    download.value.save_as(path)
+    downloads = []
+    page.on("download", lambda download: downloads.append(download))
+    page.get_by_role("button", name="Download recording").click()
+    for _ in range(600):  # the recording and its read-me arrive in either order
+        if any(d.suggested_filename.endswith(".rrd") for d in downloads):
+            break
+        page.wait_for_timeout(100)
+    download = next(d for d in downloads if d.suggested_filename.endswith(".rrd"))
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
     assert path.suffix == ".rrd"
     chunks = RrdReader(path).stream().to_chunks()
     assert any(c.entity_path == "/lattice/particles" and not c.is_static for c in chunks)

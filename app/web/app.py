@@ -60,7 +60,8 @@ LARGE_LATTICE_FRAME_TIME = 0.25
 LARGE_LATTICE_PANEL_INTERVAL = 0.5
 """Seconds between two panel updates while a large lattice plays: every update re-draws part of
 the page (plots, status line) in the browser's only page thread, which a slow computer also
-needs to answer clicks."""
+needs to answer clicks.  A frame at the scene's duration always reaches the panel (it pauses
+the run there)."""
 
 
 def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
@@ -244,6 +245,7 @@ class WebApp:
         now = time.perf_counter()
         large = frame.model.n_particles >= LARGE_LATTICE
         if (not large or not frame.playing or frame.error
+                or frame.time >= self.runner.simulation.scene.duration - 1e-9
                 or now - self._panel_time >= LARGE_LATTICE_PANEL_INTERVAL):
             self._panel_time = now
             self.panel.update(frame)
