@@ -101,3 +101,22 @@ def test_a_large_lattice_is_one_picture_encoded_once_for_every_page(tmp_path, mo
 
 def test_a_small_lattice_keeps_its_spheres(web_app):
     assert web_app.view._spheres is not None and web_app.view._image is None
+
+
+def test_pictures_come_no_faster_than_the_page_asks():
+    """Each picture keeps a page drawing for a moment, so by default a large lattice sends about
+    one a second (a page without a graphics card stays answering); the View folder's choice
+    raises it, within the byte budget."""
+    model = sim.scenes.build("interference", nx=260, ny=200).model
+    server = viser.ViserServer(port=free_port(), verbose=False)
+    try:
+        image = frames.FieldImage(server, model, np.zeros((model.n_particles, 3), np.uint8))
+        image.last_bytes = 1_000  # small pictures: the byte budget alone would allow MAX_FPS
+        assert image.fps == frames.DEFAULT_FPS == 1.0
+        image.show(np.zeros((model.n_particles, 3), np.uint8), force=True)
+        assert not image.due_now()
+        image.max_fps = frames.MAX_FPS
+        image.last_bytes = 1_000
+        assert image.fps == frames.MAX_FPS
+    finally:
+        server.stop()

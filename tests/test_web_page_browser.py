@@ -1,7 +1,8 @@
 """What a student sees in a real (headless) Chromium: the page before Play shows the lattice and
 its colour bar; a recording made on the page downloads as a file rerun reads back; at phone size
 the lattice is in view and not under the panel; a click is answered quickly while the flagship
-plays.  Only the first test runs by default (the others are marked slow)."""
+plays (as quickly as on the paused page).  Only the first test runs by default (the others are
+marked slow)."""
 
 from __future__ import annotations
 
@@ -77,10 +78,16 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
     web_app.runner.play()
     steps = web_app.runner.simulation.step_count
     assert wait_for(lambda: web_app.runner.simulation.step_count > steps + 100)
-    with page.expect_download(timeout=60_000) as download:
-        page.get_by_role("button", name="Download recording").click()
-    path = tmp_path / download.value.suggested_filename
-    download.value.save_as(path)
+    downloads = []
+    page.on("download", lambda download: downloads.append(download))
+    page.get_by_role("button", name="Download recording").click()
+    for _ in range(600):  # the recording and its read-me arrive in either order
+        if any(d.suggested_filename.endswith(".rrd") for d in downloads):
+            break
+        page.wait_for_timeout(100)
+    download = next(d for d in downloads if d.suggested_filename.endswith(".rrd"))
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
     assert path.suffix == ".rrd"
     chunks = RrdReader(path).stream().to_chunks()
     assert any(c.entity_path == "/lattice/particles" and not c.is_static for c in chunks)
@@ -94,37 +101,69 @@ def test_phone_size_lattice_in_view_and_not_under_the_panel(web_app, browser):
     assert wait_for(lambda: len(web_app.server.get_clients()) == 1)
     client = next(iter(web_app.server.get_clients().values()))
     assert wait_for(lambda: client.camera.image_width == 414)
+    seen = {}
+
+    def in_view() -> bool:
+        """The lattice inside the view, above the panel and not a speck (the camera the page
+        reported last: it reaches the fitted camera after its move there)."""
+        left, top, right, bottom = lattice_box(web_app, client)
+        panel_top = page.get_by_text("Connected").bounding_box()["y"]
+        seen.update(box=(left, top, right, bottom), panel_top=panel_top)
+        return (left >= 0 and right <= 414 and top >= 0 and bottom < panel_top - 5
+                and right - left > 0.8 * 414)
+
+    assert wait_for(in_view, timeout=30), seen
+    # the panel collapses to its title bar (a tap on it); the lattice stays in view
+    play = page.get_by_role("button", name="Play")
+    assert play.is_visible()
+    page.get_by_text("Connected").click()
+    play.wait_for(state="hidden", timeout=30_000)
+    assert wait_for(lambda: page.get_by_text("Connected").bounding_box()["y"] > 896 - 80)
     time.sleep(1.0)
-    left, top, right, bottom = lattice_box(web_app, client)
-    panel_top = page.get_by_text("Connected").bounding_box()["y"]
-    assert left >= 0 and right <= 414 and top >= 0
-    assert bottom < panel_top - 5, (bottom, panel_top)
-    assert right - left > 0.8 * 414  # and it is not a speck
+    assert web_app.clients.dropped == [] and list(web_app.server.get_clients().values()) == [client]
+    assert in_view(), seen
+
+
+def folder_click_delays(page, clicks: int = 6) -> list[float]:
+    """Seconds from a click on the View folder's title until the page shows (or hides) its
+    contents, for ``clicks`` clicks (the folder opens and closes in the page alone)."""
+    delays = []
+    for k in range(clicks):
+        started = time.perf_counter()
+        page.get_by_text("View", exact=True).click()
+        page.get_by_label("Move points", exact=True).wait_for(
+            state="visible" if k % 2 == 0 else "hidden", timeout=30_000)
+        delays.append(time.perf_counter() - started)
+    return delays
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="measured 16-26 s on the shared 2-core machine: headless Chromium draws "
-                   "the 261,206-point cloud with software WebGL and answers nothing meanwhile; "
-                   "large lattices sent as one image are the remedy", strict=False)
-def test_a_click_is_answered_within_half_a_second_while_the_flagship_plays(browser):
+@pytest.mark.xfail(reason="on the shared 2-core machine (load average 9-12) the paused page itself "
+                   "answered in 0.5-1.1 s (median) and playing added 0.0-1.2 s at one picture a "
+                   "second (3-6 s at twelve): the page's frames, drawn without a graphics card, "
+                   "vary too much there", strict=False)
+def test_a_click_is_answered_as_quickly_while_the_flagship_plays(browser):
+    """Headless Chromium draws WebGL without a graphics card and reads every frame back for
+    compositing, on the page's only thread: on the shared 2-core test machine each frame of the
+    view blocks the page for 0.2-0.7 s, so even a paused page answers in about half a second.
+    Playing may add at most half a second to that (before the pictures were paced it added 3-7
+    s: the page drew all the time)."""
     app = WebApp(sim.Simulation(sim.scenes.build("interference")), port=free_port())
     app.start()
     try:
         page = browser.new_page(viewport={"width": 1366, "height": 768})
         page.goto(app.url)
         page.get_by_text("Connected").wait_for(timeout=60_000)
+        time.sleep(2.0)
+        paused = folder_click_delays(page)
+        checkbox = app.panel.view.show_springs
+        before = checkbox.value
         app.runner.play()
         assert wait_for(lambda: app.runner.simulation.step_count > 50, timeout=120)
-        delays = []
-        for _ in range(3):
-            checkbox = app.panel.view.show_springs
-            before = checkbox.value
-            started = time.perf_counter()
-            page.get_by_text("View", exact=True).click()  # open or close the folder
-            page.get_by_label("Move points", exact=True).wait_for(
-                state="visible" if _ % 2 == 0 else "hidden", timeout=30_000)
-            delays.append(time.perf_counter() - started)
-            assert checkbox.value == before
-        assert max(delays) < 0.5, delays
+        time.sleep(8.0)  # past the first seconds, when the colour scale settles
+        playing = folder_click_delays(page)
+        assert checkbox.value == before  # opening the folder changed nothing
+        assert app.runner.playing and app.view._image is not None
+        assert np.median(playing) <= np.median(paused) + 0.5, (paused, playing)
     finally:
         app.stop()

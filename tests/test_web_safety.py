@@ -212,6 +212,11 @@ def test_bad_values_from_the_page_are_refused_and_change_nothing(web_app):
     assert "row" in panel.selection.message.content
     send(panel.view.color_by, "<script>")
     assert "&lt;script&gt;" in panel.view.message.content
+    send(panel.view.picture_rate, "1000")
+    assert web_app.view.settings.picture_rate == 1.0
+    assert "pictures per second" in panel.view.message.content
+    send(panel.view.picture_rate, "4")
+    assert web_app.view.settings.picture_rate == 4.0
 
 
 def test_text_from_the_page_is_shown_as_text(web_app):

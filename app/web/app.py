@@ -57,6 +57,11 @@ LARGE_LATTICE = 50_000
 
 LARGE_LATTICE_FRAME_TIME = 0.25
 """Simulated seconds per frame aimed at on large lattices (the waves visibly travel)."""
+LARGE_LATTICE_PANEL_INTERVAL = 0.5
+"""Seconds between two panel updates while a large lattice plays: every update re-draws part of
+the page (plots, status line) in the browser's only page thread, which a slow computer also
+needs to answer clicks.  A frame at the scene's duration always reaches the panel (it pauses
+the run there)."""
 
 
 def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
@@ -113,6 +118,7 @@ class WebApp:
         self._drag: dict[str, Any] | None = None
         self._camera_layout: tuple | None = None
         self.frames_delivered = 0
+        self._panel_time = 0.0
         self.last_error: str | None = None
         self.scene_source = f"preset {simulation.scene.name}"
         """Where the current scene came from (shown in the Scene folder)."""
@@ -236,7 +242,13 @@ class WebApp:
         if frame.error:
             self.last_error = frame.error
         self._follow_selection(frame)
-        self.panel.update(frame)
+        now = time.perf_counter()
+        large = frame.model.n_particles >= LARGE_LATTICE
+        if (not large or not frame.playing or frame.error
+                or frame.time >= self.runner.simulation.scene.duration - 1e-9
+                or now - self._panel_time >= LARGE_LATTICE_PANEL_INTERVAL):
+            self._panel_time = now
+            self.panel.update(frame)
         if self.roles is not None:
             self.roles.update(frame)
 

@@ -14,7 +14,13 @@ the lattice plane z = 0, one lattice spacing per pixel) and replaces its bytes e
   peak signal-to-noise ratio on a running interference field);
 * the server chooses the frame rate: at most ``MAX_FPS`` pictures per second and no more than
   ``BYTES_PER_SECOND`` per page (a 25 kB picture goes out at 10 frames/s, a 50 kB one at 5), so
-  a class of 30 on one Wi-Fi network shares tens of Mbit/s, not Gbit/s.
+  a class of 30 on one Wi-Fi network shares tens of Mbit/s, not Gbit/s;
+* and no more than the page's "Pictures per second" (``FieldImage.max_fps``, by default
+  ``DEFAULT_FPS``): viser draws the 3-D view on demand, and every scene update makes the page draw
+  frames for a quarter of a second; a browser without graphics acceleration spends about 0.2 s of
+  its only page thread on each such frame (read back for software compositing), so above about
+  one picture a second it draws all the time and clicks wait seconds.  Pictures are dropped, the
+  clicks are not; a student with a graphics card picks more pictures per second.
 
 Small lattices keep their spheres and springs (``app.web.view``); ``uses_image`` is the switch.
 Backpressure (a slow page gets fewer frames, a page that stops reading is dropped) lives in
@@ -45,6 +51,10 @@ MAX_FPS = 12.0
 """Most pictures per second sent to the pages."""
 MIN_FPS = 2.0
 """Fewest pictures per second sent while the field changes (even if a picture is large)."""
+DEFAULT_FPS = 1.0
+"""Pictures per second by default (a page without graphics acceleration stays answering)."""
+PICTURE_RATES = (1.0, 2.0, 4.0, MAX_FPS)
+"""The pictures per second a page may choose."""
 BYTES_PER_SECOND = 250_000
 """Bytes per second of pictures aimed at for each page (2 Mbit/s: a class of 30 shares 60 Mbit/s)."""
 
@@ -110,12 +120,14 @@ class FieldImage:
         self.sent = 1
         self.bytes_sent = self.last_bytes
         self.encode_seconds = 0.0
+        self.max_fps = DEFAULT_FPS
+        """The page's choice of pictures per second (the most; the byte budget may send fewer)."""
         self._last_sent = time.perf_counter()
 
     @property
     def fps(self) -> float:
         """The frame rate the server chose for pictures of the current size."""
-        return frame_rate(self.last_bytes)
+        return min(frame_rate(self.last_bytes), self.max_fps)
 
     def due_now(self) -> bool:
         """Whether the server's frame rate allows a picture now."""

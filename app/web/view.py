@@ -33,7 +33,7 @@ import numpy as np
 import viser
 
 from app import colours
-from app.web.frames import FieldImage, uses_image
+from app.web.frames import DEFAULT_FPS, FieldImage, uses_image
 from sim.model import Model
 from sim.runner import Frame
 
@@ -64,6 +64,8 @@ class ViewSettings:
     move_points: bool | None = None
     particle_scale: float = 1.0
     color_by: str | None = None
+    picture_rate: float = DEFAULT_FPS
+    """Most pictures per second of a lattice drawn as a picture (``app.web.frames``)."""
 
     def springs_on(self, model: Model) -> bool:
         if model.n_springs > SPRING_HARD_LIMIT:
@@ -227,6 +229,8 @@ class LatticeView:
             if self.settings.points_move(model):
                 self._points.points = xyz
             self._points.colors = self._particle_colors(frame)
+        if self._image is not None:
+            self._image.max_fps = self.settings.picture_rate
         if self._image is not None and (self._image.due_now() or not frame.playing):
             self._image.show(self._particle_colors(frame), force=True)
         if self._selection_points is not None:

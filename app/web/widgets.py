@@ -6,6 +6,10 @@
 * ``Limits`` are the server's own limits of some sliders, widened the same way, so that a value
   the page shows is also a value the server accepts back;
 * ``History`` keeps the values a plot shows against simulated time;
+* ``PlotAxis`` gives a plot's value axis readable ticks: a unit with an SI prefix that puts the
+  numbers between 1 and 1000, and a range that fits the data but spans at least 1 % of their size
+  (the page's plots print at most three decimals, so a nearly flat line would else read
+  "0.598, 0.598, 0.598");
 * ``download_name`` makes a harmless file name for the user's browser from a scene name;
 * ``MATPLOTLIB_LOCK`` is held while a folder draws a matplotlib picture.
 """
@@ -13,6 +17,7 @@
 from __future__ import annotations
 
 import collections
+import math
 import threading
 from typing import Any
 
@@ -110,6 +115,69 @@ class History:
     def columns(self) -> tuple[np.ndarray, np.ndarray]:
         """(times (n,) s, values (values per row, n))."""
         return np.array(self._times), np.array(self._rows).T
+
+
+PREFIXES = ((1e-12, "p"), (1e-9, "n"), (1e-6, "µ"), (1e-3, "m"), (1.0, ""), (1e3, "k"),
+            (1e6, "M"), (1e9, "G"))
+"""SI prefixes (factor, symbol) a plot's unit may take."""
+MIN_SPAN = 0.01
+"""Least span of a plot's value axis, as a fraction of the largest value's size."""
+
+
+def axis_range(values: np.ndarray, unit: str) -> tuple[float, str, tuple[float, float]]:
+    """(factor, unit shown, (low, high) in shown units) for plotting ``values`` (any shape, in
+    ``unit``): values / factor lie between 1 and 1000 in size; the range holds every finite value,
+    spans at least ``MIN_SPAN`` of the largest size, and is rounded out to a round step so it moves
+    seldom."""
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    size = float(np.abs(finite).max()) if finite.size else 0.0
+    if size == 0.0:
+        return 1.0, unit, (-1.0, 1.0)
+    factor, prefix = PREFIXES[0]
+    for candidate, symbol in PREFIXES:
+        if size / candidate >= 1.0:
+            factor, prefix = candidate, symbol
+    low, high = float(finite.min()) / factor, float(finite.max()) / factor
+    span = max(high - low, MIN_SPAN * size / factor)
+    middle = (low + high) / 2
+    low, high = middle - 0.55 * span, middle + 0.55 * span
+    step = 10.0 ** math.floor(math.log10(span)) / 2
+    low, high = math.floor(low / step) * step, math.ceil(high / step) * step
+    if float(finite.min()) >= 0.0:
+        low = max(low, 0.0)
+    if float(finite.max()) <= 0.0:
+        high = min(high, 0.0)
+    return factor, prefix + unit, (low, high)
+
+
+class PlotAxis:
+    """Keeps one uPlot's value axis readable: ``show(plot, x, columns)`` plots the columns in the
+    unit ``axis_range`` picks and re-sets the plot's axis label and range only when they change."""
+
+    def __init__(self, quantity: str, unit: str, x_label: str, size: int = 60) -> None:
+        self.quantity, self.unit, self.x_label, self.size = quantity, unit, x_label, size
+        self.shown: tuple[str, tuple[float, float]] | None = None
+        """(unit, range) the plot shows now."""
+
+    def axes(self, unit: str | None = None) -> tuple[dict, dict]:
+        """The plot's (x axis, value axis) options."""
+        return ({"label": self.x_label},
+                {"label": f"{self.quantity} ({unit or self.unit})", "size": self.size})
+
+    def show(self, plot: Any, x: np.ndarray, columns: Any) -> None:
+        columns = [np.asarray(column, dtype=float) for column in columns]
+        factor, unit, (low, high) = axis_range(np.concatenate(columns) if columns else
+                                               np.zeros(0), self.unit)
+        if (unit, (low, high)) != self.shown:
+            plot.axes = self.axes(unit)
+            plot.scales = {"x": {"time": False}, "y": {"range": [low, high]}}
+            self.shown = (unit, (low, high))
+        plot.data = (np.asarray(x, dtype=float), *(column / factor for column in columns))
+
+    def clear(self, plot: Any, lines: int) -> None:
+        """No data (a reset): the plot shows empty axes."""
+        plot.data = (np.zeros(0),) * (lines + 1)
 
 
 def download_name(name: str) -> str:

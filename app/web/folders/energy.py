@@ -2,7 +2,8 @@
 
 The plot keeps the last ``ENERGY_HISTORY`` frames and is redrawn a few times a second; a scene
 with a driver (or one that had one) also shows the driver's work.  When the time goes back (a
-reset, a new scene) the plot starts again at once.  Its axes say their quantity and unit.
+reset, a new scene) the plot starts again at once.  Its axes say their quantity and unit, the
+energy in J with the SI prefix that keeps its ticks readable (``app.web.widgets.PlotAxis``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import numpy as np
 
 import sim
 from app.web.host import Folder, PanelHost
-from app.web.widgets import History
+from app.web.widgets import History, PlotAxis
 from sim.runner import Frame
 
 ENERGY_HISTORY = 600
@@ -43,6 +44,7 @@ class EnergyFolder(Folder):
         """Whether the plot has the driver's work line."""
         self.folder = self.gui.add_folder("Energy")
         self.plot: Any = None
+        self.axis = PlotAxis("energy", "J", "simulated time t (s)")
         self._make_plot(with_driver=False)
 
     def _make_plot(self, with_driver: bool) -> None:
@@ -55,9 +57,9 @@ class EnergyFolder(Folder):
         with self.folder:
             self.plot = self.gui.add_uplot(
                 data=(empty,) * len(series), series=series,
-                scales={"x": {"time": False}}, aspect=1.6,
-                axes=({"label": "simulated time t (s)"}, {"label": "energy (J)", "size": 60}),
+                scales={"x": {"time": False}}, aspect=1.6, axes=self.axis.axes(),
             )
+        self.axis.shown = None
         self.shows_driver = with_driver
 
     def show_scene(self, simulation: sim.Simulation) -> None:
@@ -77,4 +79,4 @@ class EnergyFolder(Folder):
             self._last_plot = now
             times, columns = self.history.columns()
             shown = columns if self.shows_driver else columns[:4]
-            self.plot.data = (times, *shown)
+            self.axis.show(self.plot, times, shown)

@@ -5,7 +5,8 @@ simulation thread, cheap: a few numbers per frame) appends their displacements t
 ``sim.probes.ProbeSeries`` at every published frame; about twice a second the folder plots the
 chosen component against time and its spectrum (amplitude against frequency), and lists the
 dominant frequencies with the nearest normal modes of the lattice (equal masses).  A reset or a
-new scene starts the series again.
+new scene starts the series again and empties the plots at once.  The plots' value axes take the
+SI prefix that keeps their ticks readable (``app.web.widgets.PlotAxis``).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import viser
 import sim
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, warning_html
+from app.web.widgets import PlotAxis
 from sim.modes import POLARISATION_NAMES
 from sim.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
 from sim.runner import Frame
@@ -63,6 +65,10 @@ class ProbesFolder(Folder):
             self.text = gui.add_html(as_html("Select particles, then press Probe the selection."))
             self.time_plot: Any = None
             self.spectrum_plot: Any = None
+            self.time_axis = PlotAxis("displacement", "m", "simulated time t (s)")
+            self.spectrum_axis = PlotAxis("amplitude", "m", "frequency f (Hz)")
+            self._plotted = False
+            """Whether the plots show a series (so a restarted one empties them)."""
             self._plots_folder = gui.add_folder("Plots")
 
         @self.probe_button.on_click
@@ -128,17 +134,17 @@ class ProbesFolder(Folder):
                 series=({"label": "t (s)"}, *(
                     {"label": f"probe {k + 1} (m)", "stroke": COLOURS[k], "width": 1.2}
                     for k in range(count))),
-                scales={"x": {"time": False}}, aspect=2.0,
-                axes=({"label": "simulated time t (s)"}, {"label": "displacement (m)", "size": 60}),
+                scales={"x": {"time": False}}, aspect=2.0, axes=self.time_axis.axes(),
             )
             self.spectrum_plot = self._gui.add_uplot(
                 data=(empty,) * (count + 1),
                 series=({"label": "f (Hz)"}, *(
                     {"label": f"probe {k + 1} amplitude (m)", "stroke": COLOURS[k], "width": 1.2}
                     for k in range(count))),
-                scales={"x": {"time": False}}, aspect=2.0,
-                axes=({"label": "frequency f (Hz)"}, {"label": "amplitude (m)", "size": 60}),
+                scales={"x": {"time": False}}, aspect=2.0, axes=self.spectrum_axis.axes(),
             )
+        self.time_axis.shown = self.spectrum_axis.shown = None
+        self._plotted = False
 
     # --- keeping in step -------------------------------------------------------------------------
 
@@ -148,11 +154,17 @@ class ProbesFolder(Folder):
         self.text.content = as_html("Select particles, then press Probe the selection.")
 
     def update(self, frame: Frame, now: float) -> None:
+        with self._lock:
+            series = self.series
+        if (self._plotted and series is not None and self.time_plot is not None
+                and len(series.times) < 8):  # started again (a reset): the old lines go at once
+            lines = len(series.particles)
+            self.time_axis.clear(self.time_plot, lines)
+            self.spectrum_axis.clear(self.spectrum_plot, lines)
+            self._plotted = False
         if now - self._last < REFRESH_SECONDS:
             return
         self._last = now
-        with self._lock:
-            series = self.series
         if series is None or len(series.times) < 8 or self.time_plot is None:
             return
         try:
@@ -164,7 +176,8 @@ class ProbesFolder(Folder):
             return
         times = series.times
         values = series.displacements[:, :, component]
-        self.time_plot.data = (times, *values.T)
+        self.time_axis.show(self.time_plot, times, values.T)
+        self._plotted = True
         columns = []
         lines = []
         frequencies = None
@@ -183,7 +196,8 @@ class ProbesFolder(Folder):
                                                            else ""))
             lines.append(f"probe {k + 1}: " + ("; ".join(described) or "no motion"))
         if frequencies is not None:
-            self.spectrum_plot.data = shown_band(frequencies, columns)
+            band = shown_band(frequencies, columns)
+            self.spectrum_axis.show(self.spectrum_plot, band[0], band[1:])
         span = max(times[-1] - times[0], 1e-12)
         nyquist = 0.5 * (times.size - 1) / span
         self.text.content = as_html(

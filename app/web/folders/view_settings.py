@@ -1,4 +1,5 @@
-"""The page's "View" folder: what the 3-D view draws (springs, moving points, colours, sizes).
+"""The page's "View" folder: what the 3-D view draws (springs, moving points, colours, sizes,
+pictures per second of a large lattice).
 
 These settings change the picture only (``app.web.view.ViewSettings``), never the simulation; a
 changed setting redraws the lattice from a fresh frame.  A lattice's automatic choices (no springs
@@ -12,10 +13,16 @@ from collections.abc import Callable
 import viser
 
 import sim
+from app.web.frames import MAX_FPS, PICTURE_RATES
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, choice, from_user, number
 from app.web.view import COLOR_MODES, SPRING_HARD_LIMIT
 from app.web.widgets import say
+
+
+def rate_label(rate: float) -> str:
+    """How the page names a picture rate (per second)."""
+    return f"up to {rate:g}" if rate == MAX_FPS else f"{rate:g}"
 
 
 class ViewSettingsFolder(Folder):
@@ -40,6 +47,12 @@ class ViewSettingsFolder(Folder):
             self.color_by = gui.add_dropdown("Colour particles by", list(COLOR_MODES),
                                              initial_value=settings.coloring(model))
             self.particle_scale = gui.add_slider("Particle size", 0.2, 3.0, 0.1, 1.0)
+            self.picture_rate = gui.add_dropdown(
+                "Pictures per second", [rate_label(r) for r in PICTURE_RATES],
+                initial_value=rate_label(settings.picture_rate),
+                hint="large lattices are sent as pictures; each one keeps the page drawing for "
+                "a moment: on a computer without a graphics card more pictures make the "
+                "controls slow to answer")
             self.message = gui.add_html("")
 
         def setting(handle: viser.GuiInputHandle, apply: Callable[[object], None]) -> None:
@@ -72,7 +85,13 @@ class ViewSettingsFolder(Folder):
         setting(self.show_springs, springs)
         setting(self.move_points, move_points)
         setting(self.color_by, color_by)
+        def picture_rate(value: object) -> None:
+            labels = [rate_label(r) for r in PICTURE_RATES]
+            settings.picture_rate = PICTURE_RATES[labels.index(
+                choice(value, "pictures per second", labels))]
+
         setting(self.particle_scale, particle_scale)
+        setting(self.picture_rate, picture_rate)
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         """Back to the automatic settings for the new lattice, shown in the widgets."""
