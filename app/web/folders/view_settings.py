@@ -82,14 +82,14 @@ class ViewSettingsFolder(Folder):
         def particle_scale(value: object) -> None:
             settings.particle_scale = number(value, "particle size", 0.2, 3.0)
 
-        setting(self.show_springs, springs)
-        setting(self.move_points, move_points)
-        setting(self.color_by, color_by)
         def picture_rate(value: object) -> None:
             labels = [rate_label(r) for r in PICTURE_RATES]
             settings.picture_rate = PICTURE_RATES[labels.index(
                 choice(value, "pictures per second", labels))]
 
+        setting(self.show_springs, springs)
+        setting(self.move_points, move_points)
+        setting(self.color_by, color_by)
         setting(self.particle_scale, particle_scale)
         setting(self.picture_rate, picture_rate)
 
@@ -108,3 +108,4 @@ class ViewSettingsFolder(Folder):
         self.move_points.value = settings.points_move(model)
         self.color_by.value = settings.coloring(model)
         self.particle_scale.value = settings.particle_scale
+        self.picture_rate.value = rate_label(settings.picture_rate)
