@@ -1,12 +1,15 @@
-"""Fixtures shared by the test modules: a running web app on a small grid."""
+"""Fixtures shared by the test modules: a running web app on a small grid, and a real headless
+Chromium (Debian's, driven by Playwright) for the browser tests."""
 
 from __future__ import annotations
+
+import os
 
 import pytest
 
 import sim
 from app.web.app import WebApp
-from tests.helpers import free_port, wait_for
+from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for
 
 
 @pytest.fixture
@@ -20,3 +23,20 @@ def web_app(tmp_path):
     assert wait_for(lambda: app.view.last_positions is not None)
     yield app
     app.stop()
+
+
+@pytest.fixture
+def browser():
+    """Debian's Chromium, headless, launched by Playwright; closed afterwards.  Its absence is a
+    failure, not a skip: the README's test command installs it (``scripts/ensure-chromium.sh``)."""
+    if not os.path.exists(CHROMIUM):
+        pytest.fail(f"the browser tests need Debian's Chromium at {CHROMIUM} "
+                    "(apt install chromium, or run `make test`)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield chromium
+        finally:
+            chromium.close()

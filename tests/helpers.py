@@ -25,3 +25,14 @@ def wait_for(condition: Callable[[], object], timeout: float = 30.0) -> bool:
             return False
         time.sleep(0.01)
     return True
+
+
+CHROMIUM = "/usr/bin/chromium"
+"""Debian's Chromium, which Playwright drives for the browser tests (never a downloaded one)."""
+CHROMIUM_ARGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--no-first-run",
+]
+VIEWPORT = {"width": 1400, "height": 900}
+"""A laptop's page size (CSS pixels)."""

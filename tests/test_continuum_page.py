@@ -4,33 +4,14 @@ page; the picture is kept as ``continuum-page.png`` in the test's folder to be l
 
 from __future__ import annotations
 
-import os
-
 import pytest
 
 from app.web.continuum import ContinuumPage
 from sim.bodies import Body, Shape
 from tests.helpers import free_port, wait_for
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-                 "--no-first-run"]
+pytestmark = pytest.mark.browser
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no Chromium at {CHROMIUM}"),
-]
-
-
-@pytest.fixture
-def browser():
-    playwright_api = pytest.importorskip("playwright.sync_api")
-    with playwright_api.sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        try:
-            yield chromium
-        finally:
-            chromium.close()
 
 
 @pytest.mark.parametrize("kind", ["string", pytest.param("membrane", marks=pytest.mark.slow)])

@@ -12,17 +12,12 @@ import pytest
 
 import sim
 from app.web.app import WebApp
-from tests.helpers import free_port, wait_for
-from tests.test_web_browser import VIEWPORT, browser  # noqa: F401  (the browser fixture)
+from tests.helpers import VIEWPORT, free_port, wait_for
 
-CHROMIUM = "/usr/bin/chromium"
 SCREENSHOT = os.environ.get("CLASS_SCREENSHOT")
 """If set, the student page's screenshot is saved there (to look at it)."""
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no Chromium at {CHROMIUM}"),
-]
+pytestmark = pytest.mark.browser
 
 
 @pytest.fixture

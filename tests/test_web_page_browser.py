@@ -16,22 +16,9 @@ import pytest
 import sim
 from app.web.app import WebApp
 from tests.helpers import free_port, wait_for
-from tests.test_web_browser import CHROMIUM, CHROMIUM_ARGS
 
-pytestmark = [pytest.mark.browser,
-              pytest.mark.skipif(not __import__("os").path.exists(CHROMIUM),
-                                 reason=f"no Chromium at {CHROMIUM}")]
+pytestmark = pytest.mark.browser
 
-
-@pytest.fixture
-def browser():
-    playwright_api = pytest.importorskip("playwright.sync_api")
-    with playwright_api.sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        try:
-            yield chromium
-        finally:
-            chromium.close()
 
 
 def canvas_pixels(page) -> np.ndarray:

@@ -5,17 +5,13 @@ simulated time."""
 
 from __future__ import annotations
 
-import os
-
 import pytest
 
 import sim
 from app.web.app import WebApp
 from tests.helpers import free_port, wait_for
-from tests.test_web_browser import CHROMIUM, CHROMIUM_ARGS
 
-pytestmark = [pytest.mark.browser, pytest.mark.slow,
-              pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no Chromium at {CHROMIUM}")]
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
 @pytest.fixture
@@ -31,16 +27,6 @@ def web_app(tmp_path):
     yield app
     app.stop()
 
-
-@pytest.fixture
-def browser():
-    playwright_api = pytest.importorskip("playwright.sync_api")
-    with playwright_api.sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        try:
-            yield chromium
-        finally:
-            chromium.close()
 
 
 def test_the_double_slit_page_rebuilds_its_barrier_and_shows_the_screen(web_app, browser):
