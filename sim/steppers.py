@@ -69,8 +69,8 @@ class Integrator:
     work_arrays: ClassVar[int] = 1
     drive: np.ndarray | None = None
     """The drive table (``sim.instruments``) the steps apply, when ``in_step`` has "drive"."""
-    sponge: tuple | None = None
-    """The absorbing layer's arrays (``sim.instruments``), when ``in_step`` has "sponge"."""
+    sponge: object | None = None
+    """The absorbing layer (``sim.matched_layer.MatchedLayer``), when ``in_step`` has "sponge"."""
     ring_rows: ClassVar[int | None] = None
     """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
 
@@ -190,10 +190,16 @@ class Verlet(Integrator):
         stamp = (state.revision, state.time)
         if self.parallel:
             self._start_threads()
+        layer = self.sponge
+        if layer is not None:  # half the layer's action before the steps, half after them
+            layer.act(state, 0.5 * dt)
+            if self.kernel.dashpot is not None or self.kernel.drag is not None:
+                self._cached_for = None  # the forces depend on the velocities it kicked
         if self._cached_for != stamp:
             self._driven_accelerations(state, state.time)
         step = self._dt(dt)
-        drive, sponge = self.drive, self.sponge
+        drive = self.drive
+        sponge = layer.arguments(dt) if layer is not None else None
         if drive is not None and self._saved.shape[0] < drive.shape[0]:
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
@@ -205,9 +211,6 @@ class Verlet(Integrator):
             half = 0.5 * dt
             state.driven += half * self._drive_power
             stepping.verlet_open(step, state.positions, state.velocities, acceleration)
-            if sponge is not None:
-                state.dissipated += instruments.damp_drift_layer(step, state.positions,
-                                                                 state.velocities, sponge)
             steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
             self._block_totals[:] = 0.0
             steps(
@@ -237,6 +240,8 @@ class Verlet(Integrator):
             state.dissipated += dissipated + totals[1]
             state.driven += totals[0]
             self._drive_power = float(totals[2])
+        if layer is not None:
+            layer.act(state, 0.5 * dt)
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
 
