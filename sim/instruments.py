@@ -107,17 +107,18 @@ def drive_row(j, time, table, kinds, row, vx, vy, vz, r, lead=0.0):
 
 
 @njit(**_JIT)
-def drive_rows(time, table, kinds, acceleration, velocity):
-    """``drive_row`` on full (dim, ny, nx) arrays, every driven particle; returns the power (W)."""
+def drive_rows(time, table, kinds, acceleration, velocity, lead=0.0):
+    """``drive_row`` on full (dim, ny, nx) arrays, every driven particle; returns the power (W)
+    (``lead`` as for ``drive_row``)."""
     power = 0.0
     for d in range(table.shape[0]):
         j = int(table[d, ROW])
         if velocity.shape[0] == 3:
             power += _drive_one(d, time, table, kinds, acceleration[:, j, :], velocity[0],
-                                velocity[1], velocity[2], j)
+                                velocity[1], velocity[2], j, lead)
         else:
             power += _drive_one(d, time, table, kinds, acceleration[:, j, :], velocity[0],
-                                velocity[1], None, j)
+                                velocity[1], None, j, lead)
     return power
 
 

@@ -179,12 +179,14 @@ class Verlet(Integrator):
             )
         return stepping.accelerations(*self._common(state), self.work[0])
 
-    def _driven_accelerations(self, state: State, time: float) -> None:
-        """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them."""
+    def _driven_accelerations(self, state: State, time: float, lead: float = 0.0) -> None:
+        """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them; the
+        drive's power is taken at the velocities ``lead`` (s) later (half a step for a
+        leapfrog's half-step velocities)."""
         self._power = self._accelerations(state)
         if self.drive is not None:
             self._drive_power = instruments.drive_rows(time, self.drive, -1, self.work[0],
-                                                       state.velocities)
+                                                       state.velocities, lead)
 
     def advance(self, state: State, n: int, dt: float) -> None:
         stamp = (state.revision, state.time)
@@ -204,8 +206,9 @@ class Verlet(Integrator):
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
         start = state.time
-        # a drive goes through verlet_steps, whose power at whole steps closes the energy balance
-        if self._leapfrog and n >= 2 and drive is None:
+        # the drive's work is the trapezoid of its power at whole steps on every path: half
+        # steps at the ends here, and F . (v_before + v_after) / 2 = F . v(t) per kick between
+        if self._leapfrog and n >= 2:
             k = self.kernel
             acceleration = self.work[0]
             half = 0.5 * dt
@@ -221,7 +224,7 @@ class Verlet(Integrator):
             )
             state.driven += float(self._block_totals[:, 0].sum())
             state.dissipated += float(self._block_totals[:, 1].sum())
-            self._driven_accelerations(state, start + n * dt)
+            self._driven_accelerations(state, start + n * dt, half)
             stepping.verlet_close(step, state.velocities, acceleration)
             state.driven += half * self._drive_power
         elif self.parallel and not instrumented:
