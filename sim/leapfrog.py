@@ -14,7 +14,6 @@ from __future__ import annotations
 from numba import njit, prange
 
 from sim.instruments import leapfrog_drive, save_driven
-from sim.matched_layer import act_on
 from sim.kernels import (
     gravity_vector,
     horizontal_springs,
@@ -22,6 +21,7 @@ from sim.kernels import (
     spring_force,
     vertical_springs,
 )
+from sim.matched_layer import act_on
 from sim.row_updates import components, kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
