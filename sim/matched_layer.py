@@ -125,15 +125,21 @@ def act(tau, lead, position, velocity, rest, masses, along, across, stretch, str
     dim, ny, nx = position.shape
     left, right, bottom, top = widths[0], widths[1], widths[2], widths[3]
     _relax_springs(position, rest, stretch, stretch_y, spring_x, spring_y, columns, rows)
+    # the particles the layer acts on: its own and the first row or column inside it, which
+    # one relaxing spring touches
+    first_end = min(left + 1, nx) if left > 0 else 0
+    last_start = max(nx - 1 - right, first_end) if right > 0 else nx
     taken = 0.0
     for j in range(ny):
-        whole = (bottom > 0 and j <= bottom) or (top > 0 and j >= ny - 1 - top)
-        for i in range(nx):
-            inside = whole or (left > 0 and i <= left) or (right > 0 and i >= nx - 1 - right)
-            if not inside:
-                continue
-            taken += _particle(tau, lead, j, i, position, velocity, rest, masses, along, across,
-                               stretch, stretch_y, relaxed_x, relaxed_y, node_x, node_y)
+        if (bottom > 0 and j <= bottom) or (top > 0 and j >= ny - 1 - top):
+            spans = ((0, nx), (nx, nx))
+        else:
+            spans = ((0, first_end), (last_start, nx))
+        for span in spans:
+            for i in range(span[0], span[1]):
+                taken += _particle(tau, lead, j, i, position, velocity, rest, masses, along,
+                                   across, stretch, stretch_y, relaxed_x, relaxed_y, node_x,
+                                   node_y)
     _relax_springs(position, rest, stretch, stretch_y, spring_x, spring_y, columns, rows)
     return taken
 
