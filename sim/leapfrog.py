@@ -105,9 +105,9 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
     the blocks one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them
     on numba's threads and computes the same numbers.  The drive as in ``leapfrog_rows`` (the
     kick of step s at ``time`` + s dt); the absorbing layer (``sponge``: the arguments of
-    ``sim.matched_layer.act_on``) acts over dt before each sweep, at the positions that sweep
-    kicks with; ``totals`` (blocks, 2) receives the drive's work and (in row 0) the layer's
-    take (J).
+    ``sim.matched_layer.act_on``) acts over dt / 2 twice before each sweep (as at the end of
+    one step and the start of the next), at the positions that sweep kicks with; ``totals``
+    (blocks, 2) receives the drive's work and (in row 0) the layer's take (J).
     """
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
@@ -115,7 +115,9 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
     blocks = block_starts.size - 1
     for step in range(n):
         if sponge is not None:
-            totals[0, 1] += act_on(dt, 0.5 * float(dt), position, velocity, sponge)
+            for _ in range(2):  # two halves: the same as a step's end and the next's start
+                totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), position, velocity, sponge,
+                                       parameters, gravity)
         for b in range(blocks + 1):
             vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
                              boundary[b])
@@ -139,7 +141,9 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
     blocks = block_starts.size - 1
     for step in range(n):
         if sponge is not None:
-            totals[0, 1] += act_on(dt, 0.5 * float(dt), position, velocity, sponge)
+            for _ in range(2):  # two halves: the same as a step's end and the next's start
+                totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), position, velocity, sponge,
+                                       parameters, gravity)
         for b in prange(blocks + 1):
             _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
                               boundary)

@@ -40,6 +40,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from sim.kernels import gravity_vector, site, spring_force
+
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 POWER = 2
@@ -75,16 +77,46 @@ def _relax_springs(position, rest, stretch, stretch_y, spring_x, spring_y, colum
 
 
 @njit(**_JIT)
+def _end(position, j, i, parameters):
+    """Particle (j, i) as a spring end at rest (``sim.kernels``), or the wall anchor there."""
+    dim, ny, nx = position.shape
+    zero = type(parameters.spacing)(0.0)
+    if 0 <= j < ny and 0 <= i < nx:
+        return (position[0, j, i], position[1, j, i], position[2, j, i] if dim == 3 else zero,
+                zero, zero, zero)
+    return site(i, j, parameters)
+
+
+@njit(**_JIT)
+def _lattice_acceleration(j, i, position, parameters, gravity, mass):
+    """Acceleration (m/s^2) of particle (j, i) under its four springs' nonlinear law and
+    gravity (``sim.kernels``), as the undamped leapfrog computes it."""
+    me = _end(position, j, i, parameters)
+    left = spring_force(_end(position, j, i - 1, parameters), me, 0, None, parameters, None)
+    right = spring_force(me, _end(position, j, i + 1, parameters), 0, None, parameters, None)
+    below = spring_force(_end(position, j - 1, i, parameters), me, 1, None, parameters, None)
+    above = spring_force(me, _end(position, j + 1, i, parameters), 1, None, parameters, None)
+    pull = gravity_vector(gravity, type(parameters.spacing)(0.0))
+    return ((right[0] - left[0] + above[0] - below[0]) / mass + pull[0],
+            (right[1] - left[1] + above[1] - below[1]) / mass + pull[1],
+            (right[2] - left[2] + above[2] - below[2]) / mass + pull[2])
+
+
+@njit(**_JIT)
 def _particle(tau, lead, j, i, position, velocity, rest, masses, along, across, stretch,
-              stretch_y, relaxed_x, relaxed_y, node_x, node_y):
+              stretch_y, relaxed_x, relaxed_y, node_x, node_y, parameters, gravity):
     """Relax phi of particle (j, i) over tau / 2, kick it by tau, relax again; returns the
-    kinetic energy taken out (J), measured on v + lead * a (a its springs' acceleration)."""
+    kinetic energy taken out (J), measured on v + lead * a (a its springs' acceleration: the
+    nonlinear law's with ``parameters``, else the small-motion one)."""
     dim, ny, nx = position.shape
     fx = node_x[i]
     fy = node_y[j]
     mass = masses[j, i]
     before = 0.0
     after = 0.0
+    exact = (0.0, 0.0, 0.0)
+    if parameters is not None and lead != 0.0:
+        exact = _lattice_acceleration(j, i, position, parameters, gravity, mass)
     for c in range(dim):
         kx = along if c == 0 else across
         ky = along if c == 1 else across
@@ -101,7 +133,10 @@ def _particle(tau, lead, j, i, position, velocity, rest, masses, along, across, 
         target_y = ky * (above - below) - held_y
         phi_y = target_y + (relaxed_y[c, j, i] - target_y) * fy
         v = velocity[c, j, i]
-        ahead = lead * (kx * (right - left) + ky * (above - below)) / mass
+        if parameters is not None:
+            ahead = lead * float(exact[c])
+        else:
+            ahead = lead * (kx * (right - left) + ky * (above - below)) / mass
         before += (float(v) + ahead) ** 2
         v = v + tau * (-held_x - phi_x - held_y - phi_y) / mass
         velocity[c, j, i] = v
@@ -113,13 +148,16 @@ def _particle(tau, lead, j, i, position, velocity, rest, masses, along, across, 
 
 @njit(**_JIT)
 def act(tau, lead, position, velocity, rest, masses, along, across, stretch, stretch_y, relaxed_x,
-        relaxed_y, spring_x, spring_y, node_x, node_y, columns, rows, widths):
+        relaxed_y, spring_x, spring_y, node_x, node_y, columns, rows, widths, parameters=None,
+        gravity=None):
     """The layer's action over ``tau`` seconds at frozen positions (see the module docstring).
 
     ``spring_x`` (nx + 1,), ``spring_y`` (ny + 1,), ``node_x`` (nx,), ``node_y`` (ny,): the
     factors exp(-sigma tau / 2) of the springs and particles (1 outside the layer);
     ``columns`` and ``rows`` the x-spring columns and y-spring rows with sigma' > 0; ``widths``
     (4,) the left, right, bottom and top layer depths.  ``along`` k and ``across`` T / a (N/m).
+    ``parameters`` (``sim.kernels.SpringParameters``) and ``gravity`` ((3,) m/s^2 or None):
+    the nonlinear law the velocities are led with (None: the small-motion law).
     Returns the kinetic energy taken out (J), counted on the velocities ``lead`` seconds later
     under the springs alone (dt / 2 for a leapfrog's half-step velocities, else 0)."""
     dim, ny, nx = position.shape
@@ -139,7 +177,7 @@ def act(tau, lead, position, velocity, rest, masses, along, across, stretch, str
             for i in range(span[0], span[1]):
                 taken += _particle(tau, lead, j, i, position, velocity, rest, masses, along,
                                    across, stretch, stretch_y, relaxed_x, relaxed_y, node_x,
-                                   node_y)
+                                   node_y, parameters, gravity)
     _relax_springs(position, rest, stretch, stretch_y, spring_x, spring_y, columns, rows)
     return taken
 
@@ -222,9 +260,9 @@ class MatchedLayer:
 
 
 @njit(**_JIT)
-def act_on(tau, lead, position, velocity, layer):
+def act_on(tau, lead, position, velocity, layer, parameters=None, gravity=None):
     """``act`` with its arguments after the state's arrays as one tuple ``layer``
     (``MatchedLayer.arguments``), for the compiled step loops."""
     return act(tau, lead, position, velocity, layer[0], layer[1], layer[2], layer[3], layer[4],
                layer[5], layer[6], layer[7], layer[8], layer[9], layer[10], layer[11],
-               layer[12], layer[13], layer[14])
+               layer[12], layer[13], layer[14], parameters, gravity)

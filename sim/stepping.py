@@ -169,8 +169,8 @@ def verlet_steps(
     forces use the predicted velocity v + dt a, which keeps it explicit and second order.
     Instruments (None compiles them out): a drive table (``sim.instruments``) acts on the new
     forces of each step at its end time (``time`` is the start, s); the absorbing layer
-    (``sponge``: the arguments of ``sim.matched_layer.act_on``) acts over dt between two steps,
-    the caller over dt / 2 before the first and after the last.  ``totals`` (2,)
+    (``sponge``: the arguments of ``sim.matched_layer.act_on``) acts over dt / 2 at the end of
+    each step and the start of the next, the caller before the first and after the last.  ``totals`` (2,)
     receives the drive's work and the layer's take (J), the accelerations of the driven rows
     on entry already hold the drive at ``time``.
     Returns (dissipated, power).
@@ -192,7 +192,8 @@ def verlet_steps(
         last = step == n - 1 or whole
         at = time + (step + 1) * float(dt)
         if sponge is not None and step > 0:
-            totals[1] += act_on(dt, 0.0, position, velocity, sponge)
+            for _ in range(2):  # a step's end and the next one's start
+                totals[1] += act_on(0.5 * dt, 0.0, position, velocity, sponge)
             if damped:  # the forces depend on the velocities the layer kicked
                 power = accelerations(linear, out_of_plane, position, velocity, inverse_mass,
                                       uniform_inverse_mass, parameters, dashpot, drag, gravity,
