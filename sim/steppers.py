@@ -201,7 +201,7 @@ class Verlet(Integrator):
             self._driven_accelerations(state, state.time)
         step = self._dt(dt)
         drive = self.drive
-        sponge = layer.arguments(0.5 * dt) if layer is not None else None
+        sponge = layer.arguments(0.5 * dt, self.dtype) if layer is not None else None
         if drive is not None and self._saved.shape[0] < drive.shape[0]:
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
