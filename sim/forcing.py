@@ -6,13 +6,14 @@ without them (``Simulation`` only takes this path when the model has a driver or
 
     half sponge, half driver  ->  one step of the integrator  ->  half driver, half sponge
 
-* **Sponge** (``boundary="absorbing"``): a layer ``sponge_width`` particles deep along the walls
-  in which each particle feels a drag m * rate(d).  Each half step multiplies its velocity by
-  exp(-rate * dt / 2): the drag integrated exactly, so the layer never limits the stable step.
-  The rate grows smoothly with depth d (0 at the inner edge, 1 at the wall),
-  rate(d) = ``sponge_strength`` * omega_0 * d^2, omega_0 = sqrt(k / m_mean): a wave entering the
-  layer sees a gradient too gentle to reflect it, and what reaches the wall has been damped in
-  and out again (``docs/instruments.md`` measures the reflection against wavelength).
+* **Sponge** (``boundary="absorbing"``): a layer ``sponge_width`` particles deep along the walls,
+  a perfectly matched layer of the lattice (``sim.matched_layer``): graded damping of the
+  springs' stretch and of the forces along each wall's normal, with rate
+  ``sponge_strength`` * omega_0 * d^2 at depth d (0 at the inner edge, 1 at the wall),
+  omega_0 = sqrt(k / m_mean).  It acts between the integrator's steps over the border rows and
+  columns only, with exact exponentials, so it never limits the stable step; a wave of any
+  wavelength enters it without reflecting (``docs/instruments.md`` measures the reflection
+  against wavelength at normal and oblique incidence).
 * **Driver**: one particle (column i, row j) driven along ``direction``, either by a force
   A k sin(2 pi f t) (``kind="force"``, A in m so that the force is that of a spring stretched by
   A) applied as two half kicks of impulse F dt / 2 around each step (Strang splitting,
@@ -35,11 +36,11 @@ from typing import Any
 
 import numpy as np
 
-from sim import boundaries, forcing_kernels, sources
+from sim import boundaries, forcing_kernels, matched_layer, sources
 
 DRIVER_KINDS = ("force", "displacement")
-SPONGE_POWER = 2
-DEFAULT_SPONGE_STRENGTH = 0.5
+SPONGE_POWER = matched_layer.POWER
+DEFAULT_SPONGE_STRENGTH = 2.0
 """Peak damping rate of the sponge in units of omega_0 = sqrt(k / m) (designed with the
 reflection study in ``docs/instruments.md``)."""
 
@@ -312,7 +313,7 @@ def sponge_depth(nx: int, ny: int, width: int, sides: tuple[str, ...]) -> np.nda
 
 
 def sponge_rates(model: Any) -> np.ndarray:
-    """(ny, nx) damping rate of every particle (1/s): strength * omega_0 * depth^SPONGE_POWER,
+    """(ny, nx) rate of the layer at every particle (1/s): strength * omega_0 * depth^SPONGE_POWER,
     omega_0 = sqrt(k / mean mass)."""
     omega_0 = math.sqrt(model.stiffness / float(np.mean(model.masses)))
     depth = sponge_depth(model.nx, model.ny, model.sponge_width, model.sponge_sides)
@@ -335,10 +336,10 @@ class Forcing:
         # (driver, row j, column i) per driven or pinned particle
         self.entries = sources.entries(model, PIN)
         self._masses = np.ascontiguousarray(model.masses, dtype=np.float64)
-        self._rates = sponge_rates(model) if model.walls.absorbing else None
-        sides = model.sponge_sides if self._rates is not None else ()
-        self._layer = tuple(model.sponge_width if side in sides else 0 for side in SIDES)
-        self._factors: dict[tuple[float, type], np.ndarray] = {}
+        sides = model.sponge_sides if model.walls.absorbing else ()
+        widths = tuple(model.sponge_width if side in sides else 0 for side in SIDES)
+        self._matched = (matched_layer.MatchedLayer(model, widths, model.sponge_strength)  # type: ignore[arg-type]
+                         if model.walls.absorbing else None)
         if self.entries:
             parameters = model.kernel_parameters
             self._spring_arguments = (
@@ -350,7 +351,7 @@ class Forcing:
 
     @property
     def has_sponge(self) -> bool:
-        return self._rates is not None
+        return self._matched is not None
 
     @property
     def drives(self) -> bool:
@@ -366,20 +367,10 @@ class Forcing:
             self._table = sources.drive_table(self.model, self.entries)
         return self._table
 
-    def sponge_arrays(self, dt: float, dtype: type) -> tuple | None:
-        """The absorbing layer for steps of ``dt`` in ``dtype`` as the compiled steps take it
-        (``sim.instruments``): factors exp(-rate dt), their square roots, masses and the four
-        layer widths; None without a layer."""
-        if self._rates is None:
-            return None
-        key = ("in step", dt, dtype)
-        arrays = self._factors.get(key)
-        if arrays is None:
-            factors = np.exp(-dt * self._rates)
-            arrays = (factors.astype(dtype), np.sqrt(factors).astype(dtype), self._masses,
-                      np.array(self._layer, dtype=np.int64))
-            self._factors = {key: arrays}
-        return arrays
+    def sponge_arrays(self, dt: float, dtype: type) -> Any:
+        """The absorbing layer as the compiled steps take it (a ``MatchedLayer``); None without
+        one."""
+        return self._matched
 
     def place(self, state: Any) -> None:
         """Put a prescribed particle where its prescription says at the state's time (the work
@@ -392,18 +383,9 @@ class Forcing:
         return any(driver.kind == "displacement" for driver, _, _ in self.entries)
 
     def sponge(self, state: Any, span: float) -> None:
-        """Damp the layer over ``span`` seconds (exactly: v *= exp(-rate * span))."""
-        if self._rates is None:
-            return
-        dtype = state.velocities.dtype.type
-        key = (span, dtype)
-        factors = self._factors.get(key)
-        if factors is None:
-            factors = np.exp(-span * self._rates).astype(dtype)
-            self._factors = {key: factors}
-        state.dissipated += forcing_kernels.damp_layer(
-            state.velocities, factors, self._masses, *self._layer
-        )
+        """The absorbing layer's action over ``span`` seconds (``sim.matched_layer``)."""
+        if self._matched is not None:
+            self._matched.act(state, span)
 
     def _kick(self, state: Any, time: float, dt: float) -> None:
         for driver, j, i in self.entries:

@@ -1,5 +1,5 @@
-"""Numba kernels of the driver and the absorbing layer (``sim.forcing``): small passes over one
-particle or over the particles of the layer, applied between the integrator's steps.
+"""Numba kernels of the driver (``sim.forcing``): small passes over one particle, applied between
+the integrator's steps.
 
 Arrays are the state's ``(dim, ny, nx)`` fields (m, m/s), in float64 or float32; energies are
 summed in float64.  Particles are given by flat index ``p = j * nx + i``.
@@ -12,38 +12,6 @@ from numba import njit
 from sim.kernels import _spring_energy
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
-
-
-@njit(**_JIT)
-def _damp_span(velocity, factors, masses, j, i0, i1):
-    dim = velocity.shape[0]
-    taken = 0.0
-    for i in range(i0, i1):
-        factor = factors[j, i]
-        speed_squared = 0.0
-        for c in range(dim):
-            v = velocity[c, j, i]
-            speed_squared += float(v) * float(v)
-            velocity[c, j, i] = v * factor
-        taken += 0.5 * masses[j, i] * speed_squared * (1.0 - float(factor) * float(factor))
-    return taken
-
-
-@njit(**_JIT)
-def damp_layer(velocity, factors, masses, left, right, bottom, top):
-    """Multiply each velocity in the absorbing layer by its factor (exact integration of a drag
-    over a time span): the ``bottom`` and ``top`` rows whole and the ``left`` and ``right``
-    columns of the rows between (widths in particles, 0 where a wall has no layer).
-    ``factors`` and ``masses`` are (ny, nx).  Returns the kinetic energy taken out (J)."""
-    dim, ny, nx = velocity.shape
-    taken = 0.0
-    for j in range(ny):
-        if j < bottom or j >= ny - top:
-            taken += _damp_span(velocity, factors, masses, j, 0, nx)
-        else:
-            taken += _damp_span(velocity, factors, masses, j, 0, min(left, nx))
-            taken += _damp_span(velocity, factors, masses, j, max(nx - right, left), nx)
-    return taken
 
 
 @njit(**_JIT)

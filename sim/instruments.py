@@ -1,5 +1,5 @@
-"""Numba kernels of the instruments inside the step: driven particles read from one small table,
-and the absorbing layer's damping over the border rows and columns.
+"""Numba kernels of the driven particles inside the step, read from one small table (the absorbing
+layer inside the step is ``sim.matched_layer``).
 
 **The drive table** (``DRIVE_FIELDS`` columns, one row per driven particle, float64): row j and
 column i of the particle, its unit direction (dx, dy, dz), amplitude (N for a force, m for a
@@ -13,12 +13,6 @@ integrator moves it along the prescription to its own order and its neighbours f
 and velocity consistent with that motion inside the step.  The kernels return the power (W) the
 drive feeds in, F . v with F the drive's force (for a displacement, the force that makes the
 particle follow: m a_prescribed - F_lattice).
-
-**The layer** (``sponge``): ``factors`` (ny, nx) exp(-rate dt) per particle, ``roots`` their
-square roots, ``masses`` (ny, nx) kg and ``widths`` (4,) int64 (left, right, bottom, top
-layer depths in particles, 0 where a wall has none).  ``damp_drift_row`` wraps a drift of the
-particles of row j that are in the layer in two half-step dampings (exact integration of the
-drag), applied after the row's plain update, so the interior loop is unchanged.
 """
 
 from __future__ import annotations
@@ -107,17 +101,18 @@ def drive_row(j, time, table, kinds, row, vx, vy, vz, r, lead=0.0):
 
 
 @njit(**_JIT)
-def drive_rows(time, table, kinds, acceleration, velocity):
-    """``drive_row`` on full (dim, ny, nx) arrays, every driven particle; returns the power (W)."""
+def drive_rows(time, table, kinds, acceleration, velocity, lead=0.0):
+    """``drive_row`` on full (dim, ny, nx) arrays, every driven particle; returns the power (W)
+    (``lead`` as for ``drive_row``)."""
     power = 0.0
     for d in range(table.shape[0]):
         j = int(table[d, ROW])
         if velocity.shape[0] == 3:
             power += _drive_one(d, time, table, kinds, acceleration[:, j, :], velocity[0],
-                                velocity[1], velocity[2], j)
+                                velocity[1], velocity[2], j, lead)
         else:
             power += _drive_one(d, time, table, kinds, acceleration[:, j, :], velocity[0],
-                                velocity[1], None, j)
+                                velocity[1], None, j, lead)
     return power
 
 
@@ -135,55 +130,6 @@ def place_driven(time, table, position, velocity):
             direction = table[d, DIRECTION + c]
             position[c, j, i] = table[d, REST + c] + table[d, AMPLITUDE] * value * direction
             velocity[c, j, i] = table[d, AMPLITUDE] * rate * direction
-
-
-@njit(**_JIT)
-def _damp_drift_span(j, i0, i1, dt, position, velocity, factors, roots, masses, predicted,
-                     damped):
-    dim = position.shape[0]
-    taken = 0.0
-    for i in range(i0, i1):
-        root = roots[j, i]
-        factor = factors[j, i]
-        speed_squared = 0.0
-        for c in range(dim):
-            v = velocity[c, j, i]
-            speed_squared += float(v) * float(v)
-            position[c, j, i] -= dt * (1 - root) * v
-            velocity[c, j, i] = v * factor
-            if damped:
-                predicted[c, j, i] *= factor
-        taken += 0.5 * masses[j, i] * speed_squared * (1.0 - float(factor) * float(factor))
-    return taken
-
-
-@njit(**_JIT)
-def damp_drift_row(j, dt, position, velocity, sponge, predicted, damped):
-    """Turn the plain drift x += dt v of the layer's particles in row j into half damping,
-    drift, half damping: x -= dt (1 - sqrt(f)) v; v *= f (v the drifted velocity, f the
-    particle's factor); with ``damped`` the predicted whole-step velocities (``predicted``)
-    are damped by f too.  Returns the kinetic energy the layer took out (J)."""
-    factors, roots, masses, widths = sponge
-    nx = position.shape[2]
-    ny = position.shape[1]
-    left, right, bottom, top = widths[0], widths[1], widths[2], widths[3]
-    if j < bottom or j >= ny - top:
-        return _damp_drift_span(j, 0, nx, dt, position, velocity, factors, roots, masses,
-                                predicted, damped)
-    taken = _damp_drift_span(j, 0, min(left, nx), dt, position, velocity, factors, roots, masses,
-                             predicted, damped)
-    taken += _damp_drift_span(j, max(nx - right, left), nx, dt, position, velocity, factors,
-                              roots, masses, predicted, damped)
-    return taken
-
-
-@njit(**_JIT)
-def damp_drift_layer(dt, position, velocity, sponge):
-    """``damp_drift_row`` over every row (J taken out): after a drift of the whole lattice."""
-    taken = 0.0
-    for j in range(position.shape[1]):
-        taken += damp_drift_row(j, dt, position, velocity, sponge, velocity, False)
-    return taken
 
 
 @njit(**_JIT)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from sim.instruments import damp_drift_row, leapfrog_drive, save_driven
+from sim.instruments import leapfrog_drive, save_driven
 from sim.kernels import (
     gravity_vector,
     horizontal_springs,
@@ -21,6 +21,7 @@ from sim.kernels import (
     spring_force,
     vertical_springs,
 )
+from sim.matched_layer import act_on
 from sim.row_updates import components, kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -29,7 +30,7 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 @njit(**_JIT)
 def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
                   parameters, gravity, below, above_last, horizontal, position, velocity, time,
-                  drive, saved, sponge, totals):
+                  drive, saved, totals):
     """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
     nonlinear springs, with each row's forces and update fused into one pass over it.
 
@@ -39,10 +40,9 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
     spring is computed here from positions that have not moved yet.
 
-    Instruments (``sim.instruments``, None compiles them out) act on a row after its plain
-    pass: the drive table's particles get their drive at ``time`` (s; velocities kept in
-    ``saved`` (drives, 3) before the pass), the absorbing layer (``sponge``) damps its particles
-    around their drift; ``totals`` (2,) receives the drive's work and the layer's take (J).
+    The drive table (``sim.instruments``, None compiles it out) acts on a row after its plain
+    pass: the driven particles get their drive at ``time`` (s; velocities kept in ``saved``
+    (drives, 3) before the pass); ``totals`` (2,) receives the drive's work (J).
     ``position``/``velocity`` are the full (dim, ny, nx) arrays of the components.
     """
     zero = type(dt)(0.0)
@@ -91,8 +91,6 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
             below[1, i] = above[1]
         if drive is not None:
             totals[0] += leapfrog_drive(j, time, dt, drive, position, velocity, saved)
-        if sponge is not None:
-            totals[1] += damp_drift_row(j, dt, position, velocity, sponge, velocity, False)
 
 
 @njit(**_JIT)
@@ -105,14 +103,20 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
     (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below``
     (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.  This one runs
     the blocks one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them
-    on numba's threads and computes the same numbers.  Instruments as in ``leapfrog_rows``
-    (the kick of step s at ``time`` + s dt), ``totals`` (blocks, 2).
+    on numba's threads and computes the same numbers.  The drive as in ``leapfrog_rows`` (the
+    kick of step s at ``time`` + s dt); the absorbing layer (``sponge``: the arguments of
+    ``sim.matched_layer.act_on``) acts over dt / 2 twice before each sweep (as at the end of
+    one step and the start of the next), at the positions that sweep kicks with; ``totals``
+    (blocks, 2) receives the drive's work and (in row 0) the layer's take (J).
     """
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     ny = position.shape[1]
     blocks = block_starts.size - 1
     for step in range(n):
+        if sponge is not None:
+            for _ in range(2):  # two halves: the same as a step's end and the next's start
+                totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), position, velocity, sponge)
         for b in range(blocks + 1):
             vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
                              boundary[b])
@@ -121,8 +125,7 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
             leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
                           inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
                           boundary[b + 1], horizontal[b], position, velocity,
-                          time + step * float(dt), drive, saved, sponge,
-                          totals[b])
+                          time + step * float(dt), drive, saved, totals[b])
 
 
 @njit(parallel=True, **_JIT)
@@ -136,14 +139,16 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
     out-of-plane components (runs differed from one thread and blew up)."""
     blocks = block_starts.size - 1
     for step in range(n):
+        if sponge is not None:
+            for _ in range(2):  # two halves: the same as a step's end and the next's start
+                totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), position, velocity, sponge)
         for b in prange(blocks + 1):
             _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
                               boundary)
         for b in prange(blocks):
             _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
                             uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal, time + step * float(dt), drive, saved, sponge,
-                            totals)
+                            below, horizontal, time + step * float(dt), drive, saved, totals)
 
 
 @njit(**_JIT)
@@ -159,12 +164,12 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
 @njit(**_JIT)
 def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
                     parameters, gravity, block_starts, boundary, below, horizontal, time, drive,
-                    saved, sponge, totals):
+                    saved, totals):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     below[b, :, :] = boundary[b]
     leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
                   vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
-                  boundary[b + 1], horizontal[b], position, velocity, time, drive, saved, sponge,
+                  boundary[b + 1], horizontal[b], position, velocity, time, drive, saved,
                   totals[b])

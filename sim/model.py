@@ -161,7 +161,7 @@ class Model:
     barriers: tuple = ()
     boundary: str = "fixed"
     sponge_width: int = 30
-    sponge_strength: float = 0.5
+    sponge_strength: float = 2.0
     sponge_sides: tuple[str, ...] = ()
 
     @classmethod

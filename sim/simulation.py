@@ -401,7 +401,9 @@ class Simulation:
             if drive_between:
                 forcing.drive_after(self.state, dt)
             if sponge_between:
-                forcing.sponge(self.state, dt if remaining else 0.5 * dt)
+                forcing.sponge(self.state, 0.5 * dt)
+                if remaining:  # the next step's first half: the same as one step at a time
+                    forcing.sponge(self.state, 0.5 * dt)
             if refresh:
                 integrator.invalidate()
 

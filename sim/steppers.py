@@ -69,8 +69,8 @@ class Integrator:
     work_arrays: ClassVar[int] = 1
     drive: np.ndarray | None = None
     """The drive table (``sim.instruments``) the steps apply, when ``in_step`` has "drive"."""
-    sponge: tuple | None = None
-    """The absorbing layer's arrays (``sim.instruments``), when ``in_step`` has "sponge"."""
+    sponge: object | None = None
+    """The absorbing layer (``sim.matched_layer.MatchedLayer``), when ``in_step`` has "sponge"."""
     ring_rows: ClassVar[int | None] = None
     """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
 
@@ -179,35 +179,41 @@ class Verlet(Integrator):
             )
         return stepping.accelerations(*self._common(state), self.work[0])
 
-    def _driven_accelerations(self, state: State, time: float) -> None:
-        """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them."""
+    def _driven_accelerations(self, state: State, time: float, lead: float = 0.0) -> None:
+        """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them; the
+        drive's power is taken at the velocities ``lead`` (s) later (half a step for a
+        leapfrog's half-step velocities)."""
         self._power = self._accelerations(state)
         if self.drive is not None:
             self._drive_power = instruments.drive_rows(time, self.drive, -1, self.work[0],
-                                                       state.velocities)
+                                                       state.velocities, lead)
 
     def advance(self, state: State, n: int, dt: float) -> None:
         stamp = (state.revision, state.time)
         if self.parallel:
             self._start_threads()
+        layer = self.sponge
+        if layer is not None:  # half the layer's action before the steps, half after them
+            layer.act(state, 0.5 * dt)
+            if self.kernel.dashpot is not None or self.kernel.drag is not None:
+                self._cached_for = None  # the forces depend on the velocities it kicked
         if self._cached_for != stamp:
             self._driven_accelerations(state, state.time)
         step = self._dt(dt)
-        drive, sponge = self.drive, self.sponge
+        drive = self.drive
+        sponge = layer.arguments(0.5 * dt, self.dtype) if layer is not None else None
         if drive is not None and self._saved.shape[0] < drive.shape[0]:
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
         start = state.time
-        # a drive goes through verlet_steps, whose power at whole steps closes the energy balance
-        if self._leapfrog and n >= 2 and drive is None:
+        # the drive's work is the trapezoid of its power at whole steps on every path: half
+        # steps at the ends here, and F . (v_before + v_after) / 2 = F . v(t) per kick between
+        if self._leapfrog and n >= 2:
             k = self.kernel
             acceleration = self.work[0]
             half = 0.5 * dt
             state.driven += half * self._drive_power
             stepping.verlet_open(step, state.positions, state.velocities, acceleration)
-            if sponge is not None:
-                state.dissipated += instruments.damp_drift_layer(step, state.positions,
-                                                                 state.velocities, sponge)
             steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
             self._block_totals[:] = 0.0
             steps(
@@ -218,7 +224,7 @@ class Verlet(Integrator):
             )
             state.driven += float(self._block_totals[:, 0].sum())
             state.dissipated += float(self._block_totals[:, 1].sum())
-            self._driven_accelerations(state, start + n * dt)
+            self._driven_accelerations(state, start + n * dt, half)
             stepping.verlet_close(step, state.velocities, acceleration)
             state.driven += half * self._drive_power
         elif self.parallel and not instrumented:
@@ -237,6 +243,8 @@ class Verlet(Integrator):
             state.dissipated += dissipated + totals[1]
             state.driven += totals[0]
             self._drive_power = float(totals[2])
+        if layer is not None:
+            layer.act(state, 0.5 * dt)
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
 

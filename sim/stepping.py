@@ -27,8 +27,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from sim.instruments import damp_drift_row, drive_row
+from sim.instruments import drive_row, drive_rows
 from sim.kernels import row_accelerations, vertical_springs
+from sim.matched_layer import act_on
 from sim.row_updates import (
     HEUN,
     RK4,
@@ -166,9 +167,10 @@ def verlet_steps(
     writes only positions and velocities in the steps between.
     With velocity-dependent forces (damping), every step is a full velocity-Verlet step whose new
     forces use the predicted velocity v + dt a, which keeps it explicit and second order.
-    Instruments (``sim.instruments``; None compiles them out): a drive table acts on the new
+    Instruments (None compiles them out): a drive table (``sim.instruments``) acts on the new
     forces of each step at its end time (``time`` is the start, s); the absorbing layer
-    (``sponge``) wraps each drift of its particles in two half-step dampings.  ``totals`` (2,)
+    (``sponge``: the arguments of ``sim.matched_layer.act_on``) acts over dt / 2 at the end of
+    each step and the start of the next, the caller before the first and after the last.  ``totals`` (2,)
     receives the drive's work and the layer's take (J), the accelerations of the driven rows
     on entry already hold the drive at ``time``.
     Returns (dissipated, power).
@@ -184,24 +186,28 @@ def verlet_steps(
     half = type(dt)(0.5) * dt
     dissipated = 0.0
     power = previous_power
+    whole = damped or sponge is not None  # every step a whole velocity-Verlet step
     for step in range(n):
-        first = step == 0 or damped
-        last = step == n - 1 or damped
+        first = step == 0 or whole
+        last = step == n - 1 or whole
         at = time + (step + 1) * float(dt)
+        if sponge is not None and step > 0:
+            for _ in range(2):  # a step's end and the next one's start
+                totals[1] += act_on(0.5 * dt, 0.0, position, velocity, sponge)
+            if damped:  # the forces depend on the velocities the layer kicked
+                power = accelerations(linear, out_of_plane, position, velocity, inverse_mass,
+                                      uniform_inverse_mass, parameters, dashpot, drag, gravity,
+                                      acceleration)
+                if drive is not None:
+                    drive_rows(time + step * float(dt), drive, -1, acceleration, velocity)
         if first:
             verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
-            if sponge is not None:
-                totals[1] += damp_drift_row(0, dt, position, velocity, sponge, predicted_velocity,
-                                            damped)
         new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
         drive_power = 0.0
         for j in range(ny):
             if first and j + 1 < ny:
                 verlet_drift(j + 1, dt, position, velocity, acceleration, predicted_velocity,
                              damped)
-                if sponge is not None:
-                    totals[1] += damp_drift_row(j + 1, dt, position, velocity, sponge,
-                                                predicted_velocity, damped)
             new_power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
                                            parameters, dashpot, drag, gravity, below, above,
                                            horizontal, row, uniform_inverse_mass)
@@ -213,9 +219,6 @@ def verlet_steps(
                 store_acceleration(j, row, acceleration, half, velocity)
             else:
                 kick_drift_row(j, dt, position, velocity, row)
-                if sponge is not None:
-                    totals[1] += damp_drift_row(j, dt, position, velocity, sponge,
-                                                predicted_velocity, False)
             below, above = above, below
         dissipated += half * (power + new_power)
         power = new_power

@@ -87,13 +87,16 @@ def test_reflection_prints_a_table_and_writes_a_picture(tmp_path, capsys):
     assert status == 0
     out = capsys.readouterr().out
     assert "lambda/a" in out and "width 30" in out and "fixed walls" in out
+    assert "at 45 degrees" in out and "worst reflection measured" in out  # both incidences
     assert any(line.split()[:1] == ["10"] for line in out.splitlines())
     assert f"picture saved to {picture.resolve()}" in out
     assert picture.stat().st_size > 10_000
 
 
-def test_the_sponge_reflects_under_one_percent_where_fixed_walls_reflect_everything():
-    study = reflection.reflection_study(widths=[30], wavelengths=[10.0])
+def test_the_default_layer_absorbs_a_wave_as_long_as_it_is_deep_where_fixed_walls_reflect_it():
+    """A packet of 80 spacings meets a 30-particle layer: a drag that deep stops a quarter of a
+    wave at most and sends most of it back; the matched layer takes it in."""
+    study = reflection.reflection_study(widths=[30], wavelengths=[80.0])
     absorbed = float(study.fractions[0, 0])
     assert absorbed <= 0.01
     assert absorbed > 0  # measured, not assumed: some energy does come back
@@ -101,22 +104,19 @@ def test_the_sponge_reflects_under_one_percent_where_fixed_walls_reflect_everyth
     assert study.as_dict()["measurements"][0]["reflected"]["30"] == absorbed
 
 
-def test_at_45_degrees_the_default_layer_absorbs_where_fixed_walls_reflect_everything():
-    """The oblique measurement: a strip half a wave wide carries two plane waves at +-45
-    degrees to the walls; fixed walls send them back whole, the default layer does not."""
-    rows, q_x, q_y, fitted = reflection_angle.strip_geometry(20.0, 45.0)
-    assert q_x == pytest.approx(q_y) and fitted == pytest.approx(20.0, rel=0.05)
-    absorbed = reflection.measure_reflection(30, 20.0, angle=45.0)
-    assert 0 < absorbed <= 0.01
-    assert reflection.measure_reflection(30, 20.0, "fixed", angle=45.0) > 0.9
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("angle", [0.0, 45.0])
-@pytest.mark.parametrize("wavelength", [5.0, 20.0])
+@pytest.mark.parametrize("angle, below", [(0.0, 1e-6), (45.0, 5e-4)])
+@pytest.mark.parametrize("wavelength", [5.0, 20.0, 80.0])
 def test_the_default_layer_reflects_at_most_one_percent_at_normal_and_oblique_incidence(
-        wavelength, angle):
-    assert reflection.measure_reflection(30, wavelength, angle=angle) <= 0.01
+        wavelength, angle, below):
+    """The requirement (1 %) and what a matched layer reaches: at normal incidence a chain's
+    layer is exact up to the time step (1e-8); at 45 degrees about 1e-4 comes back."""
+    if angle:  # the strip carries two plane waves at +-45 degrees to the walls
+        rows, q_x, q_y, fitted = reflection_angle.strip_geometry(wavelength, angle)
+        assert q_x == pytest.approx(q_y) and fitted == pytest.approx(wavelength, rel=0.15)
+        assert reflection.measure_reflection(30, wavelength, "fixed", angle=angle) > 0.9
+    absorbed = reflection.measure_reflection(30, wavelength, angle=angle)
+    assert 0 < absorbed <= min(0.01, below)
 
 
 @pytest.mark.parametrize("arguments, words", [

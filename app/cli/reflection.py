@@ -25,18 +25,20 @@ the layers then, divided by the starting energy.  RK4, dt = 0.05 s.
 The fixed-wall column is the control: the same chain without a sponge reflects everything, less
 what RK4 damps numerically (mostly the shortest waves).
 
-The sponge damps each particle at the rate strength sqrt(k/m) d^2 (d: depth into the layer, 0 at
-its inner edge, 1 at the wall), integrated exactly.  The damping must grow slowly over a
-wavelength not to reflect, so long waves need wider layers.
+The layer is a perfectly matched layer of the lattice: it relaxes the springs' stretch and the
+forces along the wall's normal at the rate strength sqrt(k/m) d^2 (d: depth into the layer, 0 at
+its inner edge, 1 at the wall), integrated exactly, so a wave of any wavelength enters it
+without reflecting.  Without --angle both incidences are measured: along the chain (0 degrees)
+and at 45 degrees (out-of-plane waves on a strip half a wave wide).
 """
 
 EPILOG = """\
 examples:
-  oscillators reflection                                  # widths 20,30,40; 7 wavelengths
+  oscillators reflection                                  # widths 10,30; 7 wavelengths; 0 and 45 deg
   oscillators reflection --plot docs/images/reflection.png
   oscillators reflection --widths 30 --wavelengths 10,40,80 --distance 300 --json
-  oscillators reflection --widths 30 --strength 1.0      # a steeper sponge
-  oscillators reflection --widths 30 --angle 45           # waves arriving at 45 degrees
+  oscillators reflection --widths 30 --strength 1.0      # a gentler layer
+  oscillators reflection --widths 30 --angle 45           # waves arriving at 45 degrees only
 
 Python: from app.study.reflection import reflection_study
 """
@@ -50,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--widths", type=_whole_numbers, default=None, metavar="W,W,...",
-        help="layer widths in particles (default 20,30,40)",
+        help="layer widths in particles (default 10,30)",
     )
     parser.add_argument(
         "--wavelengths", type=_numbers, default=None, metavar="L,L,...",
@@ -58,7 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--strength", type=positive_float, default=None, metavar="S",
-        help="sponge_strength: peak damping rate in units of sqrt(k/m) (default 0.5)",
+        help="sponge_strength: peak rate in units of sqrt(k/m) (default 2)",
     )
     parser.add_argument(
         "--distance", type=bounded_int(10, 20_000), default=300,
@@ -68,9 +70,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-control", action="store_true",
                         help="skip the fixed-wall control runs")
     parser.add_argument(
-        "--angle", type=float, choices=(0.0, 45.0), default=0.0,
+        "--angle", type=float, choices=(0.0, 45.0), default=None,
         help="incidence in degrees from the walls' normal: 0 (the chain) or 45 (out-of-plane "
-        "waves on a strip half a wave wide; slower)",
+        "waves on a strip half a wave wide; slower); default both",
     )
     add_output_arguments(parser, picture="reflection.png")
     parser.set_defaults(handler=command_reflection)
@@ -112,15 +114,19 @@ def command_reflection(arguments: argparse.Namespace) -> int:
     wavelengths = arguments.wavelengths or list(reflection.DEFAULT_WAVELENGTHS)
     strength = arguments.strength or DEFAULT_SPONGE_STRENGTH
     control = not arguments.no_control
+    angles = [0.0, 45.0] if arguments.angle is None else [arguments.angle]
     reflection.check_plan(widths, wavelengths, arguments.distance)
-    check_plan(reflection.planned_runs(widths, wavelengths, arguments.distance, control,
-                                       arguments.angle), "reflection")
-    runs = len(wavelengths) * (len(widths) + int(control))
+    check_plan([run for angle in angles for run in reflection.planned_runs(
+        widths, wavelengths, arguments.distance, control, angle)], "reflection")
+    runs = len(angles) * len(wavelengths) * (len(widths) + int(control))
     with progress_bar(runs, arguments.quiet) as bar:
-        study = reflection.reflection_study(
+        studies = [reflection.reflection_study(
             widths, wavelengths, strength, arguments.distance, control, progress=advance(bar),
-            angle=arguments.angle)
-    data = study.as_dict()
-    save_picture(arguments, data, reflection.plot_reflection, study)
-    emit(arguments, data, reflection.format_report(study))
+            angle=angle) for angle in angles]
+    data = (studies[0].as_dict() if len(studies) == 1
+            else dict(angles=[study.as_dict() for study in studies]))
+    save_picture(arguments, data, reflection.plot_reflection, studies)
+    text = "\n\n".join(reflection.format_report(study) for study in studies)
+    worst = max(float(study.fractions.max()) for study in studies)
+    emit(arguments, data, f"{text}\n\nworst reflection measured: {100 * worst:.3g} %")
     return 0

@@ -391,9 +391,10 @@ def describe_sponge(model: Model) -> str:
     omega_0 = math.sqrt(model.stiffness / float(np.mean(model.masses)))
     sides = ", ".join(model.sponge_sides)
     return (
-        f"along the {sides} wall(s) a sponge layer {model.sponge_width} particles deep in "
-        f"which each particle feels a drag m·rate, the rate rising as depth² from 0 at the "
+        f"along the {sides} wall(s) a sponge layer {model.sponge_width} particles deep "
+        f"(a perfectly matched layer) in which the springs' stretch and the forces along the "
+        f"wall's normal relax at a rate rising as depth² from 0 at the "
         f"layer's inner edge to {model.sponge_strength:g} ω0 = "
         f"{model.sponge_strength * omega_0:.3g} 1/s at the wall (ω0 = √(k/m)); waves that enter "
-        "it are damped out instead of reflected, and the energy it takes counts as `dissipated`."
+        "it die out instead of reflecting, and the energy it takes counts as `dissipated`."
     )

@@ -53,7 +53,7 @@ DT = 0.05
 PACKET_AMPLITUDE = 0.01
 """Peak displacement of the packet (m); the springs are linearised, so only ratios matter."""
 
-DEFAULT_WIDTHS = (20, 30, 40)
+DEFAULT_WIDTHS = (10, 30)
 DEFAULT_WAVELENGTHS = (5.0, 10.0, 20.0, 30.0, 40.0, 60.0, 80.0)
 
 SHORTEST_WAVELENGTH = 2.5
@@ -266,35 +266,47 @@ def format_report(study: ReflectionStudy) -> str:
         else:
             lines.append(f"width {width}: at most 1 % from lambda = {span[0]:g} a to "
                          f"{span[1]:g} a")
-    lines.append("long waves need wider layers: the damping must grow over several wavelengths "
-                 "to be gentle enough not to reflect")
     return "\n".join(lines)
 
 
-def plot_reflection(study: ReflectionStudy, path: str) -> None:
-    """Two panels: the layers' damping profiles and the reflection (%, log scale) against
-    wavelength per width with the 1 % line; PNG."""
+def plot_reflection(studies: ReflectionStudy | Sequence[ReflectionStudy], path: str) -> None:
+    """The layers' rate profiles, then per study (incidence angle) the reflection (%, log
+    scale) against wavelength per width with the 1 % line; PNG."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, (profile_axis, axis) = plt.subplots(
-        1, 2, figsize=(11, 4.6), gridspec_kw=dict(width_ratios=(1, 2)))
-    colours = plt.cm.viridis(np.linspace(0.05, 0.85, len(study.widths)))
-    for width, colour in zip(study.widths, colours, strict=True):
+    if isinstance(studies, ReflectionStudy):
+        studies = [studies]
+    figure, axes = plt.subplots(
+        1, 1 + len(studies), figsize=(5.5 + 5.5 * len(studies), 4.6), sharey=False,
+        gridspec_kw=dict(width_ratios=(0.8,) + (1.2,) * len(studies)))
+    profile_axis = axes[0]
+    first = studies[0]
+    colours = plt.cm.viridis(np.linspace(0.05, 0.85, len(first.widths)))
+    for width, colour in zip(first.widths, colours, strict=True):
         distance_to_wall = np.arange(0, width + 1)
         depth = np.clip((width - distance_to_wall) / width, 0.0, 1.0)
-        profile_axis.plot(distance_to_wall, study.strength * depth**SPONGE_POWER, "o-",
+        profile_axis.plot(distance_to_wall, first.strength * depth**SPONGE_POWER, "o-",
                           color=colour, markersize=2.5, label=f"width {width}")
-        column = study.widths.index(width)
-        axis.plot(study.wavelengths, 100 * study.fractions[:, column], "o-", color=colour,
-                  label=f"layer {width} particles deep")
     profile_axis.set_xlabel("distance from the wall (particles)")
-    profile_axis.set_ylabel("damping rate / sqrt(k/m)")
-    profile_axis.set_title("sponge profile: strength x depth^2", fontsize=10)
+    profile_axis.set_ylabel("rate / sqrt(k/m)")
+    profile_axis.set_title("matched layer's rate: strength x depth^2", fontsize=10)
     profile_axis.invert_xaxis()
     profile_axis.legend(fontsize=8)
+    for study, axis in zip(studies, axes[1:], strict=True):
+        _plot_curves(study, axis, colours)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+def _plot_curves(study: ReflectionStudy, axis: Any, colours: Any) -> None:
+    """One study's reflection (%) against wavelength per width, the control and the 1 % line."""
+    for column, (width, colour) in enumerate(zip(study.widths, colours, strict=True)):
+        axis.plot(study.wavelengths, 100 * study.fractions[:, column], "o-", color=colour,
+                  label=f"layer {width} particles deep")
     if study.fixed_walls is not None:
         axis.plot(study.wavelengths, 100 * np.asarray(study.fixed_walls), "s--", color="grey",
                   label="fixed walls (control)")
@@ -303,11 +315,8 @@ def plot_reflection(study: ReflectionStudy, path: str) -> None:
     axis.set_yscale("log")
     axis.set_xlabel("wavelength / a")
     axis.set_ylabel("reflected energy (%)")
-    angle = f", {study.angle:g} deg" if study.angle else ""
-    axis.set_title(f"reflection off the absorbing layer{angle} (sponge_strength {study.strength:g}; "
-                   f"{describe(chain_integrator()).short_label} dt = {DT:g} s)", fontsize=10)
+    axis.set_title(f"incidence {study.angle:g} deg from the normal (sponge_strength "
+                   f"{study.strength:g}; {describe(chain_integrator()).short_label} "
+                   f"dt = {DT:g} s)", fontsize=10)
     axis.grid(True, which="major", alpha=0.3)
-    axis.legend(fontsize=8, loc="lower right")
-    figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
+    axis.legend(fontsize=8, loc="upper right", bbox_to_anchor=(1.0, 0.88))
