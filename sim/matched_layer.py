@@ -44,12 +44,15 @@ from numba import njit
 from sim.kernels import gravity_vector, site, spring_force
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
+_INLINE = dict(_JIT, inline="always")
+"""The per-particle and per-spring functions are inlined by numba itself: a call per particle
+that passes a dozen arrays costs their reference counting (ten times the arithmetic)."""
 
 POWER = 2
 """Exponent of the rate's growth with depth."""
 
 
-@njit(**_JIT)
+@njit(**_INLINE)
 def _end(position, j, i, parameters):
     """Particle (j, i) as a spring end at rest (``sim.kernels``), or the wall anchor there."""
     dim, ny, nx = position.shape
@@ -60,7 +63,7 @@ def _end(position, j, i, parameters):
     return site(i, j, parameters)
 
 
-@njit(**_JIT)
+@njit(**_INLINE)
 def _spring(position, j0, i0, j1, i1, axis, linearised, parameters, tension):
     """Force (N) on the first end of the spring from (j0, i0) to (j1, i1) beyond the one it
     carries at rest (``tension`` along its axis): the lattice's own law."""
@@ -90,7 +93,7 @@ def _relax_springs(position, held_x, held_y, spring_x, spring_y, columns, rows, 
                 held_y[c, j, i] = force[c] + (held_y[c, j, i] - force[c]) * e
 
 
-@njit(**_JIT)
+@njit(**_INLINE)
 def _particle(tau, lead, j, i, position, velocity, masses, held_x, held_y, relaxed_x,
               relaxed_y, node_x, node_y, linearised, parameters, tension, gravity):
     """Relax phi of particle (j, i) over tau / 2, kick it by tau, relax again; returns the
