@@ -15,13 +15,16 @@ stability limit), and its cost is that many steps times a measured cost per step
 without a prediction (a driver, an absorbing layer) are probed at half the stability limit (or
 0.2 / omega_max without one) instead.  The candidates run over the full duration cheapest first;
 a miss is retried with a step predicted from the measured error and the order (error ~ dt^p),
-at most ``MAX_ATTEMPTS`` runs per integrator.  Once a setting is verified, a candidate planned
-to cost over ``BEAT_MARGIN`` times its wall time is not started, and a started one is abandoned
-as soon as it has taken longer (it cannot beat it).  Integrators planned to cost over
+at most ``MAX_ATTEMPTS`` runs per integrator.  Once a setting is verified, a candidate that
+would cost more is not started, and a started one is abandoned once it has taken
+``ABANDON_FACTOR`` times the verified one's wall time.  Integrators estimated to cost over
 ``COST_RATIO`` times the cheapest are not run; every integrator not run says why.
-The answer is the verified setting with the least measured wall time; the other verified ones
-are the runner-ups.  Every batch of runs goes through ``map_runs`` (default: one after the other
-in this process), each run being ``choose_runs.run_setting`` of a small ``RunTask``.
+Candidates are ranked by the registry's estimate of their cost (steps x the
+integrator's calibrated seconds per step), so the same scene and tolerance give the same answer
+on every machine and at any load; the answer is the verified setting of least cost (its
+measured wall time beside it), the other verified ones are the runner-ups.  Every batch of runs
+goes through ``map_runs`` (default: one after the other in this process), each run being
+``choose_runs.run_setting`` of a small ``RunTask``.
 """
 
 from __future__ import annotations
@@ -50,9 +53,10 @@ from sim.observables import highest_frequency
 
 COST_RATIO = 20.0
 """An integrator predicted to cost more than this times the cheapest prediction is not run."""
-BEAT_MARGIN = 1.5
-"""A candidate planned to take more than this times the best verified wall time is not run
-(a planned cost is a measured cost per step times the steps; the margin covers its noise)."""
+ABANDON_FACTOR = 3.0
+"""A started candidate is abandoned once its wall time exceeds this times the verified best's:
+it cannot beat it (the registry's estimate said it would; the load of a shared machine does not
+change wall times threefold between two runs)."""
 MAX_ATTEMPTS = 3
 """Most runs of one integrator (a miss is retried with a step predicted from the measured error)."""
 BEST_REACHED_SECONDS = 10.0
@@ -290,9 +294,12 @@ def choose(
     duration = float(duration if duration is not None else scene.duration)
     names = candidate_integrators(scene, integrators)
     progress = progress or _Silent()
+    progress.finished(0.0, "planning: the normal modes")
     predictor = predictor_or_none(scene)
-    costs = {name: step_seconds(scene, name, threads)
-             for name in dict.fromkeys([*names, most_accurate(scene.model)])}
+    costs = {}
+    for name in dict.fromkeys([*names, most_accurate(scene.model)]):
+        progress.finished(0.0, f"planning: timing {name}")
+        costs[name] = step_seconds(scene, name, threads)
     run = _Runner(map_runs, progress, costs)
     note = ""
     reference = None
@@ -336,14 +343,30 @@ def choose(
     runs: list[Measured] = [measured(o) for o in reference_runs if o.task.integrator in names]
     skipped: dict[str, str] = {}
     plans: dict[str, tuple[float, str]] = {}  # integrator -> (next dt, role)
+    n = scene.model.n_particles
+
+    def estimate(name: str, dt: float) -> float:
+        """The registry's estimate of a run's seconds: how candidates are ranked and cut."""
+        return steps_for(duration, min(dt, duration))[0] * describe(name).seconds_per_step(n)
+
+    def cost(run: Measured) -> float:
+        """The registry's estimate of a run's seconds: what settings are ranked by, so the same
+        scene and tolerance give the same answer on every machine and at any load."""
+        return run.steps * describe(run.integrator).seconds_per_step(n)
+
+    def planned(name: str, dt: float) -> float:
+        """A run's seconds at the cost per step measured now: what the progress bar counts."""
+        return steps_for(duration, min(dt, duration))[0] * costs[name]
+
     for name in names:
+        progress.finished(0.0, f"planning: predicting {name}")
         if predictor is None:
             plans[name] = (0.5 * limits[name] if limits[name] else 0.2 / omega, "probe")
             continue
         dt, reached = predicted_dt(predictor, name, tolerance, duration, measure, limits[name],
                                    omega)
         if not reached:  # run once anyway, to show the best it reaches, at an affordable step
-            dt = max(dt, duration * costs[name] / BEST_REACHED_SECONDS)
+            dt = max(dt, duration * describe(name).seconds_per_step(n) / BEST_REACHED_SECONDS)
         plans[name] = (dt, "predicted" if reached else "predicted best")
     for name in {r.integrator for r in runs}:  # RK4 measured by the reference: step from there
         last = [r for r in runs if r.integrator == name][-1]
@@ -352,38 +375,37 @@ def choose(
             plans.pop(name, None)
         else:
             plans[name] = (next_dt, "verify")
-    cheapest = min((_seconds(costs, name, duration, dt) for name, (dt, _) in plans.items()),
-                   default=0.0)
+    cheapest = min((estimate(name, dt) for name, (dt, _) in plans.items()), default=0.0)
     for name, (dt, _) in list(plans.items()):
-        cost = _seconds(costs, name, duration, dt)
-        if cost > COST_RATIO * max(cheapest, 1e-3):
-            skipped[name] = (f"predicted to need dt = {dt:.3g} s, about {cost:.3g} s of "
-                             f"computing, over {COST_RATIO:g} times the cheapest")
+        if estimate(name, dt) > COST_RATIO * max(cheapest, 1e-6):
+            skipped[name] = (f"predicted to need dt = {dt:.3g} s, {steps_for(duration, dt)[0]} "
+                             f"steps, over {COST_RATIO:g} times the cheapest candidate's cost")
             del plans[name]
-    progress.planned(sum(_seconds(costs, name, duration, dt) for name, (dt, _) in plans.items()))
+    progress.planned(sum(planned(name, dt) for name, (dt, _) in plans.items()))
     attempts = dict.fromkeys(plans, 0)
     while plans:
-        name = min(plans, key=lambda n: _seconds(costs, n, duration, plans[n][0]))
+        name = min(plans, key=lambda other: estimate(other, plans[other][0]))
         dt, role = plans.pop(name)
-        cost = _seconds(costs, name, duration, dt)
-        best = min((r.wall_seconds for r in runs if r.meets), default=None)
-        if best is not None and cost > BEAT_MARGIN * best:
-            skipped[name] = (f"predicted to need dt = {dt:.3g} s, about {cost:.3g} s: it cannot "
-                             f"beat the verified {best:.3g} s")
-            progress.planned(-cost)
+        verified = [r for r in runs if r.meets]
+        best = min(verified, key=lambda r: (cost(r), r.wall_seconds)) if verified else None
+        if best is not None and estimate(name, dt) >= cost(best):
+            skipped[name] = (f"predicted to need dt = {dt:.3g} s, {steps_for(duration, dt)[0]} "
+                             f"steps: it cannot beat the verified {best.integrator} setting")
+            progress.planned(-planned(name, dt))
             continue
-        latest = measured(run([task_at(name, dt, role, best)], planned=True)[0])
+        limit = ABANDON_FACTOR * best.wall_seconds if best is not None else None
+        latest = measured(run([task_at(name, dt, role, limit)], planned=True)[0])
         runs.append(latest)
         attempts[name] += 1
         if latest.abandoned:
             skipped[name] = (f"at dt = {latest.dt:.3g} s stopped after {latest.wall_seconds:.3g} "
-                             f"s: slower than the verified {best:.3g} s")
+                             f"s, {ABANDON_FACTOR:g} times the verified setting's wall time")
             continue
         next_dt = _next_dt(name, latest, tolerance, limits[name])
         if next_dt is not None and attempts[name] < MAX_ATTEMPTS and role != "predicted best":
             plans[name] = (next_dt, "verify")
-            progress.planned(_seconds(costs, name, duration, next_dt))
-    meeting = sorted((r for r in runs if r.meets), key=lambda r: r.wall_seconds)
+            progress.planned(planned(name, next_dt))
+    meeting = sorted((r for r in runs if r.meets), key=lambda r: (cost(r), r.wall_seconds))
     answer = meeting[0] if meeting else None
     best_of_each = {}
     for r in meeting[1:]:
@@ -391,11 +413,6 @@ def choose(
             best_of_each.setdefault(r.integrator, r)
     return Choice(scene.name, duration, tolerance, measure, answer, list(best_of_each.values()),
                   runs, reference, limits, skipped, note)
-
-
-def _seconds(costs: dict[str, float], name: str, duration: float, dt: float) -> float:
-    """Planned wall seconds of ``name`` at ``dt`` over ``duration`` (measured cost per step)."""
-    return steps_for(duration, min(dt, duration))[0] * costs[name]
 
 
 def _next_dt(name: str, last: Measured, tolerance: float, limit: float | None) -> float | None:
