@@ -35,8 +35,9 @@ def format_table(study: AccuracyStudy) -> str:
     return "\n".join(lines)
 
 
-def format_report(study: AccuracyStudy) -> str:
-    """Table, orders, reference and recommendation as text."""
+def format_report(study: AccuracyStudy, recommendation: str | None = None) -> str:
+    """Table, orders, reference and recommendation as text (``recommendation``: the lines
+    that say it, in place of the sweep's fastest run within the tolerance)."""
     reference = study.reference
     ref_text = (
         f"reference: {reference.kind}"
@@ -64,8 +65,9 @@ def format_report(study: AccuracyStudy) -> str:
             "(* dt predicted from the measured order to just meet the tolerance)",
             "",
             f"measured convergence orders: {orders}",
-            f"recommendation for tolerance {study.recommendation.tolerance:g}: "
-            f"{study.recommendation.reason}",
+            recommendation or (f"recommendation for tolerance "
+                               f"{study.recommendation.tolerance:g}: "
+                               f"{study.recommendation.reason}"),
         ]
     )
 
