@@ -56,7 +56,9 @@ COST_RATIO = 20.0
 ABANDON_FACTOR = 3.0
 """A started candidate is abandoned once its wall time exceeds this times the verified best's:
 it cannot beat it (the registry's estimate said it would; the load of a shared machine does not
-change wall times threefold between two runs)."""
+change wall times threefold between two runs), and never before ``ABANDON_SECONDS``."""
+ABANDON_SECONDS = 5.0
+"""No run is abandoned before this many seconds (shorter wall times are mostly noise)."""
 MAX_ATTEMPTS = 3
 """Most runs of one integrator (a miss is retried with a step predicted from the measured error)."""
 BEST_REACHED_SECONDS = 10.0
@@ -389,17 +391,19 @@ def choose(
         verified = [r for r in runs if r.meets]
         best = min(verified, key=lambda r: (cost(r), r.wall_seconds)) if verified else None
         if best is not None and estimate(name, dt) >= cost(best):
-            skipped[name] = (f"predicted to need dt = {dt:.3g} s, {steps_for(duration, dt)[0]} "
-                             f"steps: it cannot beat the verified {best.integrator} setting")
+            if not any(r.meets for r in runs if r.integrator == name):
+                skipped[name] = (f"predicted to need dt = {dt:.3g} s, {steps_for(duration, dt)[0]} "
+                                 f"steps: it cannot beat the verified {best.integrator} setting")
             progress.planned(-planned(name, dt))
             continue
-        limit = ABANDON_FACTOR * best.wall_seconds if best is not None else None
+        limit = (max(ABANDON_FACTOR * best.wall_seconds, ABANDON_SECONDS)
+                 if best is not None else None)
         latest = measured(run([task_at(name, dt, role, limit)], planned=True)[0])
         runs.append(latest)
         attempts[name] += 1
         if latest.abandoned:
             skipped[name] = (f"at dt = {latest.dt:.3g} s stopped after {latest.wall_seconds:.3g} "
-                             f"s, {ABANDON_FACTOR:g} times the verified setting's wall time")
+                             f"s, over {ABANDON_FACTOR:g} times the verified setting's wall time")
             continue
         next_dt = _next_dt(name, latest, tolerance, limits[name])
         if next_dt is not None and attempts[name] < MAX_ATTEMPTS and role != "predicted best":
