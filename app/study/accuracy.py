@@ -124,7 +124,7 @@ SWEEP_FRACTIONS_KEPT = 4
 def budgeted_dts(scene: sim.Scene, until: float, integrators: Sequence[str],
                  precisions: Sequence[str], budget: float = SWEEP_BUDGET_SECONDS) -> list[float]:
     """``default_dts`` from the largest down, as many as fit the estimated ``budget`` (s) with
-    the numerical reference (RK4 at the smallest dt / 8 and / 4: 12 times its steps), at least
+    the numerical reference (RK4 at the smallest dt / 4 and / 2: 6 times its steps), at least
     ``SWEEP_FRACTIONS_KEPT``; all eight on small lattices."""
     n = scene.model.n_particles
     reference = describe(most_accurate(scene.model)).seconds_per_step(n)
@@ -134,7 +134,7 @@ def budgeted_dts(scene: sim.Scene, until: float, integrators: Sequence[str],
         steps = until / dt
         cost = sum(steps * describe(name).seconds_per_step(n) * len(precisions_of(name, precisions))
                    for name in integrators)
-        if len(kept) >= SWEEP_FRACTIONS_KEPT and spent + cost + 12 * steps * reference > budget:
+        if len(kept) >= SWEEP_FRACTIONS_KEPT and spent + cost + 6 * steps * reference > budget:
             break
         spent += cost
         kept.append(dt)
