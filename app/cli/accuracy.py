@@ -142,7 +142,17 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
                                 arguments.quiet)
     data = study.as_dict()
     data["recommendation"] = choice.as_dict()
-    save_picture(arguments, data, plot_work_precision, study)
+    answer = choice.answer
+    verified = (f"recommended, verified over the scene's {choice.duration:g} s: "
+                f"{answer.describe()}, {choice.measure} error <= {choice.tolerance:g}"
+                if answer is not None else
+                f"nothing met {choice.tolerance:g} ({choice.measure} error) over the scene's "
+                f"{choice.duration:g} s")
+
+    def plot(study, path: str) -> None:
+        plot_work_precision(study, path, recommendation=verified)
+
+    save_picture(arguments, data, plot, study)
     emit(arguments, data, format_report(study, "recommendation " + format_choice(choice)))
     return 0
 
