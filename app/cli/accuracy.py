@@ -44,7 +44,7 @@ explicit Euler and Heun have none without damping: their energy grows at every d
 convergence order is the slope of log(error) against log(dt).  For each integrator the dt that
 should just meet the tolerance is also predicted from its measured order, run, and marked with *.
 Without --dts, the smallest default steps are left out on a large lattice to keep the sweep's
-estimated cost within a minute.
+estimated cost within 30 s.
 
 The recommendation is the answer of `oscillators choose SCENE --tolerance TOL` (the same code):
 the cheapest integrator and dt whose error over the scene's whole duration meets the tolerance

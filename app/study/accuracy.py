@@ -114,7 +114,7 @@ def default_dts(scene: sim.Scene) -> list[float]:
     return [limit * fraction for fraction in (0.9, 0.5, 0.25, 0.1, 0.05, 0.025, 0.01, 0.0025)]
 
 
-SWEEP_BUDGET_SECONDS = 60.0
+SWEEP_BUDGET_SECONDS = 30.0
 """Largest estimated cost (s, the registry's ``seconds_per_step``) of the default sweep with its
 reference: on a large lattice the smallest default steps are left out to stay within it."""
 SWEEP_FRACTIONS_KEPT = 4
