@@ -15,9 +15,10 @@ A run is unstable when any of these holds (``BlowUpRule.problem``):
   both sides are never negative and the balance is exact: the observables measure it from the
   rest lattice, which is its minimum between walls (a row or column of pre-stretched springs
   between fixed ends is at least as long as the span, and by convexity its energy is least when
-  every spring shares the span equally) and for linearised springs (a sum of squares); with free
-  left and right ends a pre-stretched row can contract, its nx - 1 springs releasing at most
-  their rest-lattice stretch energy 1/2 k (a - L)^2 each;
+  every spring shares the span equally); with free left and right ends a pre-stretched row can
+  contract, its nx - 1 springs releasing at most their rest-lattice stretch energy
+  1/2 k (a - L)^2 each (linearised springs too: their end tension k (a - L) is balanced once
+  each spring is compressed by a - L);
 * a particle is further from its rest position than ``COORDINATE_FACTOR`` times the lattice's
   size plus its sag under its whole weight ((max(nx, ny) + 1) spacing + M g / k, m).
 
@@ -108,9 +109,9 @@ class BlowUpRule:
 def spring_release(model: Model) -> float:
     """The most spring energy (J) below the rest lattice's that the springs can reach (see the
     module docstring): 1/2 k (a - L)^2 for each of the ny (nx - 1) springs of pre-stretched rows
-    with free ends and full springs, else 0."""
+    with free ends, else 0."""
     stretch = model.spacing - model.rest_length
-    if not model.walls.free_ends or model.linear or stretch <= 0:
+    if not model.walls.free_ends or stretch <= 0:
         return 0.0
     return 0.5 * model.stiffness * stretch**2 * model.ny * max(model.nx - 1, 0)
 
