@@ -110,9 +110,10 @@ def test_nonlinear_reference_reports_its_own_error():
     study = accuracy_study(scene, integrators=["verlet", "rk4"], dts=[0.02, 0.01], until=1.0,
                            minimum_seconds=0.0)
     assert study.reference.kind == "RK4 (Richardson)"
-    assert 0 < study.reference.error < 1e-9
-    # the study's verdict must not change if the reference is refined further
     rk4 = study.runs_of("rk4")
+    # far more accurate than the most accurate run it judges (RK4 at a quarter of its step)
+    assert 0 < study.reference.error < rk4[0].error / 100
+    # the study's verdict must not change if the reference is refined further
     assert rk4[0].error < rk4[1].error / 10
 
 

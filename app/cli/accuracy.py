@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from app.cli.arguments import add_scene_arguments, positive_float, scene_from_arguments
+from app.cli.choose import format_choice
 from app.cli.cluster import add_cluster_arguments, executor_from
 from app.cli.limits import check_plan
 from app.cli.study_output import (
@@ -19,7 +20,11 @@ from app.cli.study_output import (
     save_picture,
     scene_picture,
 )
+from app.study.accuracy_reference import REFINEMENT
 from sim.integrators import INTEGRATORS, most_accurate
+
+LARGE_LATTICE = 20_000
+"""Above this many particles the sweep runs in float64 only unless --precisions says otherwise."""
 
 DESCRIPTION = """\
 Speed against accuracy.  Runs each integrator over a range of time steps on a scene, from its
@@ -31,14 +36,19 @@ initial state to time T, and measures against a reference solution:
   wall time  of the stepping alone (compilation excluded; short runs repeated, fastest kept)
 
 Reference: the exact normal-mode solution when the springs are linearised (--set linear=true,
-lattices up to ~1500 particles); otherwise RK4 at (smallest dt)/8, whose own error is estimated
-by Richardson extrapolation against (smallest dt)/4 and printed.
+lattices up to ~1500 particles); otherwise RK4 at (smallest dt)/4, whose own error is estimated
+by Richardson extrapolation against (smallest dt)/2 and printed.
 
 dt/limit is dt over the integrator's stability limit (Verlet: omega_max dt = 2, RK4: 2 sqrt 2;
 explicit Euler and Heun have none without damping: their energy grows at every dt).  The measured
-convergence order is the slope of log(error) against log(dt).  The recommendation is the fastest
-configuration whose error is within --tolerance; for each integrator the dt that should just meet
-the tolerance is also predicted from its measured order, run, and marked with *.
+convergence order is the slope of log(error) against log(dt).  For each integrator the dt that
+should just meet the tolerance is also predicted from its measured order, run, and marked with *.
+Without --dts, the smallest default steps are left out on a large lattice to keep the sweep's
+estimated cost within 30 s.
+
+The recommendation is the answer of `oscillators choose SCENE --tolerance TOL` (the same code):
+the cheapest integrator and dt whose error over the scene's whole duration meets the tolerance
+(field error where a reference is affordable, else energy), verified by running it.
 """
 
 EPILOG = """\
@@ -73,15 +83,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--tolerance", type=_fraction, default=1e-3,
-        help="target relative position error for the recommendation (default 1e-3)",
+        help="tolerance of the recommendation (as for `oscillators choose`) and the sweep's "
+        "target relative position error (default 1e-3)",
     )
     parser.add_argument("--no-refine", action="store_true",
                         help="do not run the dt predicted to just meet the tolerance")
     parser.add_argument(
         "--precisions", nargs="+", choices=("float64", "float32"), default=None,
         metavar="PRECISION",
-        help="precisions the compiled integrators run in (default: float64 float32; "
-        "the recommendation uses float64)",
+        help="precisions the compiled integrators run in (default: float64 float32, float64 "
+        f"alone above {LARGE_LATTICE:,} particles; the recommendation uses float64)",
     )
     add_output_arguments(parser, picture="SCENE-work-precision.png")
     add_cluster_arguments(parser)
@@ -112,19 +123,51 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
         until = arguments.until or default_until(scene)
         particles = scene.model.n_particles
         runs = [(until / dt, particles, name) for name in integrators for dt in dts]
-        # the numerical reference, at (smallest dt) / 8
-        runs.append((8 * until / min(dts), particles, most_accurate(scene.model)))
+        # the numerical reference, at (smallest dt) / REFINEMENT
+        runs.append((REFINEMENT * until / min(dts), particles, most_accurate(scene.model)))
         check_plan(runs, "accuracy")
+    precisions = arguments.precisions or (
+        ("float64",) if scene.model.n_particles > LARGE_LATTICE else ("float64", "float32"))
     planned = 2 * len(integrators) * (len(dts) if dts else 8) + 2 + len(integrators)
-    with executor_from(arguments) as executor, progress_bar(planned, arguments.quiet) as bar:
-        study = accuracy_study(
-            scene, integrators=integrators, dts=dts, until=arguments.until,
-            tolerance=arguments.tolerance, refine=not arguments.no_refine,
-            progress=advance(bar), precisions=arguments.precisions or ("float64", "float32"),
-            executor=executor,
-        )
-        bar.total = bar.n
+    with executor_from(arguments) as executor:
+        with progress_bar(planned, arguments.quiet) as bar:
+            study = accuracy_study(
+                scene, integrators=integrators, dts=dts, until=arguments.until,
+                tolerance=arguments.tolerance, refine=not arguments.no_refine,
+                progress=advance(bar), precisions=precisions,
+                executor=executor,
+            )
+            bar.total = bar.n
+        choice = recommendation(scene, arguments.tolerance, integrators, executor,
+                                arguments.quiet)
     data = study.as_dict()
-    save_picture(arguments, data, plot_work_precision, study)
-    emit(arguments, data, format_report(study))
+    data["recommendation"] = choice.as_dict()
+    answer = choice.answer
+    verified = (f"recommended, verified over the scene's {choice.duration:g} s: "
+                f"{answer.describe()}, {choice.measure} error <= {choice.tolerance:g}"
+                if answer is not None else
+                f"nothing met {choice.tolerance:g} ({choice.measure} error) over the scene's "
+                f"{choice.duration:g} s")
+
+    def plot(study, path: str) -> None:
+        plot_work_precision(study, path, recommendation=verified)
+
+    save_picture(arguments, data, plot, study)
+    emit(arguments, data, format_report(study, "recommendation " + format_choice(choice)))
     return 0
+
+
+def recommendation(scene, tolerance: float, integrators: list[str], executor, quiet: bool):
+    """``app.study.choose.choose`` on the scene (the compiled integrators among ``integrators``),
+    its runs through the sweep's executor, with the bar of `oscillators choose`."""
+    from app.cli.choose import Bar
+    from app.study.choose import choose
+    from sim.integrators import describe
+
+    compiled = [name for name in integrators if describe(name).kernel] or None
+    bar = Bar(quiet)
+    try:
+        return choose(scene, tolerance, integrators=compiled, progress=bar,
+                      map_runs=lambda function, tasks: executor.map(function, tasks))
+    finally:
+        bar.close()

@@ -90,24 +90,56 @@ def _names(text: str) -> list[str]:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
-class _Bar:
-    """The tqdm bar on stderr, counting estimated seconds of computing (so its ETA is time)."""
+class Bar:
+    """The tqdm bar on stderr, counting planned seconds of computing (so its ETA is a time).
+
+    Between two finished runs a ticker thread advances it by the wall time passed (never past
+    the work planned so far), so it moves, and its ETA holds, during a long run."""
+
+    TICK = 1.0
 
     def __init__(self, quiet: bool) -> None:
+        import threading
+        import time
+
         from tqdm import tqdm
 
+        self._time = time.monotonic
         self.bar = tqdm(total=0.0, unit="s", disable=quiet, dynamic_ncols=True, file=sys.stderr,
                         bar_format="{l_bar}{bar}| {elapsed}<{remaining} {postfix}")
+        self.done = 0.0
+        self.since = self._time()
+        self.lock = threading.Lock()
+        self.stop = threading.Event()
+        self.ticker = None
+        if not quiet:
+            self.ticker = threading.Thread(target=self._tick, name="choose-bar", daemon=True)
+            self.ticker.start()
+
+    def _tick(self) -> None:
+        while not self.stop.wait(self.TICK):
+            with self.lock:
+                shown = min(self.done + self._time() - self.since, self.bar.total)
+                if shown > self.bar.n:
+                    self.bar.n = shown
+                    self.bar.refresh()
 
     def planned(self, seconds: float) -> None:
-        self.bar.total += seconds
-        self.bar.refresh()
+        with self.lock:
+            self.bar.total = max(self.done, self.bar.total + seconds)
+            self.bar.refresh()
 
     def finished(self, seconds: float, label: str) -> None:
-        self.bar.set_postfix_str(label, refresh=False)
-        self.bar.update(seconds)
+        with self.lock:
+            self.done += seconds
+            self.since = self._time()
+            self.bar.n = min(self.done, self.bar.total)
+            self.bar.set_postfix_str(label, refresh=True)
 
     def close(self) -> None:
+        self.stop.set()
+        if self.ticker is not None:
+            self.ticker.join()
         self.bar.close()
 
 
@@ -119,7 +151,7 @@ def command_choose(arguments: argparse.Namespace) -> int:
     check_plot_path(arguments)
     if arguments.output:
         _check_output(arguments.output)
-    bar = _Bar(arguments.quiet)
+    bar = Bar(arguments.quiet)
     try:
         with executor_from(arguments) as executor:
             choice = choose(scene, arguments.tolerance, measure=arguments.error,

@@ -1,10 +1,13 @@
 """``oscillators scenes``: list the presets with their parameters, default integrator and dt, and
 the energy-balance error those defaults give over the scene's duration (predicted from the normal
-modes, measured with ``--measure``)."""
+modes); ``--measure`` also runs the defaults and asks ``app.study.choose`` (the code of
+`oscillators choose`) for the cheapest verified setting meeting ``--tolerance``."""
 
 from __future__ import annotations
 
 import argparse
+
+from app.cli.arguments import positive_float
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -14,18 +17,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="The presets, their parameters, default integrator and dt, and the energy-"
         "balance error those defaults give over the scene's duration.",
     )
+    parser.add_argument("names", nargs="*", metavar="PRESET",
+                        help="only these presets (default: all)")
     parser.add_argument("--measure", action="store_true",
-                        help="also run every preset for its duration and print the "
-                        "measured error (about 15 s, the 682x383 lattice included)")
+                        help="also run each preset's defaults for its duration (measured energy "
+                        "error) and choose the cheapest verified setting meeting --tolerance, as "
+                        "`oscillators choose` does (a minute or two for the 682x383 lattice)")
+    parser.add_argument("--tolerance", type=positive_float, default=0.01, metavar="TOL",
+                        help="tolerance of the choice with --measure (default 0.01)")
     parser.set_defaults(handler=command_scenes)
 
 
 def command_scenes(arguments: argparse.Namespace) -> int:
+    from app.cli.choose import format_choice
+    from app.study.choose import choose
     from app.study.choose_runs import RunTask, run_setting
     from sim import ModelError, Simulation, scenes
     from sim.prediction import predictor_for
 
-    for name in scenes.names():
+    names = arguments.names or scenes.names()
+    unknown = [name for name in names if name not in scenes.names()]
+    if unknown:
+        raise ValueError(f"unknown preset {unknown[0]!r}; choose from: {', '.join(scenes.names())}")
+    for name in names:
         scene = scenes.build(name)
         simulation = Simulation(scene)
         steps = int(round(scene.duration / scene.dt))
@@ -43,8 +57,12 @@ def command_scenes(arguments: argparse.Namespace) -> int:
         print(f"{name:13s} {scene.description}")
         print(f"{'':13s} {scene.model.describe()}; default {scene.integrator}, dt={scene.dt:g} s, "
               f"{scene.duration:g} s worth watching; {accuracy} over that time")
+        if arguments.measure:
+            choice = choose(scene, arguments.tolerance)
+            lines = format_choice(choice).splitlines()
+            print("\n".join(f"{'':13s} {line}" for line in lines))
     print("\nthe predicted error comes from the linearised lattice's normal modes (exact for "
-          "linear scenes); --measure runs each preset to check it (the run and the energy error "
-          "of `oscillators choose`; `choose SCENE --tolerance TOL` finds the cheapest setting).")
+          "linear scenes); --measure runs each preset to check it and chooses the cheapest "
+          "verified setting (the code of `oscillators choose SCENE --tolerance TOL`).")
     print("override any parameter with --set key=value; see `oscillators run --help`.")
     return 0

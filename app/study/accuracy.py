@@ -114,6 +114,33 @@ def default_dts(scene: sim.Scene) -> list[float]:
     return [limit * fraction for fraction in (0.9, 0.5, 0.25, 0.1, 0.05, 0.025, 0.01, 0.0025)]
 
 
+SWEEP_BUDGET_SECONDS = 30.0
+"""Largest estimated cost (s, the registry's ``seconds_per_step``) of the default sweep with its
+reference: on a large lattice the smallest default steps are left out to stay within it."""
+SWEEP_FRACTIONS_KEPT = 4
+"""Default steps kept whatever they cost (enough for a convergence order)."""
+
+
+def budgeted_dts(scene: sim.Scene, until: float, integrators: Sequence[str],
+                 precisions: Sequence[str], budget: float = SWEEP_BUDGET_SECONDS) -> list[float]:
+    """``default_dts`` from the largest down, as many as fit the estimated ``budget`` (s) with
+    the numerical reference (RK4 at the smallest dt / 4 and / 2: 6 times its steps), at least
+    ``SWEEP_FRACTIONS_KEPT``; all eight on small lattices."""
+    n = scene.model.n_particles
+    reference = describe(most_accurate(scene.model)).seconds_per_step(n)
+    kept: list[float] = []
+    spent = 0.0
+    for dt in default_dts(scene):
+        steps = until / dt
+        cost = sum(steps * describe(name).seconds_per_step(n) * len(precisions_of(name, precisions))
+                   for name in integrators)
+        if len(kept) >= SWEEP_FRACTIONS_KEPT and spent + cost + 6 * steps * reference > budget:
+            break
+        spent += cost
+        kept.append(dt)
+    return kept
+
+
 def default_until(scene: sim.Scene) -> float:
     """Five periods of the dominant normal mode (or 20 periods of the fastest one)."""
     try:
@@ -166,7 +193,8 @@ def accuracy_study(
     """Measure error and wall time of every integrator at every dt on ``scene`` (see module doc).
 
     ``dts`` is a list of steps (s) for all integrators, or a mapping integrator -> list; default
-    ``default_dts``.  ``until`` is T (s), default ``default_until``.  ``tolerance`` is the target
+    ``budgeted_dts`` (``default_dts`` within ``SWEEP_BUDGET_SECONDS``).  ``until`` is T (s),
+    default ``default_until``.  ``tolerance`` is the target
     relative position error of the recommendation.  ``progress`` is called with a short label
     before every run (the CLI drives a progress bar with it).  ``precisions``: the compiled
     integrators run in each of them (float64 always; the others only show on the picture and in
@@ -183,7 +211,7 @@ def accuracy_study(
     if not (math.isfinite(until) and until > 0):
         raise ValueError(f"--until must be a positive, finite time in seconds, got {until}")
     if dts is None:
-        dts = default_dts(scene)
+        dts = budgeted_dts(scene, until, integrators, precisions)
     plan = {
         name: sorted(float(dt) for dt in (dts[name] if isinstance(dts, Mapping) else dts))
         for name in integrators

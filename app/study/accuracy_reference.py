@@ -3,8 +3,9 @@
 ``reference_solution(scene, until, smallest_dt)`` gives the state at time T: the exact normal-mode
 solution (``app.study.linear``) when the springs are linearised and the lattice small; otherwise
 the most accurate compiled integrator (``sim.integrators.most_accurate``: RK4, order p = 4) at
-h = (smallest dt) / 8, with its own error estimated by Richardson extrapolation from the run at
-2 h: |r_h - r_2h| / (2^p - 1).
+h = (smallest dt) / ``REFINEMENT`` (4: RK4's error there is 4^-4 = 1/256 of its own error at the
+smallest dt, the most accurate run of a sweep), with its own error estimated by Richardson
+extrapolation from the run at 2 h: |r_h - r_2h| / (2^p - 1).
 
 Errors are relative to the size of the initial disturbance (``disturbance_scale``); states are
 (dim, ny, nx) arrays of positions (m) and velocities (m/s).
@@ -24,6 +25,9 @@ from app.study import linear
 from sim.integrators import describe, most_accurate
 
 ProgressCallback = Callable[[str], None]
+
+REFINEMENT = 4
+"""The numerical reference's step is the smallest step of the sweep divided by this."""
 
 REFERENCE_STEP_LIMIT = 2_000_000
 """Most steps spent on a numerical reference solution."""
@@ -81,8 +85,8 @@ def normal_modes_or_none(scene: sim.Scene) -> linear.NormalModes | None:
 def reference_solution(
     scene: sim.Scene, until: float, smallest_dt: float, progress: ProgressCallback | None = None
 ) -> Reference:
-    """Exact normal modes when possible, else the most accurate integrator at smallest_dt / 8
-    (checked against / 4)."""
+    """Exact normal modes when possible, else the most accurate integrator at smallest_dt /
+    ``REFINEMENT`` (checked against twice that step)."""
     positions, velocities = initial_state(scene)
     started = time.perf_counter()
     reason = ""
@@ -99,7 +103,7 @@ def reference_solution(
     integrator = most_accurate(scene.model)
     description = describe(integrator)
     name = description.short_label
-    steps = max(16, math.ceil(until / (smallest_dt / 8)))
+    steps = max(16, math.ceil(until / (smallest_dt / REFINEMENT)))
     steps += steps % 2
     steps = min(steps, REFERENCE_STEP_LIMIT)
     steps += steps % 2

@@ -35,8 +35,9 @@ def format_table(study: AccuracyStudy) -> str:
     return "\n".join(lines)
 
 
-def format_report(study: AccuracyStudy) -> str:
-    """Table, orders, reference and recommendation as text."""
+def format_report(study: AccuracyStudy, recommendation: str | None = None) -> str:
+    """Table, orders, reference and recommendation as text (``recommendation``: the lines
+    that say it, in place of the sweep's fastest run within the tolerance)."""
     reference = study.reference
     ref_text = (
         f"reference: {reference.kind}"
@@ -64,14 +65,17 @@ def format_report(study: AccuracyStudy) -> str:
             "(* dt predicted from the measured order to just meet the tolerance)",
             "",
             f"measured convergence orders: {orders}",
-            f"recommendation for tolerance {study.recommendation.tolerance:g}: "
-            f"{study.recommendation.reason}",
+            recommendation or (f"recommendation for tolerance "
+                               f"{study.recommendation.tolerance:g}: "
+                               f"{study.recommendation.reason}"),
         ]
     )
 
 
-def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
-    """Error against wall time, log-log, one curve per integrator; saved as a PNG at ``path``."""
+def plot_work_precision(study: AccuracyStudy, path: str, ax=None, recommendation: str = "") -> None:
+    """Error against wall time, log-log, one curve per integrator; saved as a PNG at ``path``.
+    ``recommendation``: a line saying the verified choice (`oscillators choose`'s answer), shown
+    under the title in place of the sweep's own fastest run within the tolerance."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -107,7 +111,7 @@ def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
                          label="reference's own error")
         axis.set_ylabel("relative position error at T")
         axis.grid(True, which="both", alpha=0.3)
-    if study.recommendation.integrator:
+    if study.recommendation.integrator and not recommendation:
         left.plot([study.recommendation.wall_seconds], [study.recommendation.error], "k*",
                   markersize=14, label="recommended")
     if study.exact is not None and not study.exact.blew_up:
@@ -119,7 +123,8 @@ def plot_work_precision(study: AccuracyStudy, path: str, ax=None) -> None:
     right.set_xlabel("dt (s)")
     right.set_title("convergence")
     left.legend(fontsize=8)
-    figure.suptitle(f"{study.scene}: {study.description}; T = {study.until:.3g} s", fontsize=9)
+    title = f"{study.scene}: {study.description}; T = {study.until:.3g} s"
+    figure.suptitle(title + (f"\n{recommendation}" if recommendation else ""), fontsize=9)
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)

@@ -5,8 +5,11 @@ one seam through which every batch of runs goes (``MapRuns``).
 ``task.dt`` s with ``task.integrator`` and returns a ``RunOutcome``: the displacement field at
 the end ((dim, ny, nx) m, float64), the energy error (``sim.errors.energy_error``), the wall
 seconds of the stepping alone (the kernels are compiled by a one-step warm-up first) and the
-blow-up message, if any.  Tasks and outcomes are plain data, so ``map_runs`` may be the serial
-``serial_map`` (the default), a process pool or a cluster's ``Client.map``-like executor.
+blow-up message, if any.  A task with a ``time_limit`` is abandoned (``RunOutcome.abandoned``)
+once its stepping has taken longer than that: ``choose`` gives it the wall time of the best
+verified setting, which a slower run cannot beat.  Tasks and outcomes are plain data, so
+``map_runs`` may be the serial ``serial_map`` (the default), a process pool or a cluster's
+``Client.map``-like executor.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ class RunTask:
     steps: int
     role: str = "verify"
     threads: int = 1
+    time_limit: float | None = None
+    """Wall seconds after which the run is abandoned (None: never)."""
 
     @property
     def duration(self) -> float:
@@ -42,13 +47,19 @@ class RunTask:
 @dataclasses.dataclass(frozen=True)
 class RunOutcome:
     """What one ``RunTask`` gave: ``field`` the final displacement (None if it blew up),
-    ``energy_error`` (inf if it blew up), ``wall_seconds``, ``blew_up`` the message or None."""
+    ``energy_error`` (inf if it blew up), ``wall_seconds``, ``blew_up`` the message or None,
+    ``abandoned`` whether it was stopped at its time limit (then no field, energy error inf)."""
 
     task: RunTask
     field: np.ndarray | None
     energy_error: float
     wall_seconds: float
     blew_up: str | None = None
+    abandoned: bool = False
+
+
+SLICES = 50
+"""A run with a time limit checks the clock this many times."""
 
 
 MapRuns = Callable[[Callable[[RunTask], RunOutcome], Sequence[RunTask]], Iterable[RunOutcome]]
@@ -79,9 +90,17 @@ def run_setting(task: RunTask) -> RunOutcome:
     simulation = sim.Simulation(scene, integrator=task.integrator, dt=task.dt,
                                 threads=task.threads)
     simulation.chunk_steps = max(64, min(task.steps, 4096))
+    piece = task.steps if task.time_limit is None else max(1, task.steps // SLICES)
     started = time.perf_counter()
+    done = 0
     try:
-        simulation.step(task.steps)
+        while done < task.steps:
+            count = min(piece, task.steps - done)
+            simulation.step(count)
+            done += count
+            wall = time.perf_counter() - started
+            if task.time_limit is not None and done < task.steps and wall > task.time_limit:
+                return RunOutcome(task, None, math.inf, wall, None, abandoned=True)
     except sim.BlowUpError as error:
         return RunOutcome(task, None, math.inf, time.perf_counter() - started, str(error))
     wall = time.perf_counter() - started

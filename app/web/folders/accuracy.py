@@ -6,8 +6,11 @@
 * **Predicted**: the energy and phase error that the current integrator and dt will have after
   the scene's duration, from the normal modes of the scene's initial state (``sim.prediction``),
   computed in a background thread whenever the model, integrator or dt changes.
-* **Choose for me**: the cheapest integrator and dt (force evaluations per simulated second)
-  whose predicted error meets the tolerance; applied as ordinary commands.
+* **Choose for me**: ``app.study.choose`` on the scene as it is now (``app.web.choosing``, the
+  code of `oscillators choose` and of the Speed-vs-accuracy folder): the cheapest integrator and
+  dt whose error over the scene's duration meets the tolerance (the field error where a
+  reference is affordable, else the energy error; the message says which), verified by running
+  it before it is offered; *Apply* sets exactly that setting, as ordinary commands.
 
 Like every folder of the page, callbacks act only on events a browser sent (``from_user``) and
 check the values they get.
@@ -23,6 +26,7 @@ import numpy as np
 import viser
 
 import sim
+from app.web.choosing import apply_choice, choose_on_page
 from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
@@ -92,14 +96,19 @@ class AccuracyFolder(Folder):
             self.predicted = gui.add_html("")
             self.tolerance = gui.add_number(
                 "Tolerance (%)", DEFAULT_TOLERANCE * 100, min=1e-6, max=100.0, step=0.1,
-                hint="energy-balance error allowed over the scene's duration",
+                hint="error allowed over the scene's duration (the live energy-balance error is "
+                "compared with it; Choose for me uses the field error where it can)",
             )
             self.choose_button = gui.add_button(
                 "Choose for me", icon=viser.Icon.WAND,
-                hint="set the cheapest integrator and dt whose predicted error meets the "
-                "tolerance (cost: force evaluations per simulated second)",
+                hint="find the cheapest integrator and dt meeting the tolerance, verified by "
+                "running it over the scene's duration (the code of `oscillators choose`)",
             )
             self.message = gui.add_html("")
+            self.apply_button = gui.add_button(
+                "Apply", icon=viser.Icon.CHECK, visible=False,
+                hint="run exactly the verified integrator and dt")
+        self._answer: Any = None
 
         @self.tolerance.on_update
         @from_user
@@ -113,21 +122,50 @@ class AccuracyFolder(Folder):
 
         @self.choose_button.on_click
         @from_user
-        def _(_: viser.GuiEvent) -> None:  # thread pool: the prediction may take a moment
+        def _(_: viser.GuiEvent) -> None:  # thread pool: the runs take a while
+            if self.choose_button.disabled:
+                return
+            self.choose_button.disabled = True
+            self.apply_button.visible = False
+            self._answer = None
             try:
                 tolerance = self.tolerance_value()
-                self.message.content = as_html("predicting…")
+                self.message.content = as_html("measuring…")
                 choice = self.choose(tolerance)
             except (InputRefused, sim.ModelError, ValueError) as error:
                 say(self.message, error, "could not choose")
                 return
-            if choice is None:
-                self.message.content = warning_html(
-                    f"nothing meets {tolerance:.3g} at a stable dt; loosen the tolerance")
+            except Exception as error:  # a failed choice must not take the page down
+                say(self.message, error, "could not choose")
                 return
-            self.control.set_integrator(choice.integrator).result(timeout=30)
-            self.control.set_dt(choice.dt).result(timeout=30)
-            self.message.content = ok_html(f"chose {choice.describe()}")
+            finally:
+                self.choose_button.disabled = False
+            answer = choice.answer
+            if answer is None:
+                best = choice.best_reached
+                self.message.content = warning_html(
+                    f"nothing meets {tolerance:.3g} ({choice.measure} error)"
+                    + (f"; the best reached: {best.describe()}" if best else "")
+                    + "; loosen the tolerance")
+                return
+            self._answer = answer
+            self.apply_button.visible = True
+            self.message.content = ok_html(
+                f"verified over {choice.duration:.4g} s: {answer.describe()}, {choice.measure} "
+                f"error within {tolerance:.3g}. Apply sets exactly this integrator and dt.")
+
+        @self.apply_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            answer = self._answer
+            if answer is None:
+                return
+            try:
+                integrator, dt = apply_choice(host, answer)
+            except (sim.ModelError, ValueError, TimeoutError) as error:
+                say(self.message, error, "could not apply")
+                return
+            self.message.content = ok_html(f"now running {integrator} at dt = {dt!r} s")
 
     # --- values -------------------------------------------------------------------------------
 
@@ -146,14 +184,8 @@ class AccuracyFolder(Folder):
         return self._predictors[key]
 
     def choose(self, tolerance: float) -> Any:
-        """The cheapest (integrator, dt) predicted to meet ``tolerance`` over the duration."""
-        runner = self.host.runner
-
-        def limits(simulation: sim.Simulation) -> tuple[sim.Simulation, dict[str, float | None]]:
-            return simulation, {name: simulation.stable_dt(name) for name in sim.INTEGRATORS}
-
-        simulation, stable = runner.post(limits).result(timeout=60)
-        return self._predictor(simulation).choose(tolerance, simulation.scene.duration, stable)
+        """``app.study.choose`` on the scene as it is now (``app.web.choosing``)."""
+        return choose_on_page(self.host, tolerance, self.message)
 
     # --- keeping in step ----------------------------------------------------------------------
 

@@ -121,7 +121,9 @@ class IntegratorFolder(Folder):
         self.steps_per_frame.value = int(self.host.runner.steps_per_frame)
 
     def update(self, frame: Frame, now: float) -> None:
-        """Show the method in use and whether the time step is stable."""
+        """Show the method and time step in use and whether the time step is stable."""
+        if self.dt.value != frame.dt:
+            self.dt.value = frame.dt  # the dt in use, whoever set it (posts nothing)
         shown_for = self._stability_for
         if shown_for is None or shown_for[0] is not frame.model or shown_for[1] != frame.integrator:
             self._stability_for = (frame.model, frame.integrator)

@@ -4,25 +4,23 @@
 viser's thread pool on the scene's current state: the cheapest integrator and dt whose field error
 over the scene's duration is within the tolerance (in %, like the Accuracy folder's), verified by
 running it.  The folder shows every run's error against its wall time (full size in a modal) and
-the verified setting, which *Apply the recommendation* sets exactly, as ordinary commands.  Lattices above
-``STUDY_PARTICLE_LIMIT`` particles are left to the command line.
+the verified setting, which *Apply the recommendation* sets exactly, as ordinary commands
+(``app.web.choosing``, shared with the Accuracy folder's *Choose for me*).
 """
 
 from __future__ import annotations
 
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import viser
 
-import sim
+from app.web.choosing import apply_choice, choose_on_page
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, from_user, number, ok_html
 from app.web.widgets import ERRORS, MATPLOTLIB_LOCK, say
-
-STUDY_PARTICLE_LIMIT = 2_500
-"""Largest lattice the page measures speed against accuracy on (bigger: use the CLI)."""
 
 
 class StudyFolder(Folder):
@@ -31,7 +29,7 @@ class StudyFolder(Folder):
     def __init__(self, host: PanelHost) -> None:
         self.host = host
         self._picture: np.ndarray | None = None
-        self._recommendation: tuple[str, float] | None = None
+        self._recommendation: Any = None
         gui = host.server.gui
         with gui.add_folder("Speed vs accuracy", expand_by_default=False):
             self.tolerance = gui.add_number(
@@ -67,11 +65,9 @@ class StudyFolder(Folder):
         def _(_: viser.GuiEvent) -> None:
             if self._recommendation is None:
                 return
-            integrator, dt = self._recommendation
             try:
-                host.control.set_integrator(integrator).result(timeout=30)
-                host.control.set_dt(dt).result(timeout=30)
-            except ERRORS as error:
+                integrator, dt = apply_choice(host, self._recommendation)
+            except (*ERRORS, ValueError) as error:
                 say(self.text, error, "could not apply")
                 return
             self.text.content = ok_html(f"now running {integrator} at dt = {dt:.4g} s")
@@ -101,30 +97,9 @@ class StudyFolder(Folder):
         relative error it must meet, a fraction)."""
         import imageio.v3 as imageio
 
-        from app.study.choose import choose
         from app.study.choose_report import plot_choice
 
-        scene = self.host.runner.post(sim.scenes.scene_from_simulation).result(timeout=30)
-        if scene.model.n_particles > STUDY_PARTICLE_LIMIT:
-            self.text.content = as_html(
-                f"This lattice has {scene.model.n_particles:,} particles; the page measures up to "
-                f"{STUDY_PARTICLE_LIMIT:,}. Run `oscillators choose` with this scene's file "
-                "(Scene → Files → Download this scene) from the command line instead."
-            )
-            return
-        text = self.text
-
-        class _Progress:
-            runs = 0
-
-            def planned(self, seconds: float) -> None:
-                pass
-
-            def finished(self, seconds: float, label: str) -> None:
-                self.runs += 1
-                text.content = as_html(f"measuring… run {self.runs}: {label}")
-
-        choice = choose(scene, tolerance, progress=_Progress())
+        choice = choose_on_page(self.host, tolerance, self.text)
         data = choice.as_dict()
         with tempfile.TemporaryDirectory() as folder:
             picture = Path(folder) / "work_precision.png"
@@ -137,7 +112,7 @@ class StudyFolder(Folder):
         self.full_size.visible = True
         answer = choice.answer
         if answer is not None:
-            self._recommendation = (answer.integrator, float(answer.dt))
+            self._recommendation = answer
             self.apply.visible = True
             self.text.content = as_html(
                 f"Recommendation (verified by running it over {choice.duration:.4g} s): "
