@@ -145,10 +145,8 @@ def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
                                                        abs=1e-300)
 
 
-@pytest.mark.parametrize("integrator", [
-    pytest.param("rk4", marks=pytest.mark.slow), pytest.param("heun", marks=pytest.mark.slow),
-    "euler",
-])
+@pytest.mark.slow  # float32 on threads compiles kernels of its own (a minute on a cold cache)
+@pytest.mark.parametrize("integrator", ["rk4", "heun", "euler"])
 def test_threaded_float32_equals_one_thread(integrator):
     scene = sim.scenes.build("interference", nx=48, ny=37, damping=0.1)
     runs = []
@@ -173,6 +171,7 @@ def test_threaded_energy_conserved(integrator):
     assert abs(simulation.energy().total - start) < bound * start
 
 
+@pytest.mark.slow  # damped threaded kernels of their own; threads equal one thread in the default run
 def test_threaded_damped_energy_balance():
     """Kinetic + potential + dissipated stays the initial energy with the blocks on 2 threads."""
     scene = sim.scenes.build("grid", ny=24, damping=0.5).with_displacement(40, (0.05, 0.03))
@@ -184,7 +183,7 @@ def test_threaded_damped_energy_balance():
     assert balance == pytest.approx(start, rel=1e-4)
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+@pytest.mark.parametrize("integrator", [pytest.param("rk4", marks=pytest.mark.slow), "verlet"])
 def test_threaded_stability_limit_unchanged(integrator):
     """Just below the analysed limit a threaded run stays bounded; just above it grows, as on one
     thread."""

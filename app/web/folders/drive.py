@@ -332,6 +332,8 @@ class DriveFolder(Folder):
             self.state.content = shown
 
     def update(self, frame: Frame, now: float) -> None:
+        if frame.model is not self.host.runner.simulation.model:
+            return  # a frame of the scene before a change: the folder already shows the new one
         if now - self._last < REFRESH_SECONDS and (self._modes_for is None
                                                    or self._modes_for[0] is frame.model):
             return
