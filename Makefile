@@ -20,7 +20,7 @@ run: install  ## install, then serve the web app on the default scene
 test: install  ## install, then run the test suite (includes one real-browser test)
 	bash scripts/ensure-chromium.sh
 	$(BIN)/ruff check sim app tests benchmarks
-	$(BIN)/python -m pytest -n auto --dist worksteal
+	$(BIN)/python -m pytest -n auto --dist worksteal --durations=20
 
 test-all: install  ## every test, slow ones included
 	bash scripts/ensure-chromium.sh

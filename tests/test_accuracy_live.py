@@ -113,11 +113,17 @@ def test_choose_for_me_meets_the_tolerance_it_was_given():
 # --- presets ----------------------------------------------------------------------------------------
 
 
+LONGEST_SMALL_RUNS = ("membrane", "catenary")
+"""Small presets whose whole run takes the longest (3-D with its own kernels; gravity with
+dashpots over many steps): with the slow tests, like the paper-sized ones."""
+
+
 def _presets_large_ones_slow() -> list:
-    """Every preset; the paper-sized ones (over 100,000 particles) run with the slow tests."""
+    """Every preset; the paper-sized ones (over 100,000 particles) and the longest small runs
+    are with the slow tests."""
     return [
         pytest.param(name, marks=pytest.mark.slow)
-        if _particles(name) > 100_000 else name
+        if _particles(name) > 100_000 or name in LONGEST_SMALL_RUNS else name
         for name in sim.scenes.names()
     ]
 

@@ -168,6 +168,7 @@ def reflected_pulse_sign(boundary: str) -> float:
     return float(np.sign(peak))
 
 
+@pytest.mark.slow  # two long chains' kernels of their own; the free end's physics is in the default run
 def test_a_pulse_comes_back_upright_from_a_free_end_and_inverted_from_a_wall():
     assert reflected_pulse_sign("free") == 1.0
     assert reflected_pulse_sign("fixed") == -1.0
