@@ -123,6 +123,7 @@ def test_a_pre_stretched_free_row_releases_exactly_its_stretch_energy_and_is_not
     assert -release <= lowest < -0.2 * release  # it did contract, never below the bound
 
 
+@pytest.mark.slow  # every driven preset one step at a time over its run
 def test_a_driven_lattice_from_rest_stepped_one_step_at_a_time_is_not_a_blow_up() -> None:
     """From 0 J the driver's work is the whole supply; seen after every single step (the page's
     slowest pace) the motion never outruns the work counted for it by more than the factor of

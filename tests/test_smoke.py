@@ -5,8 +5,15 @@ import pytest
 
 import sim
 
+LONG_SMOKE = ("interference-open", "single-slit")
+"""Presets whose 3000 steps take longest (a paper-sized lattice, absorbing layers on every wall):
+with the slow tests.  ``double-slit`` keeps the absorbing ripple tank in the default run."""
 
-@pytest.mark.parametrize("name", [n for n in sim.scenes.names() if n != "interference"])
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.slow) if n in LONG_SMOKE else n
+    for n in sim.scenes.names() if n != "interference"
+])
 def test_preset_builds_and_steps(name):
     simulation = sim.Simulation(sim.scenes.build(name))
     before = simulation.peek_positions()

@@ -55,6 +55,8 @@ class IntegratorFolder(Folder):
         self._stability_for: tuple[sim.Model, str] | None = None
         """(model, integrator) the stability line was computed for."""
         self._stable_dt: float | None = None
+        self._shown_dt: float | None = None
+        """The dt of the last frame shown in the dt box (s)."""
         self._stability_text = ""
         with gui.add_folder("Integrator"):
             self.method = gui.add_dropdown(
@@ -115,15 +117,16 @@ class IntegratorFolder(Folder):
         self._stability_for = None
         self.method.options = sim.integrators.names(simulation.model)
         self.method.value = simulation.integrator
-        self.dt.value = simulation.dt
+        self.dt.value = self._shown_dt = simulation.dt
         self.precision.value = simulation.precision
         self.threads.value = simulation.threads
         self.steps_per_frame.value = int(self.host.runner.steps_per_frame)
 
     def update(self, frame: Frame, now: float) -> None:
         """Show the method and time step in use and whether the time step is stable."""
-        if self.dt.value != frame.dt:
-            self.dt.value = frame.dt  # the dt in use, whoever set it (posts nothing)
+        if frame.dt != self._shown_dt:  # the dt in use changed, whoever set it: show it
+            self._shown_dt = frame.dt  # (only then: a value a page just sent is the callback's)
+            self.dt.value = frame.dt  # posts nothing
         shown_for = self._stability_for
         if shown_for is None or shown_for[0] is not frame.model or shown_for[1] != frame.integrator:
             self._stability_for = (frame.model, frame.integrator)
