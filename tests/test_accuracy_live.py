@@ -113,10 +113,10 @@ def test_choose_for_me_meets_the_tolerance_it_was_given():
 # --- presets ----------------------------------------------------------------------------------------
 
 
-LONGEST_SMALL_RUNS = ("membrane", "catenary", "two-sources")
+LONGEST_SMALL_RUNS = ("membrane", "catenary", "two-sources", "single-slit", "double-slit")
 """Smaller presets whose whole run takes the longest (3-D with its own kernels; gravity with
-dashpots over many steps; a ripple tank's absorbing walls): with the slow tests, like the
-paper-sized ones."""
+dashpots over many steps; the ripple tanks' absorbing walls, 40-50 s each): with the slow tests,
+like the paper-sized ones."""
 
 
 def _presets_large_ones_slow() -> list:
