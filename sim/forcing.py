@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from sim import boundaries, forcing_kernels, matched_layer, sources
+from sim import boundaries, forcing_kernels, matched_layer, schema, sources
 
 DRIVER_KINDS = ("force", "displacement")
 SPONGE_POWER = matched_layer.POWER
@@ -196,13 +196,7 @@ def parse_driver_text(text: str) -> dict[str, Any]:
     """Fields from "column=3,row=0,frequency=1.2,kind=force,direction=y" (direction also as
     "0 1 0")."""
     fields: dict[str, Any] = {}
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        if "=" not in part:
-            raise ForcingError(f"driver fields are key=value, got {part!r} in {text!r}")
-        key, raw = (item.strip() for item in part.split("=", 1))
+    for key, raw in schema.key_values(text, "driver", error=ForcingError):
         if key == "direction" and raw.lower() not in _DIRECTIONS:
             try:
                 fields[key] = [float(value) for value in raw.split()]

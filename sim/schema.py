@@ -138,6 +138,21 @@ def printable(text: str, keep: str = "\n\t") -> str:
     return "".join(out)
 
 
+def key_values(text: str, what: str, *, error: type[Exception] = Refused) -> list[tuple[str, str]]:
+    """The (key, value) pairs of a command line's "key=value,key=value" ``text`` (blank parts
+    skipped, both sides stripped); a part without "=" is refused, naming ``what``."""
+    pairs = []
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        if "=" not in part:
+            raise error(f"{what} fields are key=value, got {shown(part)} in {shown(text)}")
+        key, raw = (item.strip() for item in part.split("=", 1))
+        pairs.append((key, raw))
+    return pairs
+
+
 def shown(value: Any, limit: int = 60) -> str:
     """``repr(value)`` cut to ``limit`` characters, control characters escaped."""
     text = repr(value)

@@ -66,29 +66,30 @@ def two_slit_maxima_ray_phase(wave: Polarisation, omega: float, slit_centres: tu
                               distance: float, half_height: float, samples: int = 400
                               ) -> list[Fringe]:
     """Maxima where the ray phases from the two slits' centres differ by 2 pi m."""
-    low, high = slit_centres
-
-    def difference(ys: np.ndarray) -> np.ndarray:
-        return (ray_phases(wave, omega, distance, ys - low)
-                - ray_phases(wave, omega, distance, ys - high))
-
-    centre = 0.5 * (low + high)
-    return _roots(difference, centre, half_height, "maximum", samples)
+    return _ray_phase_roots(wave, omega, slit_centres, distance, half_height, "maximum", samples)
 
 
 def single_slit_minima_ray_phase(wave: Polarisation, omega: float, edges: tuple[float, float],
                                  distance: float, half_height: float, samples: int = 400
                                  ) -> list[Fringe]:
     """Minima where the ray phases from the slit's two edges differ by 2 pi m (m != 0)."""
-    low, high = edges
+    return [fringe for fringe in _ray_phase_roots(wave, omega, edges, distance, half_height,
+                                                  "minimum", samples)
+            if fringe.order != 0]
+
+
+def _ray_phase_roots(wave: Polarisation, omega: float, points: tuple[float, float],
+                     distance: float, half_height: float, kind: str, samples: int
+                     ) -> list[Fringe]:
+    """Screen positions where the ray phases from the two ``points`` (y, m) on the slits' column
+    differ by 2 pi m, as fringes of ``kind``."""
+    low, high = points
 
     def difference(ys: np.ndarray) -> np.ndarray:
         return (ray_phases(wave, omega, distance, ys - low)
                 - ray_phases(wave, omega, distance, ys - high))
 
-    centre = 0.5 * (low + high)
-    return [fringe for fringe in _roots(difference, centre, half_height, "minimum", samples)
-            if fringe.order != 0]
+    return _roots(difference, 0.5 * (low + high), half_height, kind, samples)
 
 
 def ray_phases(wave: Polarisation, omega: float, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:

@@ -134,13 +134,7 @@ def parse_barrier_text(text: str) -> dict[str, Any]:
     """A barrier table from the command line's text "column=45,openings=89-91 109-111" (or
     row=j; openings as first-last ranges separated by spaces; none for a closed barrier)."""
     fields: dict[str, Any] = {}
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        if "=" not in part:
-            raise SourceError(f"barrier fields are key=value, got {shown(part)} in {shown(text)}")
-        key, raw = (item.strip() for item in part.split("=", 1))
+    for key, raw in schema.key_values(text, "barrier", error=SourceError):
         if key == "openings":
             fields[key] = [] if raw.lower() in ("", "none") else [
                 _span(span) for span in raw.split()]
