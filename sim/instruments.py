@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
@@ -65,10 +66,11 @@ def _drive_one(d, time, table, kinds, row, vx, vy, vz, r, lead=0.0):
     value, _, second = drive_signal(time, table, d)
     inverse_mass = table[d, INVERSE_MASS]
     power = 0.0
-    speeds = (float(vx[r, i]), float(vy[r, i]), 0.0)
+    # float64 whatever the state's precision (numba's float() keeps a float32 a float32)
+    speeds = (np.float64(vx[r, i]), np.float64(vy[r, i]), np.float64(0.0))
     count = 2
     if vz is not None:
-        speeds = (speeds[0], speeds[1], float(vz[r, i]))
+        speeds = (speeds[0], speeds[1], np.float64(vz[r, i]))
         count = 3
     for c in range(count):
         speed = speeds[c]

@@ -115,8 +115,8 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
     blocks = block_starts.size - 1
     for step in range(n):
         if sponge is not None:
-            for _ in range(2):  # two halves: the same as a step's end and the next's start
-                totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), position, velocity, sponge)
+            # two halves in one pass: the same as a step's end and the next's start
+            totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), True, position, velocity, sponge)
         for b in range(blocks + 1):
             vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
                              boundary[b])
@@ -140,8 +140,8 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
     blocks = block_starts.size - 1
     for step in range(n):
         if sponge is not None:
-            for _ in range(2):  # two halves: the same as a step's end and the next's start
-                totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), position, velocity, sponge)
+            # two halves in one pass: the same as a step's end and the next's start
+            totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), True, position, velocity, sponge)
         for b in prange(blocks + 1):
             _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
                               boundary)

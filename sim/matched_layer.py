@@ -42,141 +42,361 @@ import numpy as np
 from numba import njit
 
 from sim.kernels import gravity_vector, site, spring_force
+from sim.row_updates import components
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
+_JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 _INLINE = dict(_JIT, inline="always")
-"""The per-particle and per-spring functions are inlined by numba itself: a call per particle
-that passes a dozen arrays costs their reference counting (ten times the arithmetic)."""
+"""Inlined by numba itself: a call per row that passes a dozen arrays costs their reference
+counting, more than a short span's arithmetic."""
 
 POWER = 2
 """Exponent of the rate's growth with depth."""
 
+NONE, SIDES, FULL = 0, 1, 2
+"""Which particles of a row the layer acts on: none, the side layers' spans, the whole row."""
 
-@njit(**_INLINE)
-def _end(position, j, i, parameters):
-    """Particle (j, i) as a spring end at rest (``sim.kernels``), or the wall anchor there."""
-    dim, ny, nx = position.shape
+
+# --- the springs the layer reads, a span of a row at a time ------------------------------------
+#
+# Each spring's force is computed once per action: the positions are frozen while the layer acts,
+# so its two half actions between steps (and both relaxations of each) read the same forces.
+# Loops over a span of columns with the wall anchors outside them: straight-line bodies that LLVM
+# vectorises.
+
+
+@njit(**_JIT)
+def _store(out, i, force, axis, tension, z):
+    """Force (N) beyond the rest tension (along ``axis``) into ``out[:, i]``."""
+    out[0, i] = force[0] - (tension if axis == 0 else 0.0)
+    out[1, i] = force[1] - (tension if axis == 1 else 0.0)
+    if z is not None:
+        out[2, i] = force[2]
+
+
+@njit(**_JIT)
+def _end(x, y, z, j, i, zero):
+    """Particle (j, i) as a spring end at rest."""
+    if z is None:
+        return (x[j, i], y[j, i], zero, zero, zero, zero)
+    return (x[j, i], y[j, i], z[j, i], zero, zero, zero)
+
+
+@njit(**_JIT)
+def _x_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
+    """The x-springs ``start`` .. ``stop - 1`` of row j into ``out`` (3, nx + 1): spring i joins
+    particle i - 1 to particle i; 0 and nx reach the left and right wall anchors."""
+    nx = x.shape[1]
     zero = type(parameters.spacing)(0.0)
-    if 0 <= j < ny and 0 <= i < nx:
-        return (position[0, j, i], position[1, j, i], position[2, j, i] if dim == 3 else zero,
-                zero, zero, zero)
-    return site(i, j, parameters)
-
-
-@njit(**_INLINE)
-def _spring(position, j0, i0, j1, i1, axis, linearised, parameters, tension):
-    """Force (N) on the first end of the spring from (j0, i0) to (j1, i1) beyond the one it
-    carries at rest (``tension`` along its axis): the lattice's own law."""
-    force = spring_force(_end(position, j0, i0, parameters), _end(position, j1, i1, parameters),
-                         axis, linearised, parameters, None)
-    if axis == 0:
-        return float(force[0]) - tension, float(force[1]), float(force[2])
-    return float(force[0]), float(force[1]) - tension, float(force[2])
-
-
-@njit(**_JIT)
-def _relax_springs(position, held_x, held_y, spring_x, spring_y, columns, rows, linearised,
-                   parameters, tension):
-    """Relax each spring's held force toward its force: h = f + (h - f) e (e the factor)."""
-    dim, ny, nx = position.shape
-    for j in range(ny):
-        for i in columns:
-            e = spring_x[i]
-            force = _spring(position, j, i - 1, j, i, 0, linearised, parameters, tension)
-            for c in range(dim):
-                held_x[c, j, i] = force[c] + (held_x[c, j, i] - force[c]) * e
-    for j in rows:
-        e = spring_y[j]
-        for i in range(nx):
-            force = _spring(position, j - 1, i, j, i, 1, linearised, parameters, tension)
-            for c in range(dim):
-                held_y[c, j, i] = force[c] + (held_y[c, j, i] - force[c]) * e
-
-
-@njit(**_INLINE)
-def _particle(tau, lead, j, i, position, velocity, masses, held_x, held_y, relaxed_x,
-              relaxed_y, node_x, node_y, linearised, parameters, tension, gravity):
-    """Relax phi of particle (j, i) over tau / 2, kick it by tau, relax again; returns the
-    kinetic energy taken out (J), measured on v + lead * a (a its springs' and gravity's
-    acceleration)."""
-    dim = position.shape[0]
-    ex = node_x[i]
-    ey = node_y[j]
-    mass = masses[j, i]
-    left = _spring(position, j, i - 1, j, i, 0, linearised, parameters, tension)
-    right = _spring(position, j, i, j, i + 1, 0, linearised, parameters, tension)
-    below = _spring(position, j - 1, i, j, i, 1, linearised, parameters, tension)
-    above = _spring(position, j, i, j + 1, i, 1, linearised, parameters, tension)
-    pull = gravity_vector(gravity, 0.0)
-    before = 0.0
-    after = 0.0
-    for c in range(dim):
-        force_x = right[c] - left[c]
-        force_y = above[c] - below[c]
-        # the x-springs' relaxed force F_x* and what the relaxation holds of it; y likewise
-        holding_x = held_x[c, j, i + 1] - held_x[c, j, i]
-        target_x = force_x - holding_x
-        phi_x = target_x + (relaxed_x[c, j, i] - target_x) * ex
-        holding_y = held_y[c, j + 1, i] - held_y[c, j, i]
-        target_y = force_y - holding_y
-        phi_y = target_y + (relaxed_y[c, j, i] - target_y) * ey
-        v = velocity[c, j, i]
-        ahead = lead * ((force_x + force_y) / mass + pull[c])
-        before += (float(v) + ahead) ** 2
-        v = v + tau * (-holding_x - phi_x - holding_y - phi_y) / mass
-        velocity[c, j, i] = v
-        after += (float(v) + ahead) ** 2
-        relaxed_x[c, j, i] = target_x + (phi_x - target_x) * ex
-        relaxed_y[c, j, i] = target_y + (phi_y - target_y) * ey
-    return 0.5 * mass * (before - after)
-
-
-@njit(**_JIT)
-def act(tau, lead, position, velocity, masses, held_x, held_y, relaxed_x, relaxed_y, spring_x,
-        spring_y, node_x, node_y, columns, rows, widths, linearised, parameters, gravity):
-    """The layer's action over ``tau`` seconds at frozen positions (see the module docstring).
-
-    ``spring_x`` (nx + 1,), ``spring_y`` (ny + 1,), ``node_x`` (nx,), ``node_y`` (ny,): the
-    factors exp(-sigma tau / 2) of the springs and particles (1 outside the layer);
-    ``columns`` and ``rows`` the x-spring columns and y-spring rows with sigma' > 0; ``widths``
-    (4,) the left, right, bottom and top layer depths.  ``linearised`` (None or True),
-    ``parameters`` (``sim.kernels.SpringParameters`` in the state's precision) and ``gravity``
-    ((3,) m/s^2 or None): the lattice's law, as its kernels take it.  Returns the kinetic
-    energy taken out (J), counted on the velocities ``lead`` seconds later under the lattice's
-    forces (dt / 2 for a leapfrog's half-step velocities, else 0)."""
-    dim, ny, nx = position.shape
-    left, right, bottom, top = widths[0], widths[1], widths[2], widths[3]
-    tension = float(spring_force(site(0, 0, parameters), site(1, 0, parameters), 0, linearised,
-                                 parameters, None)[0])
-    _relax_springs(position, held_x, held_y, spring_x, spring_y, columns, rows, linearised,
-                   parameters, tension)
-    # the particles the layer acts on: its own and the first row or column inside it, which
-    # one relaxing spring touches
-    first_end = min(left + 1, nx) if left > 0 else 0
-    last_start = max(nx - 1 - right, first_end) if right > 0 else nx
-    taken = 0.0
-    for j in range(ny):
-        if (bottom > 0 and j <= bottom) or (top > 0 and j >= ny - 1 - top):
-            spans = ((0, nx), (nx, nx))
+    one = np.uint64(1)
+    first_spring = max(start, 1)
+    for k in range(min(stop, nx) - first_spring):
+        i = np.uint64(first_spring + k)  # unsigned: no negative-index wrap, so LLVM vectorises
+        if z is None:
+            first = (x[j, i - one], y[j, i - one], zero, zero, zero, zero)
+            second = (x[j, i], y[j, i], zero, zero, zero, zero)
         else:
-            spans = ((0, first_end), (last_start, nx))
-        for span in spans:
-            for i in range(span[0], span[1]):
-                taken += _particle(tau, lead, j, i, position, velocity, masses, held_x, held_y,
-                                   relaxed_x, relaxed_y, node_x, node_y, linearised, parameters,
-                                   tension, gravity)
-    _relax_springs(position, held_x, held_y, spring_x, spring_y, columns, rows, linearised,
-                   parameters, tension)
+            first = (x[j, i - one], y[j, i - one], z[j, i - one], zero, zero, zero)
+            second = (x[j, i], y[j, i], z[j, i], zero, zero, zero)
+        _store(out, i, spring_force(first, second, 0, linearised, parameters, None), 0, tension, z)
+    if start == 0:
+        _store(out, 0, spring_force(site(-1, j, parameters), _end(x, y, z, j, 0, zero), 0,
+                                    linearised, parameters, None), 0, tension, z)
+    if stop > nx:
+        _store(out, nx, spring_force(_end(x, y, z, j, nx - 1, zero), site(nx, j, parameters), 0,
+                                     linearised, parameters, None), 0, tension, z)
+
+
+@njit(**_JIT)
+def _y_span(lower, upper, j, start, stop, x, y, z, linearised, parameters, tension, out):
+    """The y-springs from row j - 1 (``lower``, None: the bottom anchors) to row j (``upper``,
+    None: the top anchors) at columns ``start`` .. ``stop - 1`` into ``out`` (3, nx)."""
+    zero = type(parameters.spacing)(0.0)
+    for k in range(stop - start):
+        i = np.uint64(start + k)
+        first = site(i, j - 1, parameters) if lower is None else _end(x, y, z, lower, i, zero)
+        second = site(i, j, parameters) if upper is None else _end(x, y, z, upper, i, zero)
+        _store(out, i, spring_force(first, second, 1, linearised, parameters, None), 1, tension,
+               z)
+
+
+@njit(**_JIT)
+def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
+    """The y-springs below row j (j = 0: from the bottom anchors; j = ny: to the top ones)."""
+    ny = x.shape[0]
+    if j == 0:
+        _y_span(None, 0, j, start, stop, x, y, z, linearised, parameters, tension, out)
+    elif j == ny:
+        _y_span(j - 1, None, j, start, stop, x, y, z, linearised, parameters, tension, out)
+    else:
+        _y_span(j - 1, j, j, start, stop, x, y, z, linearised, parameters, tension, out)
+
+
+@njit(**_JIT)
+def _y_row(j, need, spans, x, y, z, linearised, parameters, tension, out):
+    """The y-springs below row j over the columns ``need`` asks for (``SIDES``: the ``spans``)."""
+    if need == FULL:
+        _y_springs(j, 0, x.shape[1], x, y, z, linearised, parameters, tension, out)
+    elif need == SIDES:
+        for s in range(2):
+            _y_springs(j, spans[s, 0], spans[s, 1], x, y, z, linearised, parameters, tension,
+                       out)
+
+
+# --- the action on one span of particles ----------------------------------------------------
+
+
+@njit(**_JIT)
+def _relax(force, held, factor):
+    """A held force relaxed toward the spring's force: f + (h - f) e."""
+    return force + (held - force) * factor
+
+
+@njit(**_INLINE)
+def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, velocity, masses,
+               horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x,
+               e_below, e_above, e_node_y):
+    """Component c of the particles ``start`` .. ``stop - 1`` of row j: per half action, relax
+    their springs' held forces and their phi over tau / 2, kick by tau, relax again (a second
+    half when ``second_half`` is True, compiled out when None).  ``x_part`` / ``y_part`` None
+    leave out the layer along x / y where its fields stay zero (no x-layer at these columns, no
+    y-layer in this row).  Returns the kinetic energy taken out (J), measured on v + lead * a."""
+    taken = 0.0
+    zero = 0.0
+    one = np.uint64(1)
+    for k in range(stop - start):
+        i = np.uint64(start + k)
+        f_left = horizontal[c, i]
+        f_right = horizontal[c, i + one]
+        f_below = below[c, i]
+        f_above = above[c, i]
+        inverse_mass = 1.0 / masses[j, i]
+        force_x = f_right - f_left
+        force_y = f_above - f_below
+        if x_part is not None:
+            e_left = spring_x[i]
+            e_right = spring_x[i + one]
+            e_x = node_x[i]
+            h_left = held_x[c, j, i]
+            h_right = held_x[c, j, i + one]
+            phi_x = relaxed_x[c, j, i]
+        if y_part is not None:
+            h_below = held_y[c, j, i]
+            h_above = held_y[c, j + 1, i]
+            phi_y = relaxed_y[c, j, i]
+        start_velocity = np.float64(velocity[c, j, i])
+        v = start_velocity
+        for _ in range(1 if second_half is None else 2):
+            # the springs' relaxed force F* and what the relaxation holds of it
+            push = zero
+            if x_part is not None:
+                h_left = _relax(f_left, h_left, e_left)
+                h_right = _relax(f_right, h_right, e_right)
+                holding_x = h_right - h_left
+                target_x = force_x - holding_x
+                phi_x = _relax(target_x, phi_x, e_x)
+                push -= holding_x + phi_x
+            if y_part is not None:
+                h_below = _relax(f_below, h_below, e_below)
+                h_above = _relax(f_above, h_above, e_above)
+                holding_y = h_above - h_below
+                target_y = force_y - holding_y
+                phi_y = _relax(target_y, phi_y, e_node_y)
+                push -= holding_y + phi_y
+            v = v + tau * push * inverse_mass
+            if x_part is not None:
+                phi_x = _relax(target_x, phi_x, e_x)
+                h_left = _relax(f_left, h_left, e_left)
+                h_right = _relax(f_right, h_right, e_right)
+            if y_part is not None:
+                phi_y = _relax(target_y, phi_y, e_node_y)
+                h_below = _relax(f_below, h_below, e_below)
+                h_above = _relax(f_above, h_above, e_above)
+        velocity[c, j, i] = v
+        if x_part is not None:
+            relaxed_x[c, j, i] = phi_x
+        if y_part is not None:
+            relaxed_y[c, j, i] = phi_y
+        ahead = lead * ((force_x + force_y) * inverse_mass + pull)
+        taken += 0.5 * (start_velocity + v + 2.0 * ahead) * (start_velocity - v) / inverse_mass
     return taken
 
 
 @njit(**_JIT)
-def act_on(tau, lead, position, velocity, layer):
+def _kick_row(j, segments, tau, lead, second_half, pull, velocity, masses, horizontal, below,
+              above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
+              e_node_y):
+    """``_kick_span`` over the ``segments`` (k, 3) [start, stop, part) of row j, every component;
+    part 1: the x-layer only, 2: the y-layer only, 3: both."""
+    taken = 0.0
+    for s in range(segments.shape[0]):
+        start, stop, part = segments[s, 0], segments[s, 1], segments[s, 2]
+        if stop <= start:
+            continue
+        for c in range(velocity.shape[0]):
+            if part == 1:
+                taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
+                                    velocity, masses, horizontal, below, above, held_x, held_y,
+                                    relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
+                                    e_node_y)
+            elif part == 2:
+                taken += _kick_span(c, j, start, stop, tau, lead, second_half, None, True, pull[c],
+                                    velocity, masses, horizontal, below, above, held_x, held_y,
+                                    relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
+                                    e_node_y)
+            else:
+                taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, True, pull[c],
+                                    velocity, masses, horizontal, below, above, held_x, held_y,
+                                    relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
+                                    e_node_y)
+    return taken
+
+
+@njit(**_JIT)
+def _relax_held(held, forces, start, stop, factors, uniform, second_half):
+    """The held forces ``held`` (dim, n) of springs ``start`` .. ``stop - 1`` relaxed as the
+    particles' loop did, twice per half action, with the factors ``factors[i]`` (``uniform``
+    None) or ``uniform`` for all."""
+    for c in range(held.shape[0]):
+        for k in range(stop - start):
+            i = np.uint64(start + k)
+            factor = factors[i] if uniform is None else uniform
+            h = held[c, i]
+            f = forces[c, i]
+            h = _relax(f, _relax(f, h, factor), factor)
+            if second_half is not None:
+                h = _relax(f, _relax(f, h, factor), factor)
+            held[c, i] = h
+
+
+@njit(**_JIT)
+def _side_strip(j0, j1, start, stop, tau, lead, second_half, x, y, z, velocity, masses, held_x,
+                relaxed_x, spring_x, node_x, linearised, parameters, tension, pull, buffers):
+    """The side layer's particles ``start`` .. ``stop - 1`` of the rows ``j0`` .. ``j1 - 1``
+    between the bands, where the layer has x-fields only: one call for the whole strip (a call
+    per row costs more than its short span).  Returns the kinetic energy taken out (J)."""
+    ny, nx = x.shape
+    zero = type(parameters.spacing)(0.0)
+    one = np.uint64(1)
+    horizontal, below, above = buffers[0], buffers[1], buffers[2]
+    taken = 0.0
+    for j in range(j0, j1):
+        for k in range(stop - start):  # the y-springs below and above (the acceleration's rest)
+            i = np.uint64(start + k)
+            here = _end(x, y, z, j, i, zero)
+            under = site(i, j - 1, parameters) if j == 0 else _end(x, y, z, j - 1, i, zero)
+            over = site(i, j + 1, parameters) if j == ny - 1 else _end(x, y, z, j + 1, i, zero)
+            _store(below, i, spring_force(under, here, 1, linearised, parameters, None), 1,
+                   tension, z)
+            _store(above, i, spring_force(here, over, 1, linearised, parameters, None), 1,
+                   tension, z)
+        first_spring = max(start, 1)
+        for k in range(min(stop + 1, nx) - first_spring):
+            i = np.uint64(first_spring + k)
+            _store(horizontal, i, spring_force(_end(x, y, z, j, i - one, zero),
+                                               _end(x, y, z, j, i, zero), 0, linearised,
+                                               parameters, None), 0, tension, z)
+        if start == 0:
+            _store(horizontal, 0, spring_force(site(-1, j, parameters), _end(x, y, z, j, 0, zero),
+                                               0, linearised, parameters, None), 0, tension, z)
+        if stop == nx:
+            _store(horizontal, nx, spring_force(_end(x, y, z, j, nx - 1, zero),
+                                                site(nx, j, parameters), 0, linearised,
+                                                parameters, None), 0, tension, z)
+        for c in range(velocity.shape[0]):
+            taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
+                                velocity, masses, horizontal, below, above, held_x, held_x,
+                                relaxed_x, relaxed_x, spring_x, node_x, 1.0, 1.0, 1.0)
+            for k in range(stop + 1 - start):
+                i = np.uint64(start + k)
+                h = held_x[c, j, i]
+                f = horizontal[c, i]
+                factor = spring_x[i]
+                h = _relax(f, _relax(f, h, factor), factor)
+                if second_half is not None:
+                    h = _relax(f, _relax(f, h, factor), factor)
+                held_x[c, j, i] = h
+    return taken
+
+
+@njit(**_JIT)
+def act(tau, lead, second_half, position, velocity, masses, held_x, held_y, relaxed_x,
+        relaxed_y, spring_x, spring_y, node_x, node_y, spans, needs, out_of_plane, linearised,
+        parameters, gravity, buffers):
+    """The layer's action over ``tau`` seconds at frozen positions (see the module docstring),
+    twice in a row when ``second_half`` is True (None: once; a compile-time choice).
+
+    ``spring_x`` (nx + 1,), ``spring_y`` (ny + 1,), ``node_x`` (nx,), ``node_y`` (ny,): the
+    factors exp(-sigma tau / 2) of the springs and particles (1 outside the layer); ``spans``
+    (2, 2) the side layers' column ranges [start, stop) (with the first column inside), ``needs``
+    (ny,) which particles of each row the layer acts on (``NONE``, ``SIDES``, ``FULL``);
+    ``out_of_plane`` True for (3, ny, nx) states, None for planar (2, ny, nx) ones.
+    ``linearised`` (None or True), ``parameters`` (``sim.kernels.SpringParameters`` in the
+    state's precision) and ``gravity`` ((3,) m/s^2 or None): the lattice's law, as its kernels
+    take it; ``buffers`` (3, 3, nx + 1) float64 scratch.  Returns the kinetic energy taken out
+    (J), counted on the velocities ``lead`` seconds later under the lattice's forces (dt / 2
+    for a leapfrog's half-step velocities, else 0)."""
+    dim, ny, nx = position.shape
+    x, y, z = components(out_of_plane, position)
+    tension = float(spring_force(site(0, 0, parameters), site(1, 0, parameters), 0, linearised,
+                                 parameters, None)[0])
+    pull = gravity_vector(gravity, 0.0)
+    horizontal = buffers[0]
+    below = buffers[1]
+    above = buffers[2]
+    # [start, stop, part) of a band row: it holds y-fields everywhere and x-fields in its
+    # corners (part 1: x, 2: y, 3: both); the side strips between the bands hold x-fields only
+    band_segments = np.array([[spans[0, 0], spans[0, 1], 3], [spans[0, 1], spans[1, 0], 2],
+                              [spans[1, 0], spans[1, 1], 3]])
+    taken = 0.0
+    fresh = True  # whether ``below`` must be computed (the row below was not a band row)
+    j = 0
+    while j < ny:
+        if needs[j] == SIDES:  # a strip of side rows between the bands
+            end = j
+            while end < ny and needs[end] == SIDES:
+                end += 1
+            for s in range(2):
+                if spans[s, 1] > spans[s, 0]:
+                    taken += _side_strip(j, end, spans[s, 0], spans[s, 1], tau, lead,
+                                         second_half, x, y, z, velocity, masses, held_x,
+                                         relaxed_x, spring_x, node_x, linearised, parameters,
+                                         tension, pull, buffers)
+            j = end
+            fresh = True
+            continue
+        if needs[j] == NONE:
+            j += 1
+            fresh = True
+            continue
+        if fresh:
+            _y_springs(j, 0, nx, x, y, z, linearised, parameters, tension, below)
+        _y_springs(j + 1, 0, nx, x, y, z, linearised, parameters, tension, above)
+        _x_springs(j, 0, nx + 1, x, y, z, linearised, parameters, tension, horizontal)
+        taken += _kick_row(j, band_segments, tau, lead, second_half, pull, velocity, masses,
+                           horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y,
+                           spring_x, node_x, spring_y[j], spring_y[j + 1], node_y[j])
+        for s in range(2):  # the x-springs the layer holds: the side spans' own
+            if spans[s, 1] > spans[s, 0]:
+                _relax_held(held_x[:, j, :], horizontal, spans[s, 0], spans[s, 1] + 1, spring_x,
+                            None, second_half)
+        # the springs below this row have served both their rows
+        if spring_y[j] < 1.0:
+            _relax_held(held_y[:, j, :], below, 0, nx, spring_y, spring_y[j], second_half)
+        if j == ny - 1 and spring_y[ny] < 1.0:
+            _relax_held(held_y[:, ny, :], above, 0, nx, spring_y, spring_y[ny], second_half)
+        below, above = above, below
+        fresh = False
+        j += 1
+    return taken
+
+
+@njit(**_JIT)
+def act_on(tau, lead, second_half, position, velocity, layer):
     """``act`` with its arguments after the state's arrays as one tuple ``layer``
     (``MatchedLayer.arguments``), for the compiled step loops."""
-    return act(tau, lead, position, velocity, layer[0], layer[1], layer[2], layer[3], layer[4],
-               layer[5], layer[6], layer[7], layer[8], layer[9], layer[10], layer[11],
-               layer[12], layer[13], layer[14])
+    return act(tau, lead, second_half, position, velocity, layer[0], layer[1], layer[2],
+               layer[3], layer[4], layer[5], layer[6], layer[7], layer[8], layer[9], layer[10],
+               layer[11], layer[12], layer[13], layer[14], layer[15])
 
 
 def depth_profile(count: int, near: int, far: int, offset: float) -> np.ndarray:
@@ -213,12 +433,20 @@ class MatchedLayer:
             node_y=peak * depth_profile(ny, bottom, top, 0.0) ** POWER,
             spring_y=peak * depth_profile(ny, bottom, top, -0.5) ** POWER,
         )
-        self.columns = np.flatnonzero(self.rates["spring_x"] > 0).astype(np.int64)
-        self.rows = np.flatnonzero(self.rates["spring_y"] > 0).astype(np.int64)
+        first_end = min(left + 1, nx) if left > 0 else 0  # with the first column inside
+        last_start = max(nx - 1 - right, first_end) if right > 0 else nx
+        self.spans = np.array([[0, first_end], [last_start, nx]], dtype=np.int64)
+        rows = np.arange(ny)
+        band = ((bottom > 0) & (rows <= bottom)) | ((top > 0) & (rows >= ny - 1 - top))
+        sides = SIDES if (first_end > 0 or last_start < nx) else NONE
+        if first_end >= last_start:  # the side layers meet: whole rows
+            sides = FULL
+        self.needs = np.where(band, FULL, sides).astype(np.int64)
         self.masses = np.ascontiguousarray(model.masses, dtype=np.float64)
         self._model = model
         self.fields = (np.zeros((dim, ny, nx + 1)), np.zeros((dim, ny + 1, nx)),
                        np.zeros((dim, ny, nx)), np.zeros((dim, ny, nx)))
+        self._buffers = np.zeros((3, 3, nx + 1))
         self._factors: dict[float, tuple] = {}
         self._revision: int | None = None
 
@@ -238,9 +466,9 @@ class MatchedLayer:
         in ``dtype``."""
         model = self._model
         gravity = np.array(model.gravity, dtype=dtype) if model.has_gravity else None
-        return (self.masses, *self.fields, *self.factors(span), self.columns, self.rows,
-                self.widths, True if model.linear else None,
-                model.kernel_parameters.as_type(dtype), gravity)
+        return (self.masses, *self.fields, *self.factors(span), self.spans, self.needs,
+                True if model.dim == 3 else None, True if model.linear else None,
+                model.kernel_parameters.as_type(dtype), gravity, self._buffers)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""
@@ -252,5 +480,5 @@ class MatchedLayer:
     def act(self, state: Any, span: float) -> None:
         """The layer's action over ``span`` seconds; its take adds to ``state.dissipated``."""
         self.follow(state)
-        state.dissipated += act(span, 0.0, state.positions, state.velocities,
-                                *self.arguments(span, state.positions.dtype.type))
+        state.dissipated += act_on(span, 0.0, None, state.positions, state.velocities,
+                                   self.arguments(span, state.positions.dtype.type))

@@ -192,8 +192,8 @@ def verlet_steps(
         last = step == n - 1 or whole
         at = time + (step + 1) * float(dt)
         if sponge is not None and step > 0:
-            for _ in range(2):  # a step's end and the next one's start
-                totals[1] += act_on(0.5 * dt, 0.0, position, velocity, sponge)
+            # a step's end and the next one's start, in one pass
+            totals[1] += act_on(0.5 * dt, 0.0, True, position, velocity, sponge)
             if damped:  # the forces depend on the velocities the layer kicked
                 power = accelerations(linear, out_of_plane, position, velocity, inverse_mass,
                                       uniform_inverse_mass, parameters, dashpot, drag, gravity,
