@@ -320,3 +320,19 @@ def test_threads_run_the_instruments_like_one_thread():
     np.testing.assert_allclose(runs[1][0], runs[0][0], rtol=0, atol=1e-12)
     assert runs[1][1].driven == pytest.approx(runs[0][1].driven, rel=1e-9)
     assert runs[1][1].dissipated == pytest.approx(runs[0][1].dissipated, rel=1e-9)
+
+
+def test_a_driven_out_of_plane_lattice_runs_in_float32_as_in_float64():
+    """The drive reads a float32 state's velocities too (the ripple tanks' sources in float32):
+    the same run in both precisions, to float32's resolution."""
+    scene = sim.scenes.build("grid", nx=10, ny=8, dim=3, linear=True, dt=0.01,
+                             driver=dict(column=4, row=3, direction="z", amplitude=0.05,
+                                         frequency=0.5, kind="force"))
+    runs = {"rest": np.asarray(sim.Simulation(scene).state.positions, dtype=float)}
+    for precision in ("float64", "float32"):
+        simulation = sim.Simulation(scene, integrator="verlet", precision=precision)
+        simulation.step(200)
+        runs[precision] = np.asarray(simulation.state.positions, dtype=float)
+    moved = np.abs(runs["float64"] - runs["rest"]).max()
+    assert moved > 1e-3  # the drive moved the lattice
+    assert np.abs(runs["float32"] - runs["float64"]).max() < 1e-3 * moved
