@@ -271,9 +271,10 @@ INSTRUMENTS_INTEGRATOR = "verlet"
 def _instruments(scene, seconds: float) -> dict:
     """What the teaching instruments cost: ``Simulation.step`` steps/s (velocity Verlet, float64,
     one thread) of the scene as it is, with periodic rows, with absorbing walls (the default
-    30-particle sponge where the lattice is long enough) and with a force driver on one particle;
-    each with its ratio to the scene as it is.  A scene without them runs the plain compiled loop
-    (the periodic choice is made at compile time)."""
+    layer, ``sim.boundaries.DEFAULT_LAYER_WIDTH`` particles deep, where the lattice is long
+    enough) and with a force driver on one particle; each with its ratio to the scene as it is.
+    A scene without them runs the plain compiled loop (the periodic choice is made at compile
+    time)."""
     import dataclasses
 
     import sim
@@ -282,7 +283,7 @@ def _instruments(scene, seconds: float) -> dict:
     variants = {"as_is": {}, "periodic": {"boundary": "periodic"},
                 "driven": {"driver": dict(column=model.nx // 2, row=model.ny // 2,
                                           frequency=0.5, amplitude=0.01)}}
-    width = min(30, max(1, min(model.nx, model.ny) // 4))
+    width = min(sim.boundaries.DEFAULT_LAYER_WIDTH, max(1, min(model.nx, model.ny) // 4))
     try:
         model.replace(boundary="absorbing", sponge_width=width)
         variants["absorbing"] = {"boundary": "absorbing", "sponge_width": width}

@@ -159,7 +159,9 @@ def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, 
     their springs' held forces and their phi over tau / 2, kick by tau, relax again (a second
     half when ``second_half`` is True, compiled out when None).  ``x_part`` / ``y_part`` None
     leave out the layer along x / y where its fields stay zero (no x-layer at these columns, no
-    y-layer in this row).  Returns the kinetic energy taken out (J), measured on v + lead * a."""
+    y-layer in this row).  The x-springs' held forces are stored as relaxed here (springs
+    ``start`` .. ``stop``); the y-springs' are the caller's.  Returns the kinetic energy taken
+    out (J), measured on v + lead * a."""
     taken = 0.0
     zero = 0.0
     one = np.uint64(1)
@@ -214,6 +216,10 @@ def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, 
         velocity[c, j, i] = v
         if x_part is not None:
             relaxed_x[c, j, i] = phi_x
+            # the spring on the left has served both its particles (this one last)
+            held_x[c, j, i] = h_left
+            if k == stop - start - 1:
+                held_x[c, j, i + one] = h_right
         if y_part is not None:
             relaxed_y[c, j, i] = phi_y
         ahead = lead * ((force_x + force_y) * inverse_mass + pull)
@@ -279,16 +285,17 @@ def _side_strip(j0, j1, start, stop, tau, lead, second_half, x, y, z, velocity, 
     one = np.uint64(1)
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
     taken = 0.0
+    for k in range(stop - start):  # the y-springs below the first row
+        i = np.uint64(start + k)
+        under = site(i, j0 - 1, parameters) if j0 == 0 else _end(x, y, z, j0 - 1, i, zero)
+        _store(below, i, spring_force(under, _end(x, y, z, j0, i, zero), 1, linearised,
+                                      parameters, None), 1, tension, z)
     for j in range(j0, j1):
-        for k in range(stop - start):  # the y-springs below and above (the acceleration's rest)
+        for k in range(stop - start):  # the y-springs above (the acceleration's rest)
             i = np.uint64(start + k)
-            here = _end(x, y, z, j, i, zero)
-            under = site(i, j - 1, parameters) if j == 0 else _end(x, y, z, j - 1, i, zero)
             over = site(i, j + 1, parameters) if j == ny - 1 else _end(x, y, z, j + 1, i, zero)
-            _store(below, i, spring_force(under, here, 1, linearised, parameters, None), 1,
-                   tension, z)
-            _store(above, i, spring_force(here, over, 1, linearised, parameters, None), 1,
-                   tension, z)
+            _store(above, i, spring_force(_end(x, y, z, j, i, zero), over, 1, linearised,
+                                          parameters, None), 1, tension, z)
         first_spring = max(start, 1)
         for k in range(min(stop + 1, nx) - first_spring):
             i = np.uint64(first_spring + k)
@@ -306,15 +313,7 @@ def _side_strip(j0, j1, start, stop, tau, lead, second_half, x, y, z, velocity, 
             taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
                                 velocity, masses, horizontal, below, above, held_x, held_x,
                                 relaxed_x, relaxed_x, spring_x, node_x, 1.0, 1.0, 1.0)
-            for k in range(stop + 1 - start):
-                i = np.uint64(start + k)
-                h = held_x[c, j, i]
-                f = horizontal[c, i]
-                factor = spring_x[i]
-                h = _relax(f, _relax(f, h, factor), factor)
-                if second_half is not None:
-                    h = _relax(f, _relax(f, h, factor), factor)
-                held_x[c, j, i] = h
+        below, above = above, below
     return taken
 
 
@@ -375,10 +374,6 @@ def act(tau, lead, second_half, position, velocity, masses, held_x, held_y, rela
         taken += _kick_row(j, band_segments, tau, lead, second_half, pull, velocity, masses,
                            horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y,
                            spring_x, node_x, spring_y[j], spring_y[j + 1], node_y[j])
-        for s in range(2):  # the x-springs the layer holds: the side spans' own
-            if spans[s, 1] > spans[s, 0]:
-                _relax_held(held_x[:, j, :], horizontal, spans[s, 0], spans[s, 1] + 1, spring_x,
-                            None, second_half)
         # the springs below this row have served both their rows
         if spring_y[j] < 1.0:
             _relax_held(held_y[:, j, :], below, 0, nx, spring_y, spring_y[j], second_half)

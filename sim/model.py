@@ -160,7 +160,7 @@ class Model:
     sources: tuple = ()
     barriers: tuple = ()
     boundary: str = "fixed"
-    sponge_width: int = 30
+    sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH
     sponge_strength: float = 2.0
     sponge_sides: tuple[str, ...] = ()
 
@@ -183,7 +183,7 @@ class Model:
         sources: Any = (),
         barriers: Any = (),
         boundary: str = "fixed",
-        sponge_width: int = 30,
+        sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH,
         sponge_strength: float | None = None,
         sponge_sides: Any = "auto",
     ) -> Model:

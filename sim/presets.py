@@ -179,11 +179,11 @@ PRESETS: dict[str, Preset] = {
             duration=150.0,  # longitudinal fronts meet near t = 58 s, transverse ones near 130 s
         ),
         Preset(
-            "interference-open", "The interference run with absorbing walls: a 30-particle "
-            "sponge along every wall takes the waves out, so the pattern of the two sources "
+            "interference-open", "The interference run with absorbing walls: a matched layer "
+            "along every wall takes the waves out, so the pattern of the two sources "
             "(displaced just inside it) is seen without wall reflections.",
             dict(nx=682, ny=383, stiffness=PAPER_STIFFNESS, rest_length=0.8,
-                 boundary="absorbing", sponge_width=30),
+                 boundary="absorbing"),
             # the layer's splitting adds to Verlet's error: at dt = 0.02 s the energy balance
             # is off by 1.08 % over 150 s, at 0.015 s by 0.61 % (second order)
             "verlet", 0.015, _displace(_two_sources), duration=150.0,
