@@ -96,7 +96,8 @@ def _print_instruments(instruments: dict | None) -> None:
     if not instruments:
         return
     rates, costs = instruments["steps_per_second"], instruments["cost"]
-    labels = {"periodic": "periodic rows", "absorbing": "absorbing walls",
+    labels = {"periodic": "periodic rows",
+              "absorbing": f"absorbing walls ({instruments.get('layer_width')}-particle layer)",
               "driven": "a force driver"}
     parts = [f"{labels[name]} {rates[name]:.1f} ({costs[name]:.2f}x the time)" for name in costs]
     print(f"\ninstruments (Verlet, Simulation.step steps/s): as is {rates['as_is']:.1f}; "
