@@ -99,6 +99,7 @@ def test_a_recording_from_a_zero_joule_start_ends_with_the_blow_up(tmp_path: Pat
     assert max(entry[0] for entry in texts(chunks, "/log")) == errors[0][0]
 
 
+@pytest.mark.slow  # a long free-row run on its own kernels (a minute on a cold cache)
 def test_a_pre_stretched_free_row_releases_exactly_its_stretch_energy_and_is_not_a_blow_up() -> None:
     """A chain of springs pre-stretched to a = 2 L with free ends contracts when let go: its
     spring energy falls below the rest lattice's, at most by what the row's nx - 1 springs store
