@@ -19,8 +19,9 @@ series and spectra), ``exact`` (the normal-mode solver for linear scenes), ``pre
 ``runner`` (the loop that viewers and recorders subscribe to).
 """
 
-# first: configures numba's target before anything is compiled
-from sim._vector_width import WIDE_VECTORS  # noqa: I001
+# first: the kernels' cache key and numba's target, before any kernel is defined
+from sim import _kernel_cache  # noqa: I001, F401
+from sim._vector_width import WIDE_VECTORS
 from sim import boundaries, presets, scene_files, scenes
 from sim.integrators import INTEGRATORS, ORDERS, IntegratorError
 from sim.model import Model, ModelError

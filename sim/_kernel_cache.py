@@ -1,0 +1,85 @@
+"""numba's on-disk cache of the compiled kernels, keyed on every kernel source of ``sim`` at once.
+
+numba keys a cached function on its own source file alone, but a compiled kernel carries inside it
+the machine code of the functions it calls from other modules (LLVM inlines them): the matched
+layer's pass is inside Verlet's loops, the spring law inside every sweep.  After an edit to
+``sim/kernels.py`` alone, ``sim/stepping.py``'s cached loops would still run the old spring law.
+This locator stamps each cached kernel of ``sim`` with a hash of all of the package's modules that
+define kernels, so an edit to any of them recompiles every kernel (on a fresh clone nothing is
+cached and nothing changes).
+
+It is registered before any kernel is defined (``sim/__init__.py`` imports this module first);
+``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  If numba's cache internals differ from
+what this expects, numba's default locators stay in place.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent
+
+
+def _kernel_sources() -> tuple[tuple[str, float, int], ...]:
+    """(path, mtime, size) of every module of the package that defines numba kernels."""
+    found = []
+    for path in sorted(PACKAGE.glob("*.py")):
+        try:
+            if "njit" in path.read_text(encoding="utf-8"):
+                stat = path.stat()
+                found.append((str(path), stat.st_mtime, stat.st_size))
+        except OSError:
+            continue
+    return tuple(found)
+
+
+@functools.lru_cache(maxsize=8)
+def _stamp(sources: tuple[tuple[str, float, int], ...]) -> str:
+    digest = hashlib.sha256()
+    for path, _, _ in sources:
+        digest.update(path.encode())
+        digest.update(Path(path).read_bytes())
+    return digest.hexdigest()
+
+
+def package_stamp() -> str:
+    """A hash of the package's kernel sources (recomputed when one changes on disk)."""
+    return _stamp(_kernel_sources())
+
+
+def _register() -> None:
+    try:
+        from numba.core import caching
+    except ImportError:  # pragma: no cover - numba is a dependency
+        return
+    base = getattr(caching, "InTreeCacheLocator", None)
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    if base is None or impl is None or not isinstance(getattr(impl, "_locator_classes", None),
+                                                       list):
+        return
+
+    class PackageCacheLocator(base):  # type: ignore[misc, valid-type]
+        """numba's in-tree cache (``__pycache__`` beside the module) for the kernels of ``sim``,
+        stamped with every kernel source of the package."""
+
+        def get_source_stamp(self):  # noqa: D102 - numba's interface
+            return package_stamp()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
+            try:
+                inside = Path(py_file).resolve().parent == PACKAGE
+            except (OSError, ValueError):
+                return None
+            if not inside or os.environ.get("NUMBA_CACHE_DIR"):
+                return None
+            return super().from_function(py_func, py_file)
+
+    if not any(cls.__name__ == PackageCacheLocator.__name__ for cls in impl._locator_classes):
+        impl._locator_classes.insert(0, PackageCacheLocator)
+
+
+_register()
