@@ -20,19 +20,18 @@ Cost: the modal transform of the initial state (a few sine transforms for equal 
 eigen-decomposition otherwise, ``sim.modes.DENSE_PARTICLE_LIMIT``) and log2(n) products of
 small matrices per mode; the transform is shared by every (integrator, dt) asked of one
 ``Predictor``.  Nonlinear scenes are predicted from their linearisation (docs/accuracy.md says how
-far that holds).  ``choose`` picks the cheapest (integrator, dt) whose predicted error meets a
-tolerance, costed in force evaluations per simulated second.
+far that holds).  ``app.study.choose`` plans its candidates from these predictions and verifies
+the one it picks by running it.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
 
 import numpy as np
 
-from sim.integrators import FORCE_EVALUATIONS, INTEGRATORS, names
+from sim.integrators import FORCE_EVALUATIONS
 from sim.model import Model, ModelError
 from sim.modes import ModalBasis, static_offset
 from sim.observables import amplification_matrices
@@ -150,30 +149,6 @@ class Predictor:
             stable = False
         return Prediction(integrator, dt, duration, steps, float(error), phase_error, stable, cost,
                           field_error)
-
-    def choose(self, tolerance: float, duration: float, stable_dt: dict[str, float | None],
-               integrators: Sequence[str] | None = None,
-               fractions: Sequence[float] = tuple(0.9 * 0.8**k for k in range(30)),
-               ) -> Prediction | None:
-        """The cheapest run (force evaluations per simulated second) whose predicted |energy
-        error| is within ``tolerance`` over ``duration``: each integrator is tried at
-        fractions of its stability limit (``stable_dt``; None = no stable step, skipped), from
-        the largest down.  ``integrators``: those to try, by default every compiled one of the
-        registry (``sim.integrators``).  None if nothing meets it."""
-        best: Prediction | None = None
-        for integrator in names(kernel_only=True) if integrators is None else integrators:
-            limit = stable_dt.get(integrator)
-            if limit is None or integrator not in INTEGRATORS:
-                continue
-            top = min(limit, duration / 2) if math.isfinite(limit) else duration / 2
-            for fraction in fractions:
-                prediction = self.predict(integrator, top * fraction, duration)
-                if prediction.stable and abs(prediction.energy_error) <= tolerance:
-                    if best is None or (prediction.force_evaluations_per_second
-                                        < best.force_evaluations_per_second):
-                        best = prediction
-                    break
-        return best
 
 
 def exact_modes(omega_squared: np.ndarray, damping_rate: np.ndarray, q0: np.ndarray,

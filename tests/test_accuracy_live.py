@@ -99,17 +99,6 @@ def test_prediction_matches_the_measured_error_on_linear_scenes(name, integrator
     assert prediction.energy_error == pytest.approx(measured, rel=0.10)
 
 
-def test_choose_for_me_meets_the_tolerance_it_was_given():
-    scene = sim.scenes.build("grid", linear=True)
-    simulation = sim.Simulation(scene)
-    limits = {name: simulation.stable_dt(name) for name in sim.INTEGRATORS}
-    choice = predictor_for(simulation).choose(1e-3, 20.0, limits)
-    assert choice is not None
-    run = sim.Simulation(scene, integrator=choice.integrator, dt=choice.dt)
-    run.step(choice.steps)
-    assert abs(run.energy_balance_error()) <= 1e-3
-
-
 # --- presets ----------------------------------------------------------------------------------------
 
 
