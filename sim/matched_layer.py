@@ -28,9 +28,11 @@ layer does not lower the stable step).  The kinetic energy a kick takes out is r
 energy changes only by those kicks, so kinetic + potential + dissipated stays constant.
 
 Arrays: the state's (dim, ny, nx) positions (m) and velocities (m/s) in float64 or float32; the
-layer's own fields in float64 (N): ``held_x`` (dim, ny, nx + 1) h of the x-springs (spring i
-joins particle i - 1, or the left anchor, to particle i), ``held_y`` (dim, ny + 1, nx) h of the
-y-springs, ``relaxed_x`` and ``relaxed_y`` (dim, ny, nx) phi_x and phi_y.
+layer's own fields in float64 (N): ``held_x`` h of the x-springs (spring i joins particle i - 1,
+or the left anchor, to particle i) and ``relaxed_x`` phi_x over the side layers' columns only
+(dim, ny, columns): the left layer's, then the right one's, so that a side's rows lie next to
+each other; ``held_y`` (dim, ny + 1, nx) h of the y-springs and ``relaxed_y`` (dim, ny, nx)
+phi_y.
 """
 
 from __future__ import annotations
@@ -154,19 +156,23 @@ def _relax(force, held, factor):
 @njit(**_INLINE)
 def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, velocity, masses,
                horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x,
-               e_below, e_above, e_node_y):
+               e_below, e_above, e_node_y, held_offset, relaxed_offset):
     """Component c of the particles ``start`` .. ``stop - 1`` of row j: per half action, relax
     their springs' held forces and their phi over tau / 2, kick by tau, relax again (a second
     half when ``second_half`` is True, compiled out when None).  ``x_part`` / ``y_part`` None
     leave out the layer along x / y where its fields stay zero (no x-layer at these columns, no
-    y-layer in this row).  The x-springs' held forces are stored as relaxed here (springs
+    y-layer in this row).  Column i's x-fields are at i - ``held_offset`` (its spring on the
+    left) and i - ``relaxed_offset`` (phi_x) of the side layers' compact arrays.  The x-springs'
+    held forces are stored as relaxed here (springs
     ``start`` .. ``stop``); the y-springs' are the caller's.  Returns the kinetic energy taken
     out (J), measured on v + lead * a."""
     taken = 0.0
     zero = 0.0
     one = np.uint64(1)
+    to_held = np.uint64(held_offset)
+    to_relaxed = np.uint64(relaxed_offset)
     for k in range(stop - start):
-        i = np.uint64(start + k)
+        i = np.uint64(start + k)  # unsigned: no negative-index wrap, so LLVM vectorises
         f_left = horizontal[c, i]
         f_right = horizontal[c, i + one]
         f_below = below[c, i]
@@ -178,9 +184,9 @@ def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, 
             e_left = spring_x[i]
             e_right = spring_x[i + one]
             e_x = node_x[i]
-            h_left = held_x[c, j, i]
-            h_right = held_x[c, j, i + one]
-            phi_x = relaxed_x[c, j, i]
+            h_left = held_x[c, j, i - to_held]
+            h_right = held_x[c, j, i + one - to_held]
+            phi_x = relaxed_x[c, j, i - to_relaxed]
         if y_part is not None:
             h_below = held_y[c, j, i]
             h_above = held_y[c, j + 1, i]
@@ -215,11 +221,11 @@ def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, 
                 h_above = _relax(f_above, h_above, e_above)
         velocity[c, j, i] = v
         if x_part is not None:
-            relaxed_x[c, j, i] = phi_x
+            relaxed_x[c, j, i - to_relaxed] = phi_x
             # the spring on the left has served both its particles (this one last)
-            held_x[c, j, i] = h_left
+            held_x[c, j, i - to_held] = h_left
             if k == stop - start - 1:
-                held_x[c, j, i + one] = h_right
+                held_x[c, j, i + one - to_held] = h_right
         if y_part is not None:
             relaxed_y[c, j, i] = phi_y
         ahead = lead * ((force_x + force_y) * inverse_mass + pull)
@@ -231,11 +237,12 @@ def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, 
 def _kick_row(j, segments, tau, lead, second_half, pull, velocity, masses, horizontal, below,
               above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
               e_node_y):
-    """``_kick_span`` over the ``segments`` (k, 3) [start, stop, part) of row j, every component;
-    part 1: the x-layer only, 2: the y-layer only, 3: both."""
+    """``_kick_span`` over the ``segments`` (k, 5) [start, stop, part, held offset, relaxed
+    offset] of row j, every component; part 1: the x-layer only, 2: the y-layer only, 3: both."""
     taken = 0.0
     for s in range(segments.shape[0]):
         start, stop, part = segments[s, 0], segments[s, 1], segments[s, 2]
+        held_offset, relaxed_offset = segments[s, 3], segments[s, 4]
         if stop <= start:
             continue
         for c in range(velocity.shape[0]):
@@ -243,17 +250,17 @@ def _kick_row(j, segments, tau, lead, second_half, pull, velocity, masses, horiz
                 taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
                                     velocity, masses, horizontal, below, above, held_x, held_y,
                                     relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-                                    e_node_y)
+                                    e_node_y, held_offset, relaxed_offset)
             elif part == 2:
                 taken += _kick_span(c, j, start, stop, tau, lead, second_half, None, True, pull[c],
                                     velocity, masses, horizontal, below, above, held_x, held_y,
                                     relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-                                    e_node_y)
+                                    e_node_y, held_offset, relaxed_offset)
             else:
                 taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, True, pull[c],
                                     velocity, masses, horizontal, below, above, held_x, held_y,
                                     relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-                                    e_node_y)
+                                    e_node_y, held_offset, relaxed_offset)
     return taken
 
 
@@ -276,7 +283,8 @@ def _relax_held(held, forces, start, stop, factors, uniform, second_half):
 
 @njit(**_JIT)
 def _side_strip(j0, j1, start, stop, tau, lead, second_half, x, y, z, velocity, masses, held_x,
-                relaxed_x, spring_x, node_x, linearised, parameters, tension, pull, buffers):
+                relaxed_x, held_offset, relaxed_offset, spring_x, node_x, linearised, parameters,
+                tension, pull, buffers):
     """The side layer's particles ``start`` .. ``stop - 1`` of the rows ``j0`` .. ``j1 - 1``
     between the bands, where the layer has x-fields only: one call for the whole strip (a call
     per row costs more than its short span).  Returns the kinetic energy taken out (J)."""
@@ -312,7 +320,8 @@ def _side_strip(j0, j1, start, stop, tau, lead, second_half, x, y, z, velocity, 
         for c in range(velocity.shape[0]):
             taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
                                 velocity, masses, horizontal, below, above, held_x, held_x,
-                                relaxed_x, relaxed_x, spring_x, node_x, 1.0, 1.0, 1.0)
+                                relaxed_x, relaxed_x, spring_x, node_x, 1.0, 1.0, 1.0,
+                                held_offset, relaxed_offset)
         below, above = above, below
     return taken
 
@@ -344,8 +353,11 @@ def act(tau, lead, second_half, position, velocity, masses, held_x, held_y, rela
     above = buffers[2]
     # [start, stop, part) of a band row: it holds y-fields everywhere and x-fields in its
     # corners (part 1: x, 2: y, 3: both); the side strips between the bands hold x-fields only
-    band_segments = np.array([[spans[0, 0], spans[0, 1], 3], [spans[0, 1], spans[1, 0], 2],
-                              [spans[1, 0], spans[1, 1], 3]])
+    # the side layers' x-fields are compact: the left columns, then the right ones
+    offsets = np.array([[0, 0], [spans[1, 0] - spans[0, 1] - 1, spans[1, 0] - spans[0, 1]]])
+    band_segments = np.array([[spans[0, 0], spans[0, 1], 3, 0, 0],
+                              [spans[0, 1], spans[1, 0], 2, 0, 0],
+                              [spans[1, 0], spans[1, 1], 3, offsets[1, 0], offsets[1, 1]]])
     taken = 0.0
     fresh = True  # whether ``below`` must be computed (the row below was not a band row)
     j = 0
@@ -358,8 +370,8 @@ def act(tau, lead, second_half, position, velocity, masses, held_x, held_y, rela
                 if spans[s, 1] > spans[s, 0]:
                     taken += _side_strip(j, end, spans[s, 0], spans[s, 1], tau, lead,
                                          second_half, x, y, z, velocity, masses, held_x,
-                                         relaxed_x, spring_x, node_x, linearised, parameters,
-                                         tension, pull, buffers)
+                                         relaxed_x, offsets[s, 0], offsets[s, 1], spring_x,
+                                         node_x, linearised, parameters, tension, pull, buffers)
             j = end
             fresh = True
             continue
@@ -439,8 +451,11 @@ class MatchedLayer:
         self.needs = np.where(band, FULL, sides).astype(np.int64)
         self.masses = np.ascontiguousarray(model.masses, dtype=np.float64)
         self._model = model
-        self.fields = (np.zeros((dim, ny, nx + 1)), np.zeros((dim, ny + 1, nx)),
-                       np.zeros((dim, ny, nx)), np.zeros((dim, ny, nx)))
+        # x-fields over the side layers' columns only, compact (the left ones, then the right
+        # ones: rows of a side lie next to each other in memory); y-fields over whole rows
+        side_columns = first_end + (nx - last_start)
+        self.fields = (np.zeros((dim, ny, side_columns + 2)), np.zeros((dim, ny + 1, nx)),
+                       np.zeros((dim, ny, side_columns)), np.zeros((dim, ny, nx)))
         self._buffers = np.zeros((3, 3, nx + 1))
         self._factors: dict[float, tuple] = {}
         self._revision: int | None = None
