@@ -28,6 +28,24 @@ def canvas_pixels(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(shot)).convert("RGB")).astype(int)
 
 
+def page_pixels(page) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(page.screenshot()))).astype(int)[:, :, :3]
+
+
+def bar_ends(pixels: np.ndarray) -> tuple[int, int]:
+    """(blue, red) pixel counts: the two ends of a colour bar."""
+    blue = ((pixels[:, :, 2] > 180) & (pixels[:, :, 0] < 90)).sum()
+    red = ((pixels[:, :, 0] > 180) & (pixels[:, :, 2] < 90)).sum()
+    return int(blue), int(red)
+
+
+def client_of(app: WebApp):
+    assert wait_for(lambda: len(app.server.get_clients()) == 1)
+    return next(iter(app.server.get_clients().values()))
+
+
 def lattice_box(app: WebApp, client) -> tuple[float, float, float, float]:
     """(left, top, right, bottom) CSS pixels of the lattice's walls in ``client``'s view (the
     camera looks straight down)."""
@@ -54,10 +72,13 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
     pixels = canvas_pixels(page)
     colours = {tuple(c) for c in pixels[::4, ::4].reshape(-1, 3)}
     assert len(colours) > 50  # not one colour: walls, particles, springs, colour bar
-    below = pixels[3 * pixels.shape[0] // 4 :]  # under the lattice: the colour bar
-    blue = ((below[:, :, 2] > 180) & (below[:, :, 0] < 90)).sum()
-    red = ((below[:, :, 0] > 180) & (below[:, :, 2] < 90)).sum()
-    assert blue > 100 and red > 100  # the colour bar's two ends
+    # the colour bar floats over the view's bottom-left corner, below the lattice
+    tab = page.get_by_text("Colours", exact=True).bounding_box()
+    assert tab["x"] < 100 and tab["y"] > 768 / 2
+    window = page_pixels(page)[round(tab["y"]):, : 450]
+    assert bar_ends(window) > (100, 100)
+    left, top, right, bottom = lattice_box(web_app, client_of(web_app))
+    assert bottom < tab["y"] and left >= 0 and right <= 1366 - 400
     # record a little of the run, then take it home
     page.get_by_text("Recording", exact=True).click()  # open the folder
     page.get_by_role("button", name="Start recording").click()
@@ -109,6 +130,10 @@ def test_phone_size_lattice_in_view_and_not_under_the_panel(web_app, browser):
     time.sleep(1.0)
     assert web_app.clients.dropped == [] and list(web_app.server.get_clients().values()) == [client]
     assert in_view(), seen
+    # the colour bar lies under the lattice in this page's own scene, above the folded panel
+    left, top, right, bottom = seen["box"]
+    under = page_pixels(page)[round(bottom):round(seen["panel_top"]), :]
+    assert bar_ends(under) > (50, 50), seen
 
 
 def folder_click_delays(page, clicks: int = 6) -> list[float]:

@@ -43,7 +43,7 @@ from app.web.recording import WebRecordings
 from app.web.roles import ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
-from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, LatticeView, camera_fit
+from app.web.view import NARROW, PHONE_PANEL_SHARE, LatticeView, camera_fit, laptop_fit
 from sim.runner import Frame
 
 DEFAULT_SCENES_DIR = Path("scenes")
@@ -254,15 +254,16 @@ class WebApp:
 
     def _frame_camera(self, model: sim.Model) -> None:
         camera = self.server.initial_camera
-        position, look_at, up = camera_fit(model, camera.fov, 16 / 9, right=PANEL_WIDTH / 1366)
+        position, look_at, up = laptop_fit(model, camera.fov, 1366, 768)
         camera.position, camera.look_at, camera.up = position, look_at, up
         for client in self.server.get_clients().values():
             self.fit_client(client, model)
 
     def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None) -> None:
         """Point ``client``'s camera so the lattice fills the part of its view the panel leaves:
-        left of it on a laptop, above it on a narrow view (a phone), where it floats over the
-        lower part."""
+        left of it and above the floating colour bar on a laptop, above the panel on a narrow
+        view (a phone), where the panel floats over the lower part and the colour bar lies
+        under the lattice in that page's own scene."""
         model = model or self.runner.simulation.model
         camera = client.camera
         try:
@@ -270,12 +271,12 @@ class WebApp:
         except AssertionError:  # the browser has not reported its view yet
             width, height, fov = 0, 0, self.server.initial_camera.fov
         width, height = width or 1366, height or 768
+        self.view.colour_bar.set_narrow(client, width < NARROW)
         if width < NARROW:
             position, look_at, up = camera_fit(model, fov, width / height,
                                                bottom=PHONE_PANEL_SHARE)
         else:
-            position, look_at, up = camera_fit(model, fov, width / height,
-                                               right=min(0.5, PANEL_WIDTH / width))
+            position, look_at, up = laptop_fit(model, fov, width, height)
         camera.position = position
         camera.look_at = look_at
         camera.up_direction = up
@@ -315,6 +316,7 @@ class WebApp:
         """A browser went away: let go of whatever it was dragging; when it was the last one,
         pause the run (unless a recording is on) instead of burning a core for nobody."""
         self.control.release(client_id)
+        self.view.colour_bar.client_left(client_id)
         if self._drag is not None and self._drag["owner"] == client_id:
             self._drag = None
         others = [c for c in self.server.get_clients() if c != client_id]
