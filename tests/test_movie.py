@@ -65,6 +65,20 @@ def test_interference_movie_frames_and_duration(interference_movie):
     assert duration == pytest.approx(11 / 10, abs=0.11)
 
 
+def test_frames_span_the_duration_exactly():
+    """The last frame is at the movie's duration, also when the steps do not divide evenly among
+    the frames (1000 frames of the 150 s flagship once ended at 159.84 s)."""
+    from app.movie.options import MovieOptions
+    from app.movie.simulated import SimulationSource
+
+    scene = sim.scenes.build("chain")
+    source = SimulationSource(scene, MovieOptions(frames=7, duration=1.0, dt=0.01))
+    times = [state.time for state in source.states(False, False)]
+    assert len(times) == 7 and times[0] == 0.0
+    assert times[-1] == pytest.approx(1.0)
+    assert np.all(np.diff(times) > 0)
+
+
 def test_interference_movie_shows_the_field_where_the_wave_is(interference_movie):
     path, scene = interference_movie
     frames, _, _ = decoded(path)
