@@ -120,39 +120,3 @@ def test_pictures_come_no_faster_than_the_page_asks():
         assert image.fps == frames.MAX_FPS
     finally:
         server.stop()
-
-
-def test_the_answer_to_a_page_goes_before_the_next_picture():
-    """A picture sent in the same batch as the answer to a click makes the page apply the answer
-    only after its next drawn frame: for a moment after a page's value is accepted no picture
-    is sent (though never more than ``MAX_HOLD`` seconds without one), and the gate notes only
-    accepted values."""
-    from viser import _messages
-
-    model = sim.scenes.build("interference", nx=260, ny=200).model
-    app = WebApp(sim.Simulation(sim.scenes.build("interference", nx=260, ny=200)),
-                 port=free_port())
-    try:
-        image = frames.FieldImage(app.server, model, np.zeros((model.n_particles, 3), np.uint8))
-        image.last_input = lambda: app.gate.last_input
-        image._last_sent -= 2.0  # a picture is due at one a second
-        assert image.due_now() and not image.held()
-        gate, checkbox = app.gate, app.panel.selection.hold
-        gate.connected.add(7)
-        loop = app.server.get_event_loop()
-
-        def page_sends(value) -> None:
-            message = _messages.GuiUpdateMessage(checkbox._impl.uuid, {"value": value})
-            asyncio.run_coroutine_threadsafe(gate._gui_update(7, message), loop).result(5)
-
-        page_sends("yes")  # a checkbox takes true or false: refused, not an input to answer
-        assert gate.last_input == -np.inf and image.due_now()
-        page_sends(True)
-        assert time.monotonic() - gate.last_input < frames.INPUT_HOLD
-        assert image.held() and not image.due_now()
-        image._last_sent -= frames.MAX_HOLD  # pages that keep sending do not starve the view
-        assert not image.held() and image.due_now()
-        image._last_sent += frames.MAX_HOLD
-        assert wait_for(image.due_now, timeout=2 * frames.INPUT_HOLD)
-    finally:
-        app.server.stop()

@@ -38,7 +38,6 @@ import viser
 import sim
 from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
-from app.web.frames import INPUT_HOLD
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
 from app.web.roles import ClassRoles
@@ -105,7 +104,6 @@ class WebApp:
         self.gate = PageGate(self.server).install()
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.view = LatticeView(self.server)
-        self.view.last_input = lambda: self.gate.last_input
         self.clients = ClientWatch(self.server)
         self.play_on_start = play
         self.hold_while_dragging = True
@@ -233,12 +231,6 @@ class WebApp:
                 print(f"web view: could not draw a frame: {error!r}")
 
     def _show(self, frame: Frame) -> None:
-        """Draw ``frame``; a page's input is answered first (the panel is updated at once, and
-        the view holds its next picture back a moment: ``app.web.frames.INPUT_HOLD``)."""
-        answering = time.monotonic() - self.gate.last_input < INPUT_HOLD
-        if answering:
-            self._panel_time = time.perf_counter()
-            self.panel.update(frame)
         layout = (frame.model.nx, frame.model.ny, frame.model.spacing)
         if layout != self._camera_layout:
             self._frame_camera(frame.model)
@@ -252,7 +244,7 @@ class WebApp:
         self._follow_selection(frame)
         now = time.perf_counter()
         large = frame.model.n_particles >= LARGE_LATTICE
-        if not answering and (not large or not frame.playing or frame.error
+        if (not large or not frame.playing or frame.error
                 or frame.time >= self.runner.simulation.scene.duration - 1e-9
                 or now - self._panel_time >= LARGE_LATTICE_PANEL_INTERVAL):
             self._panel_time = now

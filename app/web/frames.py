@@ -21,12 +21,6 @@ the lattice plane z = 0, one lattice spacing per pixel) and replaces its bytes e
   its only page thread on each such frame (read back for software compositing), so above about
   one picture a second it draws all the time and clicks wait seconds.  Pictures are dropped, the
   clicks are not; a student with a graphics card picks more pictures per second.
-* the answer to a page's input goes first: for ``INPUT_HOLD`` seconds after a page's value
-  reaches the server no picture is sent (``FieldImage.held``; at most ``MAX_HOLD`` seconds
-  between two pictures while pages keep sending), and the app sends the panel's answer at once.
-  viser's page applies a batch of panel updates as it arrives, but a batch that also holds a
-  scene update waits for the page's next drawn frame (0.1-0.3 s without a graphics card, and
-  the frames it then keeps drawing): the answer must not share its batch with a picture.
 
 Small lattices keep their spheres and springs (``app.web.view``); ``uses_image`` is the switch.
 Backpressure (a slow page gets fewer frames, a page that stops reading is dropped) lives in
@@ -36,9 +30,7 @@ Backpressure (a slow page gets fewer frames, a page that stops reading is droppe
 from __future__ import annotations
 
 import io
-import math
 import time
-from collections.abc import Callable
 
 import numpy as np
 import viser
@@ -63,10 +55,6 @@ DEFAULT_FPS = 1.0
 """Pictures per second by default (a page without graphics acceleration stays answering)."""
 PICTURE_RATES = (1.0, 2.0, 4.0, MAX_FPS)
 """The pictures per second a page may choose."""
-INPUT_HOLD = 0.5
-"""Seconds after a page's input during which no picture is sent."""
-MAX_HOLD = 3.0
-"""Most seconds between two pictures while pages keep sending input (a slider dragged)."""
 BYTES_PER_SECOND = 250_000
 """Bytes per second of pictures aimed at for each page (2 Mbit/s: a class of 30 shares 60 Mbit/s)."""
 
@@ -135,23 +123,15 @@ class FieldImage:
         self.max_fps = DEFAULT_FPS
         """The page's choice of pictures per second (the most; the byte budget may send fewer)."""
         self._last_sent = time.perf_counter()
-        self.last_input: Callable[[], float] = lambda: -math.inf
-        """When a page's value last reached the server (``time.monotonic()``; the app's gate)."""
 
     @property
     def fps(self) -> float:
         """The frame rate the server chose for pictures of the current size."""
         return min(frame_rate(self.last_bytes), self.max_fps)
 
-    def held(self) -> bool:
-        """Whether pictures wait for the answer to a page's input (within ``INPUT_HOLD`` of
-        it, unless the last picture is ``MAX_HOLD`` old)."""
-        return (time.monotonic() - self.last_input() < INPUT_HOLD
-                and time.perf_counter() - self._last_sent < MAX_HOLD)
-
     def due_now(self) -> bool:
-        """Whether the server's frame rate allows a picture now (and none is held)."""
-        return time.perf_counter() - self._last_sent >= 1.0 / self.fps and not self.held()
+        """Whether the server's frame rate allows a picture now."""
+        return time.perf_counter() - self._last_sent >= 1.0 / self.fps
 
     def show(self, colours: np.ndarray, force: bool = False) -> bool:
         """Encode and send ``colours`` (n, 3) uint8 if a picture is due; returns whether it was

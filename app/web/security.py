@@ -237,9 +237,6 @@ class PageGate:
         self._refused_by_client: dict[int, int] = {}
         self._upload_started: dict[str, tuple[int, float]] = {}
         self.upload_seconds = MAX_UPLOAD_SECONDS
-        self.last_input = -math.inf
-        """``time.monotonic()`` when a page's value was last accepted: the app answers it before
-        it sends the next picture (``app.web.frames.INPUT_HOLD``)."""
 
     def install(self) -> PageGate:
         from viser import _messages
@@ -291,7 +288,6 @@ class PageGate:
     async def _gui_update(self, client_id: int, message: Any) -> None:
         reason = self.accept_page_value(client_id, message)
         if reason is None:
-            self.last_input = time.monotonic()
             await self._originals["update"](client_id, message)
             return
         self._refuse(client_id, f"value update {reason}")

@@ -28,7 +28,6 @@ import dataclasses
 import math
 import threading
 import time
-from collections.abc import Callable
 
 import numpy as np
 import viser
@@ -127,9 +126,6 @@ class LatticeView:
         self._bar_shown: tuple | None = None
         self._bar_time = 0.0
         self._image: FieldImage | None = None
-        self.last_input: Callable[[], float] = lambda: -math.inf
-        """When a page's value last reached the server (the app's gate): pictures wait a moment
-        after it (``app.web.frames.INPUT_HOLD``)."""
         self._dirty = True
         self.frames_drawn = 0
         self.last_positions: np.ndarray | None = None
@@ -202,7 +198,6 @@ class LatticeView:
         else:
             if uses_image(model, self.settings.points_move(model)):
                 self._image = FieldImage(self.server, model, self._particle_colors(frame))
-                self._image.last_input = self.last_input
             else:
                 shown = xyz if self.settings.points_move(model) else to_xyz(model.rest_positions)
                 self._points = scene.add_point_cloud(
@@ -237,10 +232,7 @@ class LatticeView:
             self._points.colors = self._particle_colors(frame)
         if self._image is not None:
             self._image.max_fps = self.settings.picture_rate
-        if self._image is not None and (self._image.due_now()
-                                        or not (frame.playing or self._image.held())):
-            # a paused frame's picture goes at once, unless an answer to a page goes first
-            # (the app's frame pump shows the latest frame again within a quarter second)
+        if self._image is not None and (self._image.due_now() or not frame.playing):
             self._image.show(self._particle_colors(frame), force=True)
         if self._selection_points is not None:
             self._selection_points.points = xyz[self.selection[self.selection < len(xyz)]]
