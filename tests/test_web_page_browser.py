@@ -137,6 +137,32 @@ def test_phone_size_lattice_in_view_and_not_under_the_panel(web_app, browser):
     assert bar_ends(under) > (50, 50), seen
 
 
+@pytest.mark.slow
+def test_phone_size_shows_the_flagship_and_its_colour_bar_above_the_panel(browser):
+    """The flagship at 414x896: its lattice (grey before Play) and the colour bar under it are
+    drawn above the panel, neither cut off by the far clipping plane (the fitted camera is
+    1070 m away, beyond viser's default 1000 m) nor replaced by the laptop's initial camera that
+    a loading page applies late."""
+    app = WebApp(sim.Simulation(sim.scenes.build("interference")), port=free_port())
+    app.start()
+    try:
+        page = browser.new_page(viewport={"width": 414, "height": 896})
+        page.goto(app.url)
+        page.get_by_text("Connected").wait_for(timeout=60_000)
+        seen = {}
+
+        def shown() -> bool:
+            panel_top = round(page.get_by_text("Connected").bounding_box()["y"])
+            above = page_pixels(page)[:panel_top - 30]
+            grey = (np.abs(above - 128) < 14).all(axis=2).mean()
+            seen.update(grey=grey, ends=bar_ends(above), panel_top=panel_top)
+            return 0.2 < grey < 0.8 and bar_ends(above) > (50, 50)
+
+        assert wait_for(shown, timeout=60), seen
+    finally:
+        app.stop()
+
+
 def folder_click_delays(page, clicks: int = 6) -> list[float]:
     """Seconds from a click on the View folder's title until the page shows (or hides) its
     contents, for ``clicks`` clicks (the folder opens and closes in the page alone)."""

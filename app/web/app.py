@@ -64,6 +64,19 @@ needs to answer clicks.  A frame at the scene's duration always reaches the pane
 the run there)."""
 
 
+REFIT_SECONDS = 20.0
+"""Seconds after a page connects during which its camera is fitted again if it leaves the fit
+(a loading page resets its camera to the scene's initial one when that reaches it late)."""
+
+
+def far_plane(position: Sequence[float], look_at: Sequence[float]) -> float:
+    """The far clipping distance of a camera fitted at ``position`` looking at ``look_at``:
+    well beyond the lattice (viser's default, 1000 m, cut the flagship off on a phone, whose
+    narrow view puts the camera 1070 m away), at least viser's default."""
+    distance = float(np.linalg.norm(np.subtract(position, look_at)))
+    return max(1000.0, 10.0 * distance)
+
+
 def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
     """(steps per frame, simulation frames/s cap, render frames/s cap) for a simulation.
 
@@ -256,10 +269,12 @@ class WebApp:
         camera = self.server.initial_camera
         position, look_at, up = laptop_fit(model, camera.fov, 1366, 768)
         camera.position, camera.look_at, camera.up = position, look_at, up
+        camera.far = far_plane(position, look_at)
         for client in self.server.get_clients().values():
             self.fit_client(client, model)
 
-    def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None) -> None:
+    def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None
+                   ) -> np.ndarray:
         """Point ``client``'s camera so the lattice fills the part of its view the panel leaves:
         left of it and above the floating colour bar on a laptop, above the panel on a narrow
         view (a phone), where the panel floats over the lower part and the colour bar lies
@@ -277,9 +292,11 @@ class WebApp:
                                                bottom=PHONE_PANEL_SHARE)
         else:
             position, look_at, up = laptop_fit(model, fov, width, height)
+        camera.far = far_plane(position, look_at)
         camera.position = position
         camera.look_at = look_at
         camera.up_direction = up
+        return np.array(position, dtype=float)
 
     # --- selection and dragging ------------------------------------------------------------------
 
@@ -298,7 +315,7 @@ class WebApp:
         @self.server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
             self.fit_client(client)
-            fitted: dict[str, tuple] = {"size": (0, 0)}
+            fitted: dict[str, Any] = {"size": (0, 0), "since": time.monotonic(), "again": 5}
 
             @client.camera.on_update
             def _(camera: viser.CameraHandle) -> None:
@@ -306,7 +323,16 @@ class WebApp:
                 size = (camera.image_width, camera.image_height)
                 if size != fitted["size"] and all(size):
                     fitted["size"] = size
-                    self.fit_client(client)
+                    fitted["pose"] = self.fit_client(client)
+                    return
+                # a loading page may reset its camera to the scene's initial one (fitted for a
+                # laptop) after it applied this page's fit: fit it again while it loads
+                pose = fitted.get("pose")
+                if (pose is not None and fitted["again"] > 0
+                        and time.monotonic() - fitted["since"] < REFIT_SECONDS
+                        and np.linalg.norm(camera.position - pose) > 1e-3 * np.linalg.norm(pose)):
+                    fitted["again"] -= 1
+                    fitted["pose"] = self.fit_client(client)
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
