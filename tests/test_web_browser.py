@@ -37,7 +37,8 @@ def web_app() -> Iterator[WebApp]:
 def open_page(browser, app: WebApp):
     page = browser.new_page(viewport=VIEWPORT)
     page.goto(app.url)
-    page.wait_for_selector("canvas", timeout=20_000)
+    # the 3-D view's canvas (viser also keeps an empty 0x0 one for drawing selection rectangles)
+    page.locator("canvas:not([width='0'])").first.wait_for(timeout=20_000)
     page.get_by_text("Connected").wait_for(timeout=20_000)
     return page
 

@@ -1,7 +1,8 @@
 """What a student sees in a real (headless) Chromium: the page before Play shows the lattice and
 its colour bar; a recording made on the page downloads as a file rerun reads back; at phone size
-the lattice is in view and not under the panel; a click is answered quickly while the flagship
-plays (as quickly as on the paused page).  Only the first test runs by default (the others are
+the lattice and its colour bar are in view and not under the panel; while the flagship plays a
+click the server answers comes back within half a second (a click on a folder, answered by the page
+alone, is measured).  Only the first test runs by default (the others are
 marked slow)."""
 
 from __future__ import annotations
@@ -26,6 +27,24 @@ def canvas_pixels(page) -> np.ndarray:
 
     shot = page.locator("canvas").first.screenshot(timeout=90_000)
     return np.asarray(Image.open(io.BytesIO(shot)).convert("RGB")).astype(int)
+
+
+def page_pixels(page) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(page.screenshot()))).astype(int)[:, :, :3]
+
+
+def bar_ends(pixels: np.ndarray) -> tuple[int, int]:
+    """(blue, red) pixel counts: the two ends of a colour bar."""
+    blue = ((pixels[:, :, 2] > 180) & (pixels[:, :, 0] < 90)).sum()
+    red = ((pixels[:, :, 0] > 180) & (pixels[:, :, 2] < 90)).sum()
+    return int(blue), int(red)
+
+
+def client_of(app: WebApp):
+    assert wait_for(lambda: len(app.server.get_clients()) == 1)
+    return next(iter(app.server.get_clients().values()))
 
 
 def lattice_box(app: WebApp, client) -> tuple[float, float, float, float]:
@@ -54,10 +73,13 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
     pixels = canvas_pixels(page)
     colours = {tuple(c) for c in pixels[::4, ::4].reshape(-1, 3)}
     assert len(colours) > 50  # not one colour: walls, particles, springs, colour bar
-    below = pixels[3 * pixels.shape[0] // 4 :]  # under the lattice: the colour bar
-    blue = ((below[:, :, 2] > 180) & (below[:, :, 0] < 90)).sum()
-    red = ((below[:, :, 0] > 180) & (below[:, :, 2] < 90)).sum()
-    assert blue > 100 and red > 100  # the colour bar's two ends
+    # the colour bar floats over the view's bottom-left corner, below the lattice
+    tab = page.get_by_text("Colours", exact=True).bounding_box()
+    assert tab["x"] < 100 and tab["y"] > 768 / 2
+    window = page_pixels(page)[round(tab["y"]):, : 450]
+    assert bar_ends(window) > (100, 100)
+    left, top, right, bottom = lattice_box(web_app, client_of(web_app))
+    assert bottom < tab["y"] and left >= 0 and right <= 1366 - 400
     # record a little of the run, then take it home
     page.get_by_text("Recording", exact=True).click()  # open the folder
     page.get_by_role("button", name="Start recording").click()
@@ -109,6 +131,36 @@ def test_phone_size_lattice_in_view_and_not_under_the_panel(web_app, browser):
     time.sleep(1.0)
     assert web_app.clients.dropped == [] and list(web_app.server.get_clients().values()) == [client]
     assert in_view(), seen
+    # the colour bar lies under the lattice in this page's own scene, above the folded panel
+    left, top, right, bottom = seen["box"]
+    under = page_pixels(page)[round(bottom):round(seen["panel_top"]), :]
+    assert bar_ends(under) > (50, 50), seen
+
+
+@pytest.mark.slow
+def test_phone_size_shows_the_flagship_and_its_colour_bar_above_the_panel(browser):
+    """The flagship at 414x896: its lattice (grey before Play) and the colour bar under it are
+    drawn above the panel, neither cut off by the far clipping plane (the fitted camera is
+    1070 m away, beyond viser's default 1000 m) nor replaced by the laptop's initial camera that
+    a loading page applies late."""
+    app = WebApp(sim.Simulation(sim.scenes.build("interference")), port=free_port())
+    app.start()
+    try:
+        page = browser.new_page(viewport={"width": 414, "height": 896})
+        page.goto(app.url)
+        page.get_by_text("Connected").wait_for(timeout=60_000)
+        seen = {}
+
+        def shown() -> bool:
+            panel_top = round(page.get_by_text("Connected").bounding_box()["y"])
+            above = page_pixels(page)[:panel_top - 30]
+            grey = (np.abs(above - 128) < 14).all(axis=2).mean()
+            seen.update(grey=grey, ends=bar_ends(above), panel_top=panel_top)
+            return 0.2 < grey < 0.8 and bar_ends(above) > (50, 50)
+
+        assert wait_for(shown, timeout=60), seen
+    finally:
+        app.stop()
 
 
 def folder_click_delays(page, clicks: int = 6) -> list[float]:
@@ -124,33 +176,99 @@ def folder_click_delays(page, clicks: int = 6) -> list[float]:
     return delays
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(reason="on the shared 2-core machine (load average 9-12) the paused page itself "
-                   "answered in 0.5-1.1 s (median) and playing added 0.0-1.2 s at one picture a "
-                   "second (3-6 s at twelve): the page's frames, drawn without a graphics card, "
-                   "vary too much there", strict=False)
-def test_a_click_is_answered_as_quickly_while_the_flagship_plays(browser):
-    """Headless Chromium draws WebGL without a graphics card and reads every frame back for
-    compositing, on the page's only thread: on the shared 2-core test machine each frame of the
-    view blocks the page for 0.2-0.7 s, so even a paused page answers in about half a second.
-    Playing may add at most half a second to that (before the pictures were paced it added 3-7
-    s: the page drew all the time)."""
+ANSWER_CLOCK = """
+window.__clicked = null; window.__answered = null;
+document.addEventListener("click", (event) => {
+  const button = event.target.closest("button");
+  if (button && button.textContent.trim() === "Pause") {
+    window.__clicked = performance.now(); window.__answered = null;
+  }
+}, true);
+new MutationObserver(() => {
+  if (window.__clicked === null || window.__answered !== null) return;
+  for (const button of document.querySelectorAll("button"))
+    if (button.textContent.trim() === "Play") { window.__answered = performance.now(); return; }
+}).observe(document, {subtree: true, childList: true, characterData: true});
+"""
+"""Page-side clock of a click on *Pause*: when the page dispatched the click, and when its panel
+first showed the server's answer (a button reading *Play*)."""
+
+
+def pause_click_delays(page, app: WebApp, clicks: int = 5) -> tuple[list[float], list[float]]:
+    """(answers, walls): for ``clicks`` clicks on *Pause* while the run plays, seconds from the
+    page's dispatch of the click until its panel shows the server's answer (the button reads
+    *Play* again: the round trip through the server), and seconds from Playwright's click until
+    it sees the answer (which adds the time a busy page takes to take the click at all).  The
+    run plays again between clicks."""
+    answers, walls = [], []
+    for _ in range(clicks):
+        started = time.perf_counter()
+        page.get_by_role("button", name="Pause").click()
+        page.get_by_role("button", name="Play").wait_for(state="visible", timeout=30_000)
+        walls.append(time.perf_counter() - started)
+        clock = page.evaluate("[window.__clicked, window.__answered]")
+        answers.append((clock[1] - clock[0]) / 1e3)
+        app.runner.play()
+        page.get_by_role("button", name="Pause").wait_for(state="visible", timeout=30_000)
+        time.sleep(1.5)  # pictures flow again
+    return answers, walls
+
+
+@pytest.fixture
+def flagship_page(browser):
+    """The flagship served and shown in a 1366x768 page, its run playing for 8 s."""
     app = WebApp(sim.Simulation(sim.scenes.build("interference")), port=free_port())
     app.start()
     try:
         page = browser.new_page(viewport={"width": 1366, "height": 768})
+        page.add_init_script(ANSWER_CLOCK)
         page.goto(app.url)
         page.get_by_text("Connected").wait_for(timeout=60_000)
         time.sleep(2.0)
-        paused = folder_click_delays(page)
-        checkbox = app.panel.view.show_springs
-        before = checkbox.value
-        app.runner.play()
-        assert wait_for(lambda: app.runner.simulation.step_count > 50, timeout=120)
-        time.sleep(8.0)  # past the first seconds, when the colour scale settles
-        playing = folder_click_delays(page)
-        assert checkbox.value == before  # opening the folder changed nothing
-        assert app.runner.playing and app.view._image is not None
-        assert np.median(playing) <= np.median(paused) + 0.5, (paused, playing)
+        yield app, page
     finally:
         app.stop()
+
+
+def play_the_flagship(app: WebApp) -> None:
+    app.runner.play()
+    assert wait_for(lambda: app.runner.simulation.step_count > 50, timeout=120)
+    time.sleep(8.0)  # past the first seconds, when the colour scale settles
+    assert app.runner.playing and app.view._image is not None
+
+
+@pytest.mark.slow
+def test_a_click_the_server_answers_comes_back_within_half_a_second_while_the_flagship_plays(
+        flagship_page):
+    """Pause pressed while the flagship plays: the page's panel shows the server's answer (the
+    button reads Play) within half a second of the page taking the click, median of five.
+    Measured on the shared 2-core machine (load average 5-12): 0.02-0.6 s, medians 0.04-0.07 s.
+    Playwright's click itself waits until the busy page takes it, 0.3-3 s there (each picture
+    makes the page draw frames for a quarter of a second, 0.1-0.3 s a frame without a graphics
+    card); that time is reported, not held to the target (the folder test below measures it)."""
+    app, page = flagship_page
+    play_the_flagship(app)
+    answers, walls = pause_click_delays(page, app)
+    assert np.median(answers) <= 0.5, (answers, walls)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="a click on a folder is answered by the page alone, which draws each "
+                   "picture for 0.1-0.3 s a frame without a graphics card: measured medians "
+                   "0.37-0.72 s while playing (0.31-0.52 s paused), single clicks up to 2 s, on "
+                   "the shared 2-core machine at load averages 2-10", strict=False)
+def test_a_folder_click_is_answered_within_half_a_second_while_the_flagship_plays(flagship_page):
+    """Headless Chromium draws WebGL without a graphics card and reads every frame back for
+    compositing, on the page's only thread: each picture makes viser's page draw frames for a
+    quarter of a second (and again when its texture is decoded), 0.1-0.3 s each on this shared
+    machine, and a click on a folder waits behind them (``benchmarks/web_clicks.py`` counts the
+    page's long tasks: about 50 % of the time while playing at one picture a second, 15-30 %
+    paused).  The target: half a second, median of six."""
+    app, page = flagship_page
+    paused = folder_click_delays(page)
+    checkbox = app.panel.view.show_springs
+    before = checkbox.value
+    play_the_flagship(app)
+    playing = folder_click_delays(page)
+    assert checkbox.value == before  # opening the folder changed nothing
+    assert np.median(playing) <= 0.5, (paused, playing)

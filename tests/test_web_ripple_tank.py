@@ -159,8 +159,10 @@ def test_the_screen_averages_the_frames_and_draws_the_slit_theory(web_app):
 
 
 def test_the_tape_measures_spacings_and_metres_and_the_stopwatch_counts_simulated_time(web_app):
-    web_app.replace_scene(small_double_slit(), source="test")
     folder = web_app.panel.measure
+    assert not folder.folder.visible and not folder.tape_line.visible  # a grid: no tape on it
+    web_app.replace_scene(small_double_slit(), source="test")
+    assert folder.folder.visible and folder.tape_line.visible
     send(folder.end_a, (10, 5))
     send(folder.end_b, (13, 9))
     assert "5 spacings = 5 m" in folder.tape.content

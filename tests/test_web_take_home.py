@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import sim
-from app.web.view import BAR_FRACTION, camera_fit
+from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, bar_pose
+from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, camera_fit, laptop_fit
 from tests.helpers import wait_for
 from tests.test_web_safety import PageClient, press
 
@@ -87,24 +88,31 @@ def test_the_servers_stop_ends_a_movie_being_made(web_app):
     assert jobs.outcome == "cancelled"
 
 
-@pytest.mark.parametrize("size, right, bottom", [((1366, 768), 420 / 1366, 0.0),
-                                                 ((414, 896), 0.0, 0.6)])
+@pytest.mark.parametrize("size", [(1366, 768), (414, 896)])
 @pytest.mark.parametrize("scene", ["grid", "interference", "chain"])
-def test_camera_fits_lattice_and_colour_bar_in_the_free_part(scene, size, right, bottom):
-    """Project the walls' corners and the colour bar through the fitted camera (looking straight
-    down): all inside the part of the view the panel leaves, and the lattice spans most of it."""
+def test_camera_fits_lattice_and_colour_bar_in_the_free_part(scene, size):
+    """Project the walls' corners (and on a phone the in-scene colour bar under them) through
+    the fitted camera (looking straight down): all inside the part of the view the panel (and
+    on a laptop the floating colour bar) leaves, and the lattice spans most of it."""
     model = sim.scenes.build(scene).model
     fov = math.radians(75)
     aspect = size[0] / size[1]
-    position, look_at, _ = camera_fit(model, fov, aspect, right=right, bottom=bottom)
+    a = model.spacing
+    width = (model.nx + 1) * a
+    lowest = -(model.ny + 1) * a / 2
+    if size[0] >= NARROW:
+        position, look_at, _ = laptop_fit(model, fov, *size)
+        right, bottom = PANEL_WIDTH / size[0], OVERLAY_HEIGHT / size[1]
+    else:
+        right, bottom = 0.0, PHONE_PANEL_SHARE
+        position, look_at, _ = camera_fit(model, fov, aspect, bottom=bottom)
+        lowest = -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * BAR_ASPECT
+        assert lowest < bar_pose(model)[0][1] - bar_pose(model)[2] / 2 + 1e-9
     assert position[:2] == look_at[:2]
     half_h = position[2] * math.tan(fov / 2)
     half_w = half_h * aspect
-    a = model.spacing
-    width = (model.nx + 1) * a
     xs = np.array([-width / 2, width / 2])
-    ys = np.array([(model.ny + 1) * a / 2,
-                   -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * 84 / 480])
+    ys = np.array([(model.ny + 1) * a / 2, lowest])
     u = (xs - position[0]) / half_w / 2 + 0.5  # 0 left edge of the view, 1 right edge
     v = 0.5 - (ys - position[1]) / half_h / 2  # 0 top, 1 bottom
     assert u.min() >= 0 and u.max() <= 1 - right + 1e-9

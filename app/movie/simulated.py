@@ -30,7 +30,9 @@ class SimulationSource:
             max(2, round(duration * FRAMES_PER_SIMULATED_SECOND) + 1),
         )
         self.frames = frames
-        self.every = max(1, round(steps / (frames - 1)))
+        self.steps = steps
+        """Steps of the whole movie: frame k shows step round(k * steps / (frames - 1)), so the
+        last frame is at the movie's duration (whole steps per frame would overshoot it)."""
         self.summary = (f"{scene.name}: {self.model.describe()}; {self.simulation.integrator}, "
                         f"dt={dt:g} s")
 
@@ -44,12 +46,15 @@ class SimulationSource:
         from sim import BlowUpError
 
         simulation = self.simulation
+        done = 0
         for index in range(self.frames):
-            if index:
+            target = round(index * self.steps / max(1, self.frames - 1))
+            if target > done:
                 try:
-                    simulation.step(self.every)
+                    simulation.step(target - done)
                 except BlowUpError:
                     return
+                done = target
             yield State(
                 simulation.time, simulation.peek_positions().copy(),
                 simulation.velocities.copy() if velocities else None,

@@ -43,7 +43,7 @@ from app.web.recording import WebRecordings
 from app.web.roles import ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
-from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, LatticeView, camera_fit
+from app.web.view import NARROW, PHONE_PANEL_SHARE, LatticeView, camera_fit, laptop_fit
 from sim.runner import Frame
 
 DEFAULT_SCENES_DIR = Path("scenes")
@@ -62,6 +62,19 @@ LARGE_LATTICE_PANEL_INTERVAL = 0.5
 the page (plots, status line) in the browser's only page thread, which a slow computer also
 needs to answer clicks.  A frame at the scene's duration always reaches the panel (it pauses
 the run there)."""
+
+
+REFIT_SECONDS = 20.0
+"""Seconds after a page connects during which its camera is fitted again if it leaves the fit
+(a loading page resets its camera to the scene's initial one when that reaches it late)."""
+
+
+def far_plane(position: Sequence[float], look_at: Sequence[float]) -> float:
+    """The far clipping distance of a camera fitted at ``position`` looking at ``look_at``:
+    well beyond the lattice (viser's default, 1000 m, cut the flagship off on a phone, whose
+    narrow view puts the camera 1070 m away), at least viser's default."""
+    distance = float(np.linalg.norm(np.subtract(position, look_at)))
+    return max(1000.0, 10.0 * distance)
 
 
 def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
@@ -254,15 +267,18 @@ class WebApp:
 
     def _frame_camera(self, model: sim.Model) -> None:
         camera = self.server.initial_camera
-        position, look_at, up = camera_fit(model, camera.fov, 16 / 9, right=PANEL_WIDTH / 1366)
+        position, look_at, up = laptop_fit(model, camera.fov, 1366, 768)
         camera.position, camera.look_at, camera.up = position, look_at, up
+        camera.far = far_plane(position, look_at)
         for client in self.server.get_clients().values():
             self.fit_client(client, model)
 
-    def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None) -> None:
+    def fit_client(self, client: viser.ClientHandle, model: sim.Model | None = None
+                   ) -> np.ndarray:
         """Point ``client``'s camera so the lattice fills the part of its view the panel leaves:
-        left of it on a laptop, above it on a narrow view (a phone), where it floats over the
-        lower part."""
+        left of it and above the floating colour bar on a laptop, above the panel on a narrow
+        view (a phone), where the panel floats over the lower part and the colour bar lies
+        under the lattice in that page's own scene."""
         model = model or self.runner.simulation.model
         camera = client.camera
         try:
@@ -270,15 +286,17 @@ class WebApp:
         except AssertionError:  # the browser has not reported its view yet
             width, height, fov = 0, 0, self.server.initial_camera.fov
         width, height = width or 1366, height or 768
+        self.view.colour_bar.set_narrow(client, width < NARROW)
         if width < NARROW:
             position, look_at, up = camera_fit(model, fov, width / height,
                                                bottom=PHONE_PANEL_SHARE)
         else:
-            position, look_at, up = camera_fit(model, fov, width / height,
-                                               right=min(0.5, PANEL_WIDTH / width))
+            position, look_at, up = laptop_fit(model, fov, width, height)
+        camera.far = far_plane(position, look_at)
         camera.position = position
         camera.look_at = look_at
         camera.up_direction = up
+        return np.array(position, dtype=float)
 
     # --- selection and dragging ------------------------------------------------------------------
 
@@ -297,7 +315,7 @@ class WebApp:
         @self.server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
             self.fit_client(client)
-            fitted: dict[str, tuple] = {"size": (0, 0)}
+            fitted: dict[str, Any] = {"size": (0, 0), "since": time.monotonic(), "again": 5}
 
             @client.camera.on_update
             def _(camera: viser.CameraHandle) -> None:
@@ -305,7 +323,16 @@ class WebApp:
                 size = (camera.image_width, camera.image_height)
                 if size != fitted["size"] and all(size):
                     fitted["size"] = size
-                    self.fit_client(client)
+                    fitted["pose"] = self.fit_client(client)
+                    return
+                # a loading page may reset its camera to the scene's initial one (fitted for a
+                # laptop) after it applied this page's fit: fit it again while it loads
+                pose = fitted.get("pose")
+                if (pose is not None and fitted["again"] > 0
+                        and time.monotonic() - fitted["since"] < REFIT_SECONDS
+                        and np.linalg.norm(camera.position - pose) > 1e-3 * np.linalg.norm(pose)):
+                    fitted["again"] -= 1
+                    fitted["pose"] = self.fit_client(client)
 
         @self.server.on_client_disconnect
         def _(client: viser.ClientHandle) -> None:
@@ -315,6 +342,7 @@ class WebApp:
         """A browser went away: let go of whatever it was dragging; when it was the last one,
         pause the run (unless a recording is on) instead of burning a core for nobody."""
         self.control.release(client_id)
+        self.view.colour_bar.client_left(client_id)
         if self._drag is not None and self._drag["owner"] == client_id:
             self._drag = None
         others = [c for c in self.server.get_clients() if c != client_id]

@@ -12,9 +12,9 @@ Two ways to draw particles, chosen by lattice size:
 Colours come from the quantity's scheme in ``app.colours`` (the same language as movies and
 recordings): the signed displacement along the scene's axis (the component it is displaced
 along) on the blue - grey - red map (grey at rest, so the lattice shows before anything moves),
-or the speed, on the scheme's scale (by default logarithmic, its limit following the field).  A
-colour bar (quantity, units, the numbers of the scale in use) lies in the scene under the
-lattice, redrawn when the scale moves.
+or the speed, on the scheme's scale (by default logarithmic, its limit following the field).  The
+colour bar (quantity, units, the numbers of the scale in use; ``app.web.colour_bar``) floats over
+the view's bottom-left corner, redrawn when the scale moves.
 
 Springs are line segments coloured by strain (blue compressed, red stretched); they are hidden
 automatically above ``SPRING_AUTO_LIMIT`` particles (the paper's 25x20) and never sent above
@@ -33,6 +33,7 @@ import numpy as np
 import viser
 
 from app import colours
+from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, ColourBar
 from app.web.frames import DEFAULT_FPS, FieldImage, uses_image
 from sim.model import Model
 from sim.runner import Frame
@@ -52,8 +53,6 @@ PARTICLE = (60, 60, 70)
 """RGB of particles when they are not coloured by a field."""
 ANCHOR = (120, 90, 60)
 """RGB of the walls and their anchor points."""
-BAR_FRACTION = 0.6
-"""Width of the colour bar under the lattice, as a fraction of the lattice's width."""
 
 
 @dataclasses.dataclass
@@ -123,7 +122,7 @@ class LatticeView:
         self._selection_points: viser.PointCloudHandle | None = None
         self._scales: dict[str, colours.ColourScale] = {}
         self._axis = 1
-        self._bar: viser.ImageHandle | None = None
+        self.colour_bar = ColourBar(server)
         self._bar_shown: tuple | None = None
         self._bar_time = 0.0
         self._image: FieldImage | None = None
@@ -175,11 +174,11 @@ class LatticeView:
         scene = self.server.scene
         model = frame.model
         for handle in (self._spheres, self._points, self._springs, self._selection_points,
-                       self._bar, self._image):
+                       self._image):
             if handle is not None:
                 handle.remove()
         self._spheres = self._points = self._springs = self._selection_points = None
-        self._bar = self._bar_shown = None
+        self._bar_shown = None
         self._image = None
         self._scales = {}
         moved = ((frame.positions - model.rest_positions) ** 2).sum(axis=0)
@@ -217,6 +216,8 @@ class LatticeView:
                 "/lattice/springs", self._spring_points(model, frame.positions),
                 self._spring_colors(frame), thickness=0.05 * model.spacing,
             )
+        if self._bar_shown is None:  # nothing coloured by a scale: no colour bar
+            self.colour_bar.hide()
 
     def _update(self, frame: Frame) -> None:
         model = frame.model
@@ -301,25 +302,16 @@ class LatticeView:
         return quantity.title()
 
     def _draw_colour_bar(self, mode: str, model: Model, scale: colours.ColourScale) -> None:
-        """The colour bar under the lattice, redrawn when the scale's numbers change (at most
-        twice a second)."""
+        """The colour bar (``app.web.colour_bar``), redrawn when the scale's numbers change (at
+        most twice a second)."""
         shown = (mode, f"{scale.limit:.2g}")
         now = time.monotonic()
-        if shown == self._bar_shown or (self._bar is not None and now - self._bar_time < 0.5):
+        if shown == self._bar_shown or (self._bar_shown is not None
+                                        and now - self._bar_time < 0.5):
             return
         picture = colours.colour_bar(colours.scheme(mode), scale, self.colour_label(mode, model),
                                      lines=True)
-        picture = np.ascontiguousarray(picture[::-1])  # image rows run along -y in the scene
-        width = BAR_FRACTION * (model.nx + 1) * model.spacing
-        height = width * picture.shape[0] / picture.shape[1]
-        centre_y = model.origin[1] - 1.5 * model.spacing - height / 2
-        if self._bar is None:
-            self._bar = self.server.scene.add_image(
-                "/lattice/colour_bar", picture, render_width=width, render_height=height,
-                format="png", position=(model.origin[0] + (model.nx - 1) * model.spacing / 2,
-                                        centre_y, 0.0))
-        else:
-            self._bar.image = picture
+        self.colour_bar.show(picture, model)
         self._bar_shown, self._bar_time = shown, now
 
     @staticmethod
@@ -345,6 +337,15 @@ class LatticeView:
         return np.repeat(per_spring[:, None, :], 2, axis=1)
 
 
+def laptop_fit(model: Model, fov: float, width: float, height: float
+               ) -> tuple[tuple[float, float, float], tuple[float, float, float],
+                          tuple[float, float, float]]:
+    """``camera_fit`` for a view ``width`` x ``height`` CSS pixels at least ``NARROW`` wide: the
+    lattice left of the panel, above the floating colour bar."""
+    return camera_fit(model, fov, width / height, right=min(0.5, PANEL_WIDTH / width),
+                      bottom=min(0.4, OVERLAY_HEIGHT / height), bar_in_scene=False)
+
+
 PANEL_WIDTH = 420
 """CSS pixels of the page's control panel (viser's "large" controls) at the right edge."""
 NARROW = 700
@@ -353,19 +354,23 @@ PHONE_PANEL_SHARE = 0.6
 """Share of a narrow view's height the floating panel takes at most (viser's phone layout)."""
 
 
-def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bottom: float = 0.0
+def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bottom: float = 0.0,
+               bar_in_scene: bool = True
                ) -> tuple[tuple[float, float, float], tuple[float, float, float],
                           tuple[float, float, float]]:
-    """(position, look_at, up) of a camera that shows the whole lattice, its walls and the colour
-    bar under it in the part of the view the panel leaves, with a small margin.  ``right`` and
-    ``bottom``: the fractions of the view's width (on the right) and height (at the bottom)
-    under the panel; ``fov``: the vertical field of view (radians); ``aspect``: width / height
-    of the view.  Planar lattices are seen straight from above; 3-D ones from the front and
-    above (about 40 degrees) so their out-of-plane motion shows."""
+    """(position, look_at, up) of a camera that shows the whole lattice, its walls and (with
+    ``bar_in_scene``: a phone's) the colour bar under it in the part of the view the panel
+    leaves, with a small margin.  ``right`` and ``bottom``: the fractions of the view's width
+    (on the right) and height (at the bottom) under the panel (or the floating colour bar);
+    ``fov``: the vertical field of view (radians); ``aspect``: width / height of the view.
+    Planar lattices are seen straight from above; 3-D ones from the front and above (about 40
+    degrees) so their out-of-plane motion shows."""
     a = model.spacing
     width = (model.nx + 1) * a
     top = (model.ny + 1) * a / 2
-    lowest = -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * 84 / 480
+    lowest = -(model.ny + 1) * a / 2
+    if bar_in_scene:
+        lowest = -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * BAR_ASPECT
     free_x, free_y = max(0.2, 1.0 - right), max(0.2, 1.0 - bottom)
     tangent = math.tan(fov / 2)
     distance = max(width / (2 * tangent * aspect * free_x),

@@ -83,6 +83,8 @@ class MeasureFolder(Folder):
         self.stopwatch = Stopwatch()
         self._last = 0.0
         self._last_time = -math.inf
+        self.tape_line: viser.LineSegmentsHandle | None = None
+        """The tape drawn on the lattice (shown only with the folder, in ripple tanks)."""
         gui = host.server.gui
         self.folder = gui.add_folder("Tape and stopwatch", expand_by_default=False)
         with self.folder:
@@ -161,8 +163,10 @@ class MeasureFolder(Folder):
         for k, (column, row) in enumerate((a, b)):
             points[0, k, : model.dim] = rest[row * model.nx + column, : model.dim]
         points[0, :, 2] = 0.6 * float(model.spacing)
-        self.host.server.scene.add_line_segments("/tape", points=points, colors=TAPE_COLOUR,
-                                                 thickness=0.4 * float(model.spacing), visible=a != b)
+        # only where the folder is shown (ripple tanks): elsewhere no tape lies across the lattice
+        self.tape_line = self.host.server.scene.add_line_segments(
+            "/tape", points=points, colors=TAPE_COLOUR,
+            thickness=0.4 * float(model.spacing), visible=a != b and self.folder.visible)
 
     def _show_watch(self) -> None:
         label = "Stop stopwatch" if self.stopwatch.running else "Start stopwatch"

@@ -1,0 +1,128 @@
+"""The page's colour bar: what the colours mean (quantity, units, the numbers of the scale in
+use), always in view whatever the camera does.
+
+* On a laptop (views ``app.web.view.NARROW`` CSS pixels wide or more) the bar is a picture in a small window
+  of its own that floats over the bottom-left corner of the 3-D view (viser's standalone panel,
+  ``gui.add_panel``, holding a GUI image): fixed on the screen, not in the scene, so zooming or
+  panning never loses it, and a new scale is a panel update (the page changes one ``<img>``;
+  its 3-D view is not redrawn for it).
+* On a phone viser shows every panel, that window included, as a section of the bottom sheet,
+  hidden when the sheet is folded to its title bar.  So each narrow page also gets the bar in
+  its own scene (``client.scene``: only that page sees it) under the lattice, where the camera
+  fit (``app.web.view.camera_fit``) keeps it in view above the folded panel.
+
+``ColourBar.show`` is called by the view (the frame pump thread) when the bar's numbers change;
+nothing here posts commands (the picture has no callbacks).
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import viser
+
+from sim.model import Model
+
+BAR_FRACTION = 0.6
+"""Width of a phone's in-scene colour bar under the lattice, as a fraction of the lattice's
+width."""
+BAR_ASPECT = 84 / 480
+"""Height / width of the colour bar's picture (``app.colours.colour_bar``'s default size)."""
+OVERLAY_WIDTH = 400
+"""CSS pixels of the floating colour bar's window."""
+OVERLAY_HEIGHT = 130
+"""CSS pixels the floating window takes at the bottom of a laptop's view (its grip, its tab
+and the picture), which the camera fit leaves free under the lattice."""
+OVERLAY_MARGIN = 12
+"""CSS pixels between the floating window and the view's left and bottom edges."""
+
+
+def bar_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
+    """(centre (m), width (m), height (m)) of a phone's in-scene bar: centred under the
+    lattice, 1.5 spacings below its lowest row."""
+    width = BAR_FRACTION * (model.nx + 1) * model.spacing
+    height = width * BAR_ASPECT
+    centre = (model.origin[0] + (model.nx - 1) * model.spacing / 2,
+              model.origin[1] - 1.5 * model.spacing - height / 2, 0.0)
+    return centre, width, height
+
+
+class ColourBar:
+    """The colour bar on every page: a floating window on laptops, an in-scene picture on
+    phones (see the module's docstring)."""
+
+    def __init__(self, server: viser.ViserServer) -> None:
+        self.server = server
+        self._lock = threading.Lock()
+        self._panel: viser.PanelHandle | None = None
+        self._image: viser.GuiImageHandle | None = None
+        self.picture: np.ndarray | None = None
+        """The bar shown now (height, width, 3) uint8, or None."""
+        self._model: Model | None = None
+        self._phones: dict[int, tuple[viser.ClientHandle, viser.ImageHandle | None]] = {}
+        self.updates = 0
+        """How many bars were sent (for tests)."""
+
+    def show(self, picture: np.ndarray, model: Model) -> None:
+        """Show ``picture`` (an ``app.colours.colour_bar``) for a lattice ``model``."""
+        with self._lock:
+            new_lattice = model is not self._model
+            self.picture, self._model = picture, model
+            if self._panel is None:
+                self._panel = self.server.gui.add_panel(order=-1)
+                with self._panel.add_tab("Colours"):
+                    self._image = self.server.gui.add_image(picture, format="png")
+                self._panel.float(x=OVERLAY_MARGIN, y=-OVERLAY_MARGIN, width=OVERLAY_WIDTH)
+            else:
+                assert self._image is not None
+                self._image.image = picture
+            for client_id in list(self._phones):
+                self._draw_in_scene(client_id, new_lattice)
+            self.updates += 1
+
+    def hide(self) -> None:
+        """No colour bar (the particles carry no colour): every page's bar goes."""
+        with self._lock:
+            if self._panel is not None:
+                self._panel.remove()
+            self._panel = self._image = self.picture = None
+            for client_id, (client, handle) in list(self._phones.items()):
+                if handle is not None:
+                    handle.remove()
+                self._phones[client_id] = (client, None)
+
+    def set_narrow(self, client: viser.ClientHandle, narrow: bool) -> None:
+        """``client``'s view is a phone's (``narrow``) or a laptop's: a phone gets the bar in
+        its own scene too."""
+        with self._lock:
+            known = client.client_id in self._phones
+            if narrow and not known:
+                self._phones[client.client_id] = (client, None)
+                self._draw_in_scene(client.client_id, True)
+            elif not narrow and known:
+                _, handle = self._phones.pop(client.client_id)
+                if handle is not None:
+                    handle.remove()
+
+    def client_left(self, client_id: int) -> None:
+        with self._lock:
+            self._phones.pop(client_id, None)
+
+    def _draw_in_scene(self, client_id: int, new_lattice: bool) -> None:
+        client, handle = self._phones[client_id]
+        if self.picture is None or self._model is None:
+            return
+        picture = np.ascontiguousarray(self.picture[::-1])  # image rows run along -y
+        if handle is not None and not new_lattice:
+            handle.image = picture
+            return
+        if handle is not None:
+            handle.remove()
+        centre, width, height = bar_pose(self._model)
+        try:
+            handle = client.scene.add_image("/colour_bar", picture, render_width=width,
+                                            render_height=height, format="png", position=centre)
+        except Exception:  # noqa: BLE001 - the page went away meanwhile
+            handle = None
+        self._phones[client_id] = (client, handle)

@@ -1,0 +1,138 @@
+"""How fast a real page answers a click while the flagship plays.
+
+Starts the web app on ``interference`` (682x383 particles) in this process, opens Debian's
+headless Chromium at 1366x768 through Playwright and clicks the *View* folder's title
+``--clicks`` times (it opens and closes in the page alone; the time is from the click until the
+folder's contents show or hide), first on the paused page, then while the run plays.  It also
+clicks *Pause* (``--clicks`` / 2 times) and waits until the button reads *Play* again (a
+round trip through the server).  And it counts the page's long tasks (PerformanceObserver ``longtask``:
+main-thread work of 50 ms or more, which is what a click waits behind) in each phase.
+``--trace FILE`` writes a Chrome trace of the playing phase (open it in chrome://tracing or ui.perfetto.dev).
+
+    .venv/bin/python benchmarks/web_clicks.py                       # 8 clicks paused, 8 playing
+    .venv/bin/python benchmarks/web_clicks.py --rate 12 --clicks 12 --trace /tmp/trace.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import sim  # noqa: E402
+from app.web.app import WebApp  # noqa: E402
+from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
+
+LONG_TASKS = """
+window.__long = [];
+new PerformanceObserver(list => {
+  for (const entry of list.getEntries()) window.__long.push([entry.startTime, entry.duration]);
+}).observe({entryTypes: ["longtask"]});
+"""
+
+
+def folder_click_delays(page, clicks: int, pause: float) -> list[float]:
+    delays = []
+    for k in range(clicks):
+        time.sleep(pause)
+        started = time.perf_counter()
+        page.get_by_text("View", exact=True).click()
+        page.get_by_label("Move points", exact=True).wait_for(
+            state="visible" if k % 2 == 0 else "hidden", timeout=60_000)
+        delays.append(time.perf_counter() - started)
+    return delays
+
+
+def pause_click_delays(page, app, clicks: int, pause: float) -> list[float]:
+    """Seconds from a click on *Pause* while the run plays until the page shows the server's
+    answer (the button reads *Play* again): a round trip through the server."""
+    delays = []
+    for _ in range(clicks):
+        time.sleep(pause)
+        started = time.perf_counter()
+        page.get_by_role("button", name="Pause").click()
+        page.get_by_role("button", name="Play").wait_for(state="visible", timeout=60_000)
+        delays.append(time.perf_counter() - started)
+        app.runner.play()
+        page.get_by_role("button", name="Pause").wait_for(state="visible", timeout=60_000)
+        time.sleep(1.5)  # pictures flow again
+    return delays
+
+
+def busy_share(page, since_ms: float) -> tuple[float, int, float]:
+    """(share of the time since ``since_ms`` the page's thread spent in long tasks, their
+    number, the longest in seconds)."""
+    tasks = page.evaluate(f"window.__long.filter(t => t[0] >= {since_ms})")
+    now = page.evaluate("performance.now()")
+    busy = sum(d for _, d in tasks)
+    return busy / max(1.0, now - since_ms), len(tasks), max((d for _, d in tasks), default=0) / 1e3
+
+
+def summary(name: str, delays: list[float]) -> str:
+    return (f"{name}: median {statistics.median(delays):.2f} s, max {max(delays):.2f} s "
+            f"({', '.join(f'{d:.2f}' for d in delays)})")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--clicks", type=int, default=8)
+    parser.add_argument("--rate", type=float, default=None,
+                        help="pictures per second (the View folder's choice; default: the app's)")
+    parser.add_argument("--pause", type=float, default=0.7, help="seconds between clicks")
+    parser.add_argument("--warm-up", type=float, default=8.0)
+    parser.add_argument("--trace", type=Path, default=None)
+    arguments = parser.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    app = WebApp(sim.Simulation(sim.scenes.build("interference")), port=free_port())
+    if arguments.rate is not None:
+        app.view.settings.picture_rate = arguments.rate
+    app.start()
+    print(f"load average at start: {os.getloadavg()[0]:.2f}")
+    try:
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            page = browser.new_page(viewport={"width": 1366, "height": 768})
+            page.add_init_script(LONG_TASKS)
+            page.goto(app.url)
+            page.get_by_text("Connected").wait_for(timeout=60_000)
+            time.sleep(3.0)
+            since = page.evaluate("performance.now()")
+            paused = folder_click_delays(page, arguments.clicks, arguments.pause)
+            paused_busy = busy_share(page, since)
+            app.runner.play()
+            assert wait_for(lambda: app.runner.simulation.step_count > 50, timeout=120)
+            time.sleep(arguments.warm_up)
+            if arguments.trace:
+                browser.start_tracing(page=page, path=str(arguments.trace), screenshots=False)
+            since = page.evaluate("performance.now()")
+            steps = app.runner.simulation.step_count
+            started = time.perf_counter()
+            playing = folder_click_delays(page, arguments.clicks, arguments.pause)
+            elapsed = time.perf_counter() - started
+            playing_busy = busy_share(page, since)
+            if arguments.trace:
+                browser.stop_tracing()
+            rate = (app.runner.simulation.step_count - steps) / elapsed
+            pauses = pause_click_delays(page, app, arguments.clicks // 2, arguments.pause)
+            pictures = app.view._image.sent if app.view._image is not None else 0
+            browser.close()
+    finally:
+        app.stop()
+    print(summary("paused ", paused))
+    print(summary("playing", playing))
+    print(summary("Pause answered", pauses))
+    for name, (share, count, longest) in (("paused ", paused_busy), ("playing", playing_busy)):
+        print(f"{name}: page thread in long tasks {100 * share:.0f} % of the time, {count} tasks, "
+              f"longest {longest:.2f} s")
+    print(f"simulation while clicking: {rate:.0f} steps/s; pictures sent in all: {pictures}; "
+          f"load average at end: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
