@@ -17,7 +17,8 @@ from tests.helpers import VIEWPORT, free_port, wait_for
 SCREENSHOT = os.environ.get("CLASS_SCREENSHOT")
 """If set, the student page's screenshot is saved there (to look at it)."""
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser,
+              pytest.mark.slow]  # two pages on one server: over a minute; roles are tested by default in test_web_roles.py
 
 
 @pytest.fixture
