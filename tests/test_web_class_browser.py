@@ -17,8 +17,9 @@ from tests.helpers import VIEWPORT, free_port, wait_for
 SCREENSHOT = os.environ.get("CLASS_SCREENSHOT")
 """If set, the student page's screenshot is saved there (to look at it)."""
 
-pytestmark = [pytest.mark.browser,
-              pytest.mark.slow]  # two pages on one server: over a minute; roles are tested by default in test_web_roles.py
+# two pages on one server take over a minute; the roles' server side runs by default
+# (test_web_roles.py)
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
 @pytest.fixture
