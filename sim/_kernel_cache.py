@@ -23,16 +23,28 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent
 
 
-def _kernel_sources() -> tuple[tuple[str, float, int], ...]:
-    """(path, mtime, size) of every module of the package that defines numba kernels."""
+@functools.lru_cache(maxsize=1)
+def _kernel_files() -> tuple[Path, ...]:
+    """The package's modules that define numba kernels (read once per process)."""
     found = []
     for path in sorted(PACKAGE.glob("*.py")):
         try:
             if "njit" in path.read_text(encoding="utf-8"):
-                stat = path.stat()
-                found.append((str(path), stat.st_mtime, stat.st_size))
+                found.append(path)
         except OSError:
             continue
+    return tuple(found)
+
+
+def _kernel_sources() -> tuple[tuple[str, float, int], ...]:
+    """(path, mtime, size) of every module of the package that defines numba kernels."""
+    found = []
+    for path in _kernel_files():
+        try:
+            stat = path.stat()
+        except OSError:
+            continue
+        found.append((str(path), stat.st_mtime, stat.st_size))
     return tuple(found)
 
 

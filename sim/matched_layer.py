@@ -153,7 +153,7 @@ def _relax(force, held, factor):
     return force + (held - force) * factor
 
 
-@njit(**_INLINE)
+@njit(**_JIT)
 def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, velocity, masses,
                horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x,
                e_below, e_above, e_node_y, held_offset, relaxed_offset):

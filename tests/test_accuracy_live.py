@@ -102,9 +102,11 @@ def test_prediction_matches_the_measured_error_on_linear_scenes(name, integrator
 # --- presets ----------------------------------------------------------------------------------------
 
 
-LONGEST_SMALL_RUNS = ("membrane", "catenary", "two-sources", "single-slit", "double-slit")
+LONGEST_SMALL_RUNS = ("membrane", "catenary", "two-sources", "single-slit", "double-slit",
+                      "bandgap")
 """Smaller presets whose whole run takes the longest (3-D with its own kernels; gravity with
-dashpots over many steps; the ripple tanks' absorbing walls, 40-50 s each): with the slow tests,
+dashpots over many steps; the absorbing walls of the ripple tanks and the band-gap chain, 40-60 s
+each): with the slow tests,
 like the paper-sized ones."""
 
 

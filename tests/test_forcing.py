@@ -324,6 +324,7 @@ def test_threads_run_the_instruments_like_one_thread():
     assert runs[1][1].dissipated == pytest.approx(runs[0][1].dissipated, rel=1e-9)
 
 
+@pytest.mark.slow  # float32 3-D kernels of their own: 40 s cold
 def test_a_driven_out_of_plane_lattice_runs_in_float32_as_in_float64():
     """The drive reads a float32 state's velocities too (the ripple tanks' sources in float32):
     the same run in both precisions, to float32's resolution."""

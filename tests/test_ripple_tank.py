@@ -92,6 +92,7 @@ def small_slits(tmp_path_factory) -> Path:
     return scene_files.save(scene, tmp_path_factory.mktemp("slits") / "small-slits.toml")
 
 
+@pytest.mark.slow  # the recorder's compiled paths for a 3-D layer: about a minute cold
 def test_a_recording_holds_the_intensity_screen(small_slits, tmp_path):
     path = tmp_path / "slits.rrd"
     assert main(["record", str(small_slits), "--duration", "30", "--every", "4", "--screen", "36",
