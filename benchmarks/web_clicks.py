@@ -26,7 +26,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import sim  # noqa: E402
 from app.web.app import WebApp  # noqa: E402
-from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
+from tests.helpers import (  # noqa: E402
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    folder_click_delays,
+    free_port,
+    wait_for,
+)
 
 LONG_TASKS = """
 window.__long = [];
@@ -34,18 +40,6 @@ new PerformanceObserver(list => {
   for (const entry of list.getEntries()) window.__long.push([entry.startTime, entry.duration]);
 }).observe({entryTypes: ["longtask"]});
 """
-
-
-def folder_click_delays(page, clicks: int, pause: float) -> list[float]:
-    delays = []
-    for k in range(clicks):
-        time.sleep(pause)
-        started = time.perf_counter()
-        page.get_by_text("View", exact=True).click()
-        page.get_by_label("Move points", exact=True).wait_for(
-            state="visible" if k % 2 == 0 else "hidden", timeout=60_000)
-        delays.append(time.perf_counter() - started)
-    return delays
 
 
 def pause_click_delays(page, app, clicks: int, pause: float) -> list[float]:
@@ -103,7 +97,7 @@ def main() -> None:
             page.get_by_text("Connected").wait_for(timeout=60_000)
             time.sleep(3.0)
             since = page.evaluate("performance.now()")
-            paused = folder_click_delays(page, arguments.clicks, arguments.pause)
+            paused = folder_click_delays(page, arguments.clicks, arguments.pause, 60_000)
             paused_busy = busy_share(page, since)
             app.runner.play()
             assert wait_for(lambda: app.runner.simulation.step_count > 50, timeout=120)
@@ -113,7 +107,7 @@ def main() -> None:
             since = page.evaluate("performance.now()")
             steps = app.runner.simulation.step_count
             started = time.perf_counter()
-            playing = folder_click_delays(page, arguments.clicks, arguments.pause)
+            playing = folder_click_delays(page, arguments.clicks, arguments.pause, 60_000)
             elapsed = time.perf_counter() - started
             playing_busy = busy_share(page, since)
             if arguments.trace:

@@ -133,17 +133,6 @@ def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
         _y_span(j - 1, j, j, start, stop, x, y, z, linearised, parameters, tension, out)
 
 
-@njit(**_JIT)
-def _y_row(j, need, spans, x, y, z, linearised, parameters, tension, out):
-    """The y-springs below row j over the columns ``need`` asks for (``SIDES``: the ``spans``)."""
-    if need == FULL:
-        _y_springs(j, 0, x.shape[1], x, y, z, linearised, parameters, tension, out)
-    elif need == SIDES:
-        for s in range(2):
-            _y_springs(j, spans[s, 0], spans[s, 1], x, y, z, linearised, parameters, tension,
-                       out)
-
-
 # --- the action on one span of particles ----------------------------------------------------
 
 
@@ -265,14 +254,12 @@ def _kick_row(j, segments, tau, lead, second_half, pull, velocity, masses, horiz
 
 
 @njit(**_JIT)
-def _relax_held(held, forces, start, stop, factors, uniform, second_half):
-    """The held forces ``held`` (dim, n) of springs ``start`` .. ``stop - 1`` relaxed as the
-    particles' loop did, twice per half action, with the factors ``factors[i]`` (``uniform``
-    None) or ``uniform`` for all."""
+def _relax_row(held, forces, factor, second_half):
+    """The held forces ``held`` (dim, n) of a row of springs relaxed toward ``forces`` as the
+    particles' loop did: twice per half action, by ``factor``."""
     for c in range(held.shape[0]):
-        for k in range(stop - start):
-            i = np.uint64(start + k)
-            factor = factors[i] if uniform is None else uniform
+        for k in range(held.shape[1]):
+            i = np.uint64(k)
             h = held[c, i]
             f = forces[c, i]
             h = _relax(f, _relax(f, h, factor), factor)
@@ -388,9 +375,9 @@ def act(tau, lead, second_half, position, velocity, masses, held_x, held_y, rela
                            spring_x, node_x, spring_y[j], spring_y[j + 1], node_y[j])
         # the springs below this row have served both their rows
         if spring_y[j] < 1.0:
-            _relax_held(held_y[:, j, :], below, 0, nx, spring_y, spring_y[j], second_half)
+            _relax_row(held_y[:, j, :], below, spring_y[j], second_half)
         if j == ny - 1 and spring_y[ny] < 1.0:
-            _relax_held(held_y[:, ny, :], above, 0, nx, spring_y, spring_y[ny], second_half)
+            _relax_row(held_y[:, ny, :], above, spring_y[ny], second_half)
         below, above = above, below
         fresh = False
         j += 1

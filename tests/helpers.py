@@ -36,3 +36,19 @@ CHROMIUM_ARGS = [
 ]
 VIEWPORT = {"width": 1400, "height": 900}
 """A laptop's page size (CSS pixels)."""
+
+
+def folder_click_delays(page, clicks: int = 6, pause: float = 0.0,
+                        timeout_ms: int = 30_000) -> list[float]:
+    """Seconds from a click on the View folder's title until the page shows (or hides) its
+    contents, for ``clicks`` clicks ``pause`` seconds apart (the folder opens and closes in
+    the page alone)."""
+    delays = []
+    for k in range(clicks):
+        time.sleep(pause)
+        started = time.perf_counter()
+        page.get_by_text("View", exact=True).click()
+        page.get_by_label("Move points", exact=True).wait_for(
+            state="visible" if k % 2 == 0 else "hidden", timeout=timeout_ms)
+        delays.append(time.perf_counter() - started)
+    return delays

@@ -16,7 +16,7 @@ import pytest
 
 import sim
 from app.web.app import WebApp
-from tests.helpers import free_port, wait_for
+from tests.helpers import folder_click_delays, free_port, wait_for
 
 pytestmark = pytest.mark.browser
 
@@ -161,19 +161,6 @@ def test_phone_size_shows_the_flagship_and_its_colour_bar_above_the_panel(browse
         assert wait_for(shown, timeout=60), seen
     finally:
         app.stop()
-
-
-def folder_click_delays(page, clicks: int = 6) -> list[float]:
-    """Seconds from a click on the View folder's title until the page shows (or hides) its
-    contents, for ``clicks`` clicks (the folder opens and closes in the page alone)."""
-    delays = []
-    for k in range(clicks):
-        started = time.perf_counter()
-        page.get_by_text("View", exact=True).click()
-        page.get_by_label("Move points", exact=True).wait_for(
-            state="visible" if k % 2 == 0 else "hidden", timeout=30_000)
-        delays.append(time.perf_counter() - started)
-    return delays
 
 
 ANSWER_CLOCK = """
