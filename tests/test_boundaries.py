@@ -70,6 +70,7 @@ def test_the_nonlinear_ring_carries_a_small_wave_at_the_same_speed():
     assert wave_phase(simulation, q) % (2 * math.pi) == pytest.approx(expected, abs=2e-3)
 
 
+@pytest.mark.slow  # ring kernels at their limit: the ring balance and plane wave run by default
 @pytest.mark.parametrize("particles", [8, 9])
 def test_the_stability_limit_is_the_rings(particles):
     """Verlet is stable up to dt = 2 / omega_max; on a ring omega_max = 2 sqrt(k/m) sin(pi p/N)
@@ -174,6 +175,7 @@ def test_a_pulse_comes_back_upright_from_a_free_end_and_inverted_from_a_wall():
     assert reflected_pulse_sign("fixed") == -1.0
 
 
+@pytest.mark.slow  # free-end kernels at their limit: the free-end balance runs by default
 def test_the_stability_limit_of_a_free_chain():
     """Free ends: Neumann second difference, omega_max = 2 sqrt(k/m) sin((N - 1) pi / (2 N))."""
     particles = 6

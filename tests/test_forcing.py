@@ -88,6 +88,7 @@ def ionic_gap_decay_per_cell(omega: float, light: float, heavy: float) -> float:
     return math.exp(-2 * math.acosh(math.sqrt(cosh_squared)))
 
 
+@pytest.mark.slow  # a driven chain of unequal masses compiles kernels of its own
 def test_driving_the_ionic_chain_inside_the_gap_gives_an_evanescent_response():
     light, heavy = 1.0, 4.0
     acoustic_top, optical_bottom = math.sqrt(2 * STIFFNESS / heavy), math.sqrt(2 * STIFFNESS / light)

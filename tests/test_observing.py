@@ -34,7 +34,9 @@ def _look(simulation: sim.Simulation) -> None:
 
 
 @pytest.mark.parametrize("driven", [True, False], ids=["driven", "free"])
-@pytest.mark.parametrize("integrator", sim.integrators.names(_scene().model))
+@pytest.mark.parametrize("integrator", [
+    name if name in ("verlet", "rk4") else pytest.param(name, marks=pytest.mark.slow)
+    for name in sim.integrators.names(_scene().model)])
 def test_observing_between_steps_changes_nothing(integrator: str, driven: bool) -> None:
     scene = _scene(driven)
     looked = sim.Simulation(scene, integrator=integrator)

@@ -267,15 +267,19 @@ EXTRAS = ({}, {"damping": 0.7}, {"drag": 0.3, "gravity": (0.5, -9.8, 1.0)})
 def _kernel_matrix() -> list:
     """Every integrator with every combination of terms, dimension and linearity: each is a kernel
     of its own (the flags are compile-time constants), so each costs a compilation on a cold cache.
-    The default suite runs, for every integrator, one set that covers each term, each dimension and
-    both spring laws at least once; the full product is in the slow suite."""
+    The default suite runs, for Verlet and RK4, one set that covers each term, each dimension and
+    both spring laws at least once, and for Euler and Heun (whose loops share RK4's stage
+    sweeps) the 2-D set; the full product is in the slow suite."""
     covering = {(2, False, 3), (1, True, 2), (0, True, 3)}
+    shared_stages = {"euler", "heun"}
     cases = []
     for integrator in sim.INTEGRATORS:
         for index, extras in enumerate(EXTRAS):
             for linear in (False, True):
                 for dim in (2, 3):
-                    marks = () if (index, linear, dim) in covering else pytest.mark.slow
+                    fast = (index, linear, dim) in covering and (
+                        dim == 2 or integrator not in shared_stages)
+                    marks = () if fast else pytest.mark.slow
                     cases.append(pytest.param(dim, linear, extras, integrator, marks=marks,
                                               id=f"{integrator}-extras{index}-{linear}-{dim}"))
     return cases

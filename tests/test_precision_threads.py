@@ -32,6 +32,7 @@ def float32_tolerance(extent: float, steps: int) -> float:
     return 20 * EPS32 * extent * math.sqrt(steps)
 
 
+@pytest.mark.slow  # float32 chain kernels of their own; the float32 grid below stays in the default run
 @pytest.mark.parametrize("integrator", ["verlet", "rk4"])
 @pytest.mark.parametrize("mode", [1, 3, 5])
 def test_float32_chain_normal_modes(integrator, mode):
@@ -121,7 +122,8 @@ def _thread_matrix() -> list:
     return cases
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "heun", "euler", "verlet"])
+@pytest.mark.parametrize("integrator", ["rk4", "verlet", pytest.param("heun", marks=pytest.mark.slow),
+                                        pytest.param("euler", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("flags, ny", _thread_matrix())
 def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
     """Row blocks on 2 and 3 threads against the one-thread loop, every flag combination; ny = 10

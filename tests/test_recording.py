@@ -473,7 +473,9 @@ def check_default_recording(path: Path, name: str) -> None:
         assert 0.3 <= p99 / scale <= 1.0, (p99, scale)
 
 
-@pytest.mark.parametrize("name", SMALL_PRESETS)
+@pytest.mark.parametrize("name", [
+    name if name != "membrane" else pytest.param(name, marks=pytest.mark.slow)  # 3-D kernels
+    for name in SMALL_PRESETS])
 def test_every_small_preset_default_recording(tmp_path, name):
     path = tmp_path / f"{name}.rrd"
     assert main(["record", name, "-o", str(path), "--quiet"]) == 0

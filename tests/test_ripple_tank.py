@@ -114,6 +114,7 @@ def test_a_screen_off_the_lattice_is_refused(small_slits, tmp_path, capsys):
     assert "screen" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # the screen recorder's compiled paths for a 3-D layer, as above
 def test_the_slits_command_reports_the_fringes_and_draws_the_screen(small_slits, tmp_path,
                                                                     capsys):
     picture = tmp_path / "screen.png"

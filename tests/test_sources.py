@@ -91,7 +91,7 @@ def test_a_barriers_pinned_particles_never_move_and_its_opening_passes_the_wave(
     assert open_peak.min() > 1e-3
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+@pytest.mark.parametrize("integrator", [pytest.param("rk4", marks=pytest.mark.slow), "verlet"])
 def test_the_energy_balance_closes_with_sources_and_a_barrier(integrator):
     model = barrier_scene().model.replace(damping=0.1)
     simulation = sim.Simulation(model, integrator=integrator, dt=0.01)

@@ -48,5 +48,5 @@ def test_a_reset_empties_the_probe_and_energy_plots_at_once(web_app):
     settle(web_app)
     press(web_app.panel.run.reset_button)
     assert wait_for(lambda: probes.time_plot.data[0].size == 0, timeout=10)
-    assert probes.spectrum_plot.data[0].size == 0
+    assert probes.spectrum_plot.data[0].size == 0  # cleared with (just before) the time plot
     assert wait_for(lambda: web_app.panel.energy.plot.data[0].size <= 1, timeout=10)

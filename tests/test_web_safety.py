@@ -432,6 +432,7 @@ def test_precision_and_threads_from_the_page_are_checked_and_applied(web_app):
     assert np.isfinite(web_app.runner.simulation.peek_positions()).all()
 
 
+@pytest.mark.slow  # renders the whole run; the page's recording download is tested by default
 def test_download_a_movie_of_the_current_run(web_app):
     import av
 

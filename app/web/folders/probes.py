@@ -158,9 +158,9 @@ class ProbesFolder(Folder):
             series = self.series
         if (self._plotted and series is not None and self.time_plot is not None
                 and len(series.times) < 8):  # started again (a reset): the old lines go at once
-            lines = len(series.particles)
-            self.time_axis.clear(self.time_plot, lines)
+            lines = len(series.particles)  # the spectrum first: an empty time plot means both are
             self.spectrum_axis.clear(self.spectrum_plot, lines)
+            self.time_axis.clear(self.time_plot, lines)
             self._plotted = False
         if now - self._last < REFRESH_SECONDS:
             return
