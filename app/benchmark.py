@@ -14,7 +14,7 @@ printed beside them and included in ``--json``):
   the C fused RK4 in float64 on one thread for RK4).  The
   ratio uses ``Simulation.step``, which includes the blow-up checks.  Without a C compiler the
   ratios are skipped with a note.  Each row also gives its speed-up over the same integrator and
-  precision on one thread, measured in the same run;
+  precision on one thread, the thread counts timed side by side (rounds of one burst each);
 * specialisation, one effect at a time, each against the kernel the scene actually runs: zero
   damping, drag and gravity terms compiled in; a (ny, nx) 1/m array instead of the scalar one;
   the 3-D kernel with z = 0 instead of the planar one;
@@ -139,9 +139,30 @@ def _integrator_table(scene, seconds: float) -> dict:
     return table
 
 
+def _side_by_side(runs: dict[str, Callable[[int], None]], burst: int, seconds: float) -> dict:
+    """Steps per second of each run, measured side by side: rounds of one burst of ``burst`` steps
+    of each run (about ``seconds`` per run in all, at least three rounds), the best burst of each
+    counted, so a machine that slows down for a while slows every run alike.  Each run is
+    warmed up (compiled) first."""
+    for run in runs.values():
+        run(1)
+    best = dict.fromkeys(runs, float("inf"))
+    deadline = time.perf_counter() + seconds * len(runs)
+    rounds = 0
+    while time.perf_counter() < deadline or rounds < 3:
+        for name, run in runs.items():
+            started = time.perf_counter()
+            run(burst)
+            best[name] = min(best[name], (time.perf_counter() - started) / burst)
+        rounds += 1
+    return {name: 1.0 / seconds_per_step for name, seconds_per_step in best.items()}
+
+
 def _configurations(scene, seconds: float, thread_counts: list[int], c_reference) -> list[dict]:
     """The integrators the C reference implements, in each precision on each thread count, with
-    the ratio to the nearest C kernel (``CMethod.configuration``)."""
+    the ratio to the nearest C kernel (``CMethod.configuration``).  The thread counts of one
+    integrator and precision are timed side by side (``_side_by_side``), so their ratio does not
+    depend on what else the machine did between them."""
     import sim
 
     model = scene.model
@@ -149,7 +170,9 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
     c_rates: dict[tuple, float] = {}
     for method in c_module.METHODS:
         integrator = method.integrator
+        burst = _burst(integrator)
         for precision in PRECISIONS:
+            runs = {}
             for threads in thread_counts:
                 simulation = sim.Simulation(
                     scene, integrator=integrator, precision=precision, threads=threads
@@ -162,12 +185,16 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
                 def checked(steps: int, simulation=simulation) -> None:
                     simulation.step(steps)
 
-                kernel_rate = _best_rate(kernel, _burst(integrator), seconds)
-                checked_rate = _best_rate(checked, _burst(integrator), seconds)
+                runs[("kernel", threads)] = kernel
+                runs[("checked", threads)] = checked
+            rates = _side_by_side(runs, burst, seconds / 2)
+            for threads in thread_counts:
                 row = {
                     "integrator": integrator, "precision": precision, "threads": threads,
-                    "kernel_steps_per_second": kernel_rate,
-                    "simulation_steps_per_second": checked_rate,
+                    "kernel_steps_per_second": rates[("kernel", threads)],
+                    "simulation_steps_per_second": rates[("checked", threads)],
+                    "speedup_over_one_thread": (rates[("checked", threads)]
+                                                / rates[("checked", thread_counts[0])]),
                 }
                 if c_reference is not None:
                     key = method.configuration(precision, threads)
@@ -175,17 +202,10 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
                         run = c_reference.step_function(
                             key[0], model.nx, model.ny, np.dtype(key[1]).type, key[2]
                         )
-                        c_rates[key] = _best_rate(run, _burst(integrator), seconds)
+                        c_rates[key] = _best_rate(run, burst, seconds)
                     row["c_reference"] = method.describe(key[1], key[2])
                     row["c_steps_per_second"] = c_rates[key]
-                    row["ratio_to_c"] = checked_rate / c_rates[key]
-                single = next(
-                    (r for r in rows if (r["integrator"], r["precision"], r["threads"])
-                     == (integrator, precision, 1)), row,
-                )
-                row["speedup_over_one_thread"] = (
-                    checked_rate / single["simulation_steps_per_second"]
-                )
+                    row["ratio_to_c"] = row["simulation_steps_per_second"] / c_rates[key]
                 rows.append(row)
     return rows
 
@@ -292,22 +312,8 @@ def _instruments(scene, seconds: float) -> dict:
     runs = {}
     for name, changes in variants.items():
         variant = dataclasses.replace(scene, model=model.replace(**changes)) if changes else scene
-        simulation = sim.Simulation(variant, integrator=INSTRUMENTS_INTEGRATOR)
-        simulation.step(1)  # compile / warm up
-        runs[name] = simulation
-    # side by side: rounds of one burst of each variant, the best burst of each counted, so a
-    # machine that slows down for a while slows every variant alike
-    burst = _burst(INSTRUMENTS_INTEGRATOR)
-    best = dict.fromkeys(runs, float("inf"))
-    deadline = time.perf_counter() + seconds * len(runs)
-    rounds = 0
-    while time.perf_counter() < deadline or rounds < 3:
-        for name, simulation in runs.items():
-            started = time.perf_counter()
-            simulation.step(burst)
-            best[name] = min(best[name], (time.perf_counter() - started) / burst)
-        rounds += 1
-    rates = {name: 1.0 / seconds_per_step for name, seconds_per_step in best.items()}
+        runs[name] = sim.Simulation(variant, integrator=INSTRUMENTS_INTEGRATOR).step
+    rates = _side_by_side(runs, _burst(INSTRUMENTS_INTEGRATOR), seconds)
     base = rates["as_is"]
     return {"steps_per_second": rates, "layer_width": width,
             "cost": {name: base / rate for name, rate in rates.items() if name != "as_is"}}
