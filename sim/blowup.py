@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from sim.kernels import farthest_from_rest
 from sim.model import Model
 from sim.observables import Energy
 from sim.state import State
@@ -123,5 +124,8 @@ def _motion(energy: Energy, release: float) -> float:
 
 def largest_displacement(model: Model, state: State) -> float:
     """The largest distance (m) of a particle from its rest position (per coordinate)."""
-    rest = model.rest_positions.T.reshape(state.positions.shape)
-    return float(np.abs(state.positions - rest).max()) if state.positions.size else 0.0
+    if not state.positions.size:
+        return 0.0
+    origin_x, origin_y = model.origin
+    return float(farthest_from_rest(state.positions, float(origin_x), float(origin_y),
+                                    float(model.spacing)))

@@ -40,7 +40,10 @@ class KernelArguments(NamedTuple):
     gravity: np.ndarray | None
 
     @classmethod
-    def from_model(cls, model: Model, dtype: type[np.floating] = np.float64) -> KernelArguments:
+    def from_model(cls, model: Model, dtype: type[np.floating] = np.float64,
+                   loop: str = "sweep") -> KernelArguments:
+        """The arguments in ``dtype``, with the 1/sqrt variant measured fastest in ``loop``
+        (``sim.host_tuning.LOOPS``) in float64."""
         scalar = np.dtype(dtype).type
         return cls(
             linear=model.linear,
@@ -50,7 +53,7 @@ class KernelArguments(NamedTuple):
                 scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),
             parameters=model.kernel_parameters.as_type(
-                dtype, host_tuning.inverse_sqrt_estimate() if scalar is np.float64 else None
+                dtype, host_tuning.inverse_sqrt_estimate(loop) if scalar is np.float64 else None
             ),
             dashpot=scalar(model.damping) if model.damping > 0 else None,
             drag=scalar(model.drag) if model.drag > 0 else None,
@@ -152,6 +155,8 @@ class Verlet(Integrator):
         # Undamped nonlinear springs: the steps between the first and the last run as fused
         # leapfrog sweeps over row blocks (one block per thread), the fastest loop shape.
         self._leapfrog = k.dashpot is None and k.drag is None and not k.linear
+        if self._leapfrog:
+            self.kernel = KernelArguments.from_model(model, self.dtype, loop="leapfrog")
         blocks = self._block_starts.size - 1
         self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
         self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)

@@ -140,3 +140,18 @@ def test_a_driven_lattice_from_rest_stepped_one_step_at_a_time_is_not_a_blow_up(
             energy = simulation.energy()
             spent = energy.kinetic + energy.spring + energy.dissipated
             assert 0 < spent <= 3 * rule.supply(energy)
+
+
+@pytest.mark.parametrize("dim, precision", [(2, np.float64), (3, np.float32)])
+def test_the_largest_displacement_is_the_farthest_coordinate_from_rest(dim, precision):
+    from sim.blowup import largest_displacement
+
+    model = sim.scenes.build("grid", nx=7, ny=5, dim=dim).model
+    rest = model.rest_positions.T.reshape(dim, model.ny, model.nx)
+    state = sim.Simulation(model, precision=np.dtype(precision).name).state
+    generator = np.random.default_rng(3)
+    state.positions[...] = rest + generator.normal(0.0, 0.1, rest.shape)
+    state.positions[dim - 1, 3, 4] = rest[dim - 1, 3, 4] - 2.5  # the farthest, below its rest
+    expected = np.abs(state.positions.astype(np.float64) - rest).max()
+    assert expected == pytest.approx(2.5, rel=1e-6)
+    assert largest_displacement(model, state) == pytest.approx(expected, rel=1e-6)
