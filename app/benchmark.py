@@ -84,7 +84,7 @@ def host_description() -> dict:
     """The machine the numbers belong to."""
     import numba
 
-    from sim import _vector_width
+    from sim import _vector_width, host_tuning
 
     return {
         "cpu": _cpu_name(),
@@ -94,6 +94,7 @@ def host_description() -> dict:
         "numba": numba.__version__,
         "vector_width_bits": _vector_width.vector_width_bits(),
         "load_average": os.getloadavg()[0],
+        "inverse_sqrt": host_tuning.describe(),
     }
 
 

@@ -35,9 +35,9 @@ import math
 
 import numpy as np
 
-from sim.kernels import farthest_from_rest
 from sim.model import Model
 from sim.observables import Energy
+from sim.rest_distance import farthest_from_rest
 from sim.state import State
 
 RUNAWAY_FACTOR = 100.0

@@ -490,22 +490,3 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
         spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
                                  tension_stiffness, spacing)
     return kinetic, spring
-
-
-
-
-@njit(**_JIT)
-def farthest_from_rest(position, origin_x, origin_y, spacing):
-    """The largest distance (m) of a coordinate of ``position`` (dim, ny, nx) from its rest
-    value (particle (i, j) rests at (origin_x + i spacing, origin_y + j spacing, 0)), in one pass
-    without temporaries."""
-    dim, ny, nx = position.shape
-    farthest = 0.0
-    for j in range(ny):
-        rest_y = origin_y + j * spacing
-        for i in range(nx):
-            farthest = max(farthest, abs(position[0, j, i] - (origin_x + i * spacing)))
-            farthest = max(farthest, abs(position[1, j, i] - rest_y))
-            if dim == 3:
-                farthest = max(farthest, abs(position[2, j, i]))
-    return farthest

@@ -55,6 +55,8 @@ def print_table(results: dict) -> None:
     print(f"host: {host['cpu']}, {host['machine']}, {host['cores']} cores, "
           f"{host['vector_width_bits']}-bit vectors, python {host['python']}, numba {host['numba']}, "
           f"load average {host['load_average']:.1f}")
+    if "inverse_sqrt" in host:
+        print(host["inverse_sqrt"])
     print("\nfloat64, one thread")
     header = f"{'integrator':10s} {'kernel steps/s':>15s} {'Simulation.step':>16s} " \
              f"{'numpy steps/s':>14s} {'kernel/numpy':>13s}"

@@ -1,0 +1,58 @@
+"""The two float64 1/sqrt variants compute the same forces, and the per-host choice answers for
+each loop family (``sim.host_tuning``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sim
+from sim import host_tuning
+from sim.stepping import accelerations
+
+
+def test_the_estimate_and_the_division_give_the_same_forces():
+    model = sim.scenes.build("grid", nx=9, ny=6).model.replace(rest_length=0.6)
+    generator = np.random.default_rng(5)
+    rest = model.rest_positions.T.reshape(2, model.ny, model.nx)
+    position = rest + 0.2 * model.spacing * generator.standard_normal(rest.shape)
+    velocity = np.zeros_like(position)
+    forces = []
+    for estimate in (None, True):
+        out = np.zeros_like(position)
+        parameters = model.kernel_parameters.as_type(np.float64, estimate)
+        # the arguments as Verlet's first and last half steps pass them (equal masses)
+        accelerations(False, None, position, velocity, model.inverse_masses,
+                      np.float64(model.inverse_masses.flat[0]), parameters, None, None, None, out)
+        forces.append(out)
+    scale = np.abs(forces[0]).max()
+    assert scale > 0
+    np.testing.assert_allclose(forces[1], forces[0], rtol=0, atol=1e-13 * scale)
+
+
+def test_the_choice_is_forced_by_the_environment_and_loops_are_named(monkeypatch):
+    host_tuning.inverse_sqrt_estimate.cache_clear()
+    try:
+        monkeypatch.setenv("OSCILLATORS_INVERSE_SQRT", "estimate")
+        assert all(host_tuning.inverse_sqrt_estimate(loop) is True for loop in host_tuning.LOOPS)
+        host_tuning.inverse_sqrt_estimate.cache_clear()
+        monkeypatch.setenv("OSCILLATORS_INVERSE_SQRT", "divide")
+        assert all(host_tuning.inverse_sqrt_estimate(loop) is None for loop in host_tuning.LOOPS)
+        with pytest.raises(ValueError, match="leapfrog"):
+            host_tuning.inverse_sqrt_estimate("spiral")
+    finally:
+        host_tuning.inverse_sqrt_estimate.cache_clear()
+
+
+@pytest.mark.slow  # compiles both variants of both loop families
+def test_the_measurement_answers_for_every_loop(monkeypatch, tmp_path):
+    host_tuning.inverse_sqrt_estimate.cache_clear()
+    try:
+        monkeypatch.delenv("OSCILLATORS_INVERSE_SQRT", raising=False)
+        monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+        answers = {loop: host_tuning.inverse_sqrt_estimate(loop) for loop in host_tuning.LOOPS}
+        assert all(answer in (True, None) for answer in answers.values())
+        assert (tmp_path / "coupled-oscillators" / "host_tuning.json").exists()
+        assert "leapfrog" in host_tuning.describe()
+    finally:
+        host_tuning.inverse_sqrt_estimate.cache_clear()
