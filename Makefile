@@ -18,7 +18,7 @@ run: install  ## install, then serve the web app on the default scene
 	$(BIN)/oscillators serve $(SCENE)
 
 # --dist loadfile: a test module's tests run in one worker, so the kernels a module compiles on a
-# cold cache are compiled once, not by both workers at the same time (on a fresh clone, 2 cores: 502 s against 598 s)
+# cold cache are compiled once, not by both workers at the same time
 test: install  ## install, then run the test suite (includes one real-browser test)
 	bash scripts/ensure-chromium.sh
 	$(BIN)/ruff check sim app tests benchmarks

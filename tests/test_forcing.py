@@ -313,6 +313,7 @@ def test_the_balance_closes_with_the_instruments_inside_verlets_steps(kind):
     assert abs(energy.balance - start) < 2e-3 * exchanged
 
 
+@pytest.mark.slow  # the threaded loops with a driver and a layer: kernels of their own
 def test_threads_run_the_instruments_like_one_thread():
     runs = []
     for threads in (1, 2):

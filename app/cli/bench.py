@@ -80,6 +80,11 @@ def print_table(results: dict) -> None:
               f"{row['kernel_steps_per_second']:15.1f} {row['simulation_steps_per_second']:16.1f} "
               f"{row['speedup_over_one_thread']:10.2f}x "
               f"{c_rate} {ratio}  {row.get('c_reference', '')}")
+    c_gains = [f"{row['integrator']} {row['precision']} {row['c_speedup_over_one_thread']:.2f}x"
+               for row in results["configurations"] if "c_speedup_over_one_thread" in row]
+    if c_gains:
+        print(f"the C kernel's own speed-up on {results['threads'][-1]} threads (what the memory "
+              f"and cores allow): {', '.join(c_gains)}")
     if results["c_reference_note"]:
         print(f"note: {results['c_reference_note']}")
     specialisation = results.get("specialisation")
