@@ -207,6 +207,7 @@ def test_a_lattice_larger_than_the_memory_is_refused_before_allocating(monkeypat
     assert peak < 2**20  # 16 million particles: nothing of that size was allocated
 
 
+@pytest.mark.slow  # 300x200 lattices in 2-D and 3-D, the 3-D leapfrog compiled for it
 def test_the_memory_estimate_covers_a_real_simulation():
     import tracemalloc
 
