@@ -42,7 +42,7 @@ LOOPS = ("sweep", "leapfrog")
 Heun, Euler, damped Verlet) and undamped Verlet's fused leapfrog (``sim.leapfrog``)."""
 
 
-def _sweep_seconds(loop: str, estimate: object) -> float:
+def _loop_seconds(loop: str, estimate: object) -> float:
     """Best time of ``loop`` (float64) over a 512 x 64 pre-tensioned lattice."""
     from sim.kernels import SpringParameters
     from sim.leapfrog import leapfrog_steps
@@ -101,7 +101,7 @@ def inverse_sqrt_estimate(loop: str = "sweep") -> object:
         known = {}
     if key in known and isinstance(known[key], dict) and "estimate_faster" in known[key]:
         return True if known[key]["estimate_faster"] else None
-    divide, estimate = _sweep_seconds(loop, None), _sweep_seconds(loop, True)
+    divide, estimate = _loop_seconds(loop, None), _loop_seconds(loop, True)
     estimate_faster = estimate < 0.97 * divide
     known[key] = {"estimate_faster": estimate_faster, "divide_seconds": divide,
                   "estimate_seconds": estimate}

@@ -81,7 +81,7 @@ class Integrator:
         self.model = model
         self.dtype = np.dtype(dtype).type
         self.threads = int(threads)
-        self.kernel = KernelArguments.from_model(model, self.dtype)
+        self.kernel = KernelArguments.from_model(model, self.dtype, self.loop_family(model))
         rows = model.ny if self.ring_rows is None else self.ring_rows
         shape = (model.dim, rows, model.nx)
         self.work = [np.zeros(shape, dtype=self.dtype) for _ in range(self.work_arrays)]
@@ -103,6 +103,11 @@ class Integrator:
         while len(self._full_work) < count:
             self._full_work.append(np.zeros((model.dim, model.ny, model.nx), dtype=self.dtype))
         return self._full_work[:count]
+
+    @classmethod
+    def loop_family(cls, model: Model) -> str:
+        """The loop family (``sim.host_tuning.LOOPS``) whose 1/sqrt variant the kernels use."""
+        return "sweep"
 
     def invalidate(self) -> None:
         """The state was changed from outside (a drag, a reset): drop any cached forces."""
@@ -146,17 +151,19 @@ class Verlet(Integrator):
     name = "verlet"
     work_arrays = 2
 
+    @classmethod
+    def loop_family(cls, model: Model) -> str:
+        """Undamped nonlinear springs: the steps between the first and the last run as fused
+        leapfrog sweeps over row blocks (one block per thread), the fastest loop shape."""
+        damped = model.damping > 0 or model.drag > 0
+        return "sweep" if damped or model.linear else "leapfrog"
+
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
         self._cached_for: tuple[int, float] | None = None
         self._power = 0.0
 
-        k = self.kernel
-        # Undamped nonlinear springs: the steps between the first and the last run as fused
-        # leapfrog sweeps over row blocks (one block per thread), the fastest loop shape.
-        self._leapfrog = k.dashpot is None and k.drag is None and not k.linear
-        if self._leapfrog:
-            self.kernel = KernelArguments.from_model(model, self.dtype, loop="leapfrog")
+        self._leapfrog = self.loop_family(model) == "leapfrog"
         blocks = self._block_starts.size - 1
         self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
         self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
