@@ -58,7 +58,8 @@ def _loop_seconds(loop: str, estimate: object) -> float:
     inverse_mass = np.ones((ny, nx))
     if loop == "leapfrog":  # the arguments of a planar lattice of equal masses on one thread
         block_starts = np.array([0, ny], dtype=np.int64)
-        scratch = (np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)))
+        scratch = (np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)),
+                   np.zeros((1, 3, nx)))
         arguments = (1, 0.01, None, position, velocity, inverse_mass, 1.0, parameters, None,
                      block_starts, *scratch, 0.0, None, np.zeros((1, 3)), None, np.zeros((1, 2)))
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from numba import njit, prange
 
-from sim.instruments import leapfrog_drive, save_driven
+from sim.instruments import leapfrog_drive, save_driven, shift_saved
 from sim.kernels import (
     gravity_vector,
     horizontal_springs,
@@ -21,16 +21,34 @@ from sim.kernels import (
     spring_force,
     vertical_springs,
 )
-from sim.matched_layer import act_on
+from sim.layer_kick import (
+    GEOMETRY,
+    LINEARISED,
+    NEEDS,
+    NONE,
+    PARAMETERS,
+    SIDE_FORCES,
+    band_act,
+    keep_row,
+    relax_block_edges,
+    rest_tension,
+    sides_act,
+    sides_row,
+    sides_under,
+)
 from sim.row_updates import components, kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+SIDE_CHUNK = 16
+"""Rows whose side strips the absorbing layer kicks at once, while their forces and particles
+are still in cache (a row at a time, the strips' short spans cost more than their arithmetic)."""
 
 
 @njit(**_JIT)
 def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
                   parameters, gravity, below, above_last, horizontal, position, velocity, time,
-                  drive, saved, totals):
+                  drive, saved, totals, sponge, under, tension):
     """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
     nonlinear springs, with each row's forces and update fused into one pass over it.
 
@@ -40,17 +58,30 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
     spring is computed here from positions that have not moved yet.
 
-    The drive table (``sim.instruments``, None compiles it out) acts on a row after its plain
-    pass: the driven particles get their drive at ``time`` (s; velocities kept in ``saved``
-    (drives, 3) before the pass); ``totals`` (2,) receives the drive's work (J).
-    ``position``/``velocity`` are the full (dim, ny, nx) arrays of the components.
+    The absorbing layer (``sponge``: ``sim.matched_layer.MatchedLayer.arguments``, None
+    compiles it out) kicks from the springs the rows' passes computed (``sim.layer_kick``;
+    ``under`` (3, nx) scratch, ``tension`` the rest tension, N): a band row's y-layer after its
+    pass, the side strips' x-layer every ``SIDE_CHUNK`` rows.  The drive table (``sim.instruments``,
+    None compiles it out) acts last: the driven particles get their drive at ``time`` (s;
+    velocities kept in ``saved`` (drives, 3) before their row's pass).  ``totals`` (2,) receives
+    the drive's work and the layer's take (J).  ``position``/``velocity`` are the full
+    (dim, ny, nx) arrays of the components.
     """
     zero = type(dt)(0.0)
     pull = gravity_vector(gravity, zero)
     nx = x.shape[1]
+    if sponge is not None:
+        needs = sponge[NEEDS]
+        geometry = sponge[GEOMETRY]
+        side_forces = sponge[SIDE_FORCES]
+        sides_under(j0, below, side_forces, geometry)
+    chunk = j0  # the first row whose side strips have not been kicked
     for j in range(j0, j1):
         if drive is not None:
             save_driven(j, drive, velocity, saved)
+        if sponge is not None:
+            if needs[j] != NONE:
+                keep_row(below, under)
         horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
         given = j + 1 == j1
         for i in range(nx):
@@ -89,34 +120,52 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
             y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
             below[0, i] = above[0]
             below[1, i] = above[1]
-        if drive is not None:
-            totals[0] += leapfrog_drive(j, time, dt, drive, position, velocity, saved)
+        if sponge is not None:
+            sides_row(j, j + 1 == j1, horizontal, below, side_forces, geometry, tension)
+            if needs[j] != NONE:
+                if drive is not None:  # the layer's kick counts as given before the sweep's
+                    shift_saved(j, j + 1, drive, velocity, saved, -1.0)
+                totals[1] += band_act(j, j == j0, 0.5 * dt, -0.5 * dt, True, dt, position,
+                                      velocity, horizontal, under, below, sponge, tension)
+                if drive is not None:
+                    shift_saved(j, j + 1, drive, velocity, saved, 1.0)
+            if j + 1 - chunk == SIDE_CHUNK or j + 1 == j1:  # the side strips of these rows
+                if drive is not None:
+                    shift_saved(chunk, j + 1, drive, velocity, saved, -1.0)
+                totals[1] += sides_act(chunk, j + 1, 0.5 * dt, -0.5 * dt, True, dt, position,
+                                       velocity, sponge)
+                if drive is not None:
+                    shift_saved(chunk, j + 1, drive, velocity, saved, 1.0)
+                chunk = j + 1
+    if drive is not None:
+        totals[0] += leapfrog_drive(j0, j1, time, dt, drive, position, velocity, saved)
 
 
 @njit(**_JIT)
 def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                   parameters, gravity, block_starts, boundary, below, horizontal, time=0.0,
+                   parameters, gravity, block_starts, boundary, below, horizontal, under, time=0.0,
                    drive=None, saved=None, sponge=None, totals=None):
     """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
 
     The springs below each block (and the top wall springs) go into ``boundary``
-    (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below``
-    (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.  This one runs
-    the blocks one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them
-    on numba's threads and computes the same numbers.  The drive as in ``leapfrog_rows`` (the
-    kick of step s at ``time`` + s dt); the absorbing layer (``sponge``: the arguments of
-    ``sim.matched_layer.act_on``) acts over dt / 2 twice before each sweep (as at the end of
-    one step and the start of the next), at the positions that sweep kicks with; ``totals``
-    (blocks, 2) receives the drive's work and (in row 0) the layer's take (J).
+    (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below`` and
+    ``under`` (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.
+    This one runs the blocks one after the other on the calling thread;
+    ``leapfrog_steps_parallel`` runs them on numba's threads and computes the same numbers.  The
+    drive as in ``leapfrog_rows`` (the kick of step s at ``time`` + s dt); the absorbing layer
+    (``sponge``: ``sim.matched_layer.MatchedLayer.arguments``) acts over dt / 2 twice between
+    steps (as at the end of one step and the start of the next) at the positions each sweep
+    kicks with, inside the sweep (``leapfrog_rows``); ``totals`` (blocks, 2) receives the
+    drive's work and the layer's take (J).
     """
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     ny = position.shape[1]
     blocks = block_starts.size - 1
+    tension = 0.0
+    if sponge is not None:
+        tension = rest_tension(sponge[LINEARISED], sponge[PARAMETERS])
     for step in range(n):
-        if sponge is not None:
-            # two halves in one pass: the same as a step's end and the next's start
-            totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), True, position, velocity, sponge)
         for b in range(blocks + 1):
             vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
                              boundary[b])
@@ -125,30 +174,39 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
             leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
                           inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
                           boundary[b + 1], horizontal[b], position, velocity,
-                          time + step * float(dt), drive, saved, totals[b])
+                          time + step * float(dt), drive, saved, totals[b], sponge, under[b],
+                          tension)
+        if sponge is not None:
+            relax_block_edges(block_starts, boundary, sponge, tension)
 
 
 @njit(parallel=True, **_JIT)
 def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mass,
                             uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal, time=0.0, drive=None, saved=None, sponge=None,
-                            totals=None):
+                            below, horizontal, under, time=0.0, drive=None, saved=None,
+                            sponge=None, totals=None):
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
-    threads (``prange``; ``numba.set_num_threads`` sets how many).  The loop bodies are
+    threads (``prange``; ``numba.set_num_threads`` sets how many), the layer's tuple without its
+    springs' parameters (``MatchedLayer.arguments(threads=True)``: numba's parallel loops do
+    not take them inside a tuple; ``parameters`` are the same).  The loop bodies are
     functions of their own: numba's parallel transformation of the inlined 3-D body read stale
     out-of-plane components (runs differed from one thread and blew up)."""
     blocks = block_starts.size - 1
+    tension = 0.0
+    if sponge is not None:
+        tension = rest_tension(sponge[LINEARISED], parameters)
     for step in range(n):
-        if sponge is not None:
-            # two halves in one pass: the same as a step's end and the next's start
-            totals[0, 1] += act_on(0.5 * dt, 0.5 * float(dt), True, position, velocity, sponge)
         for b in prange(blocks + 1):
             _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
                               boundary)
         for b in prange(blocks):
             _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
                             uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal, time + step * float(dt), drive, saved, totals)
+                            below, horizontal, under, time + step * float(dt), drive, saved,
+                            totals, sponge, tension)
+        if sponge is not None:
+            relax_block_edges(block_starts, boundary, sponge, tension)
+
 
 
 @njit(**_JIT)
@@ -163,8 +221,8 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
 
 @njit(**_JIT)
 def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                    parameters, gravity, block_starts, boundary, below, horizontal, time, drive,
-                    saved, totals):
+                    parameters, gravity, block_starts, boundary, below, horizontal, under, time,
+                    drive, saved, totals, sponge, tension):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
@@ -172,4 +230,4 @@ def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, unifo
     leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
                   vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
                   boundary[b + 1], horizontal[b], position, velocity, time, drive, saved,
-                  totals[b])
+                  totals[b], sponge, under[b], tension)

@@ -27,12 +27,14 @@ relax over tau / 2 again.  The relaxations are exact exponentials (at the defaul
 layer does not lower the stable step).  The kinetic energy a kick takes out is returned (J): the lattice's
 energy changes only by those kicks, so kinetic + potential + dissipated stays constant.
 
+The kicks themselves, given the springs' forces, are ``sim.layer_kick``'s, shared with the
+leapfrog sweep, which has those forces at hand and acts inside its pass.
+
 Arrays: the state's (dim, ny, nx) positions (m) and velocities (m/s) in float64 or float32; the
-layer's own fields in float64 (N): ``held_x`` h of the x-springs (spring i joins particle i - 1,
-or the left anchor, to particle i) and ``relaxed_x`` phi_x over the side layers' columns only
-(dim, ny, columns): the left layer's, then the right one's, so that a side's rows lie next to
-each other; ``held_y`` (dim, ny + 1, nx) h of the y-springs and ``relaxed_y`` (dim, ny, nx)
-phi_y.
+layer's own fields in float64 (N): over the side strips (the left and right layers' columns,
+every row; flat (dim, slots), the left strip row by row, then the right one) each particle's
+held forces of its left and right x-springs and its phi_x; ``held_y`` (dim, ny + 1, nx) h of
+the y-springs and ``relaxed_y`` (dim, ny, nx) phi_y.
 """
 
 from __future__ import annotations
@@ -43,7 +45,22 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from sim.kernels import gravity_vector, site, spring_force
+from sim.kernels import site, spring_force
+from sim.layer_kick import (
+    BAND,
+    BUFFERS,
+    GEOMETRY,
+    LINEARISED,
+    NEEDS,
+    NONE,
+    OUT_OF_PLANE,
+    PARAMETERS,
+    SIDE_FORCES,
+    band_act,
+    rest_tension,
+    sides_act,
+    strip,
+)
 from sim.row_updates import components
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -53,10 +70,6 @@ counting, more than a short span's arithmetic."""
 
 POWER = 2
 """Exponent of the rate's growth with depth."""
-
-NONE, SIDES, FULL = 0, 1, 2
-"""Which particles of a row the layer acts on: none, the side layers' spans, the whole row."""
-
 
 # --- the springs the layer reads, a span of a row at a time ------------------------------------
 #
@@ -133,264 +146,71 @@ def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
         _y_span(j - 1, j, j, start, stop, x, y, z, linearised, parameters, tension, out)
 
 
-# --- the action on one span of particles ----------------------------------------------------
-
-
 @njit(**_JIT)
-def _relax(force, held, factor):
-    """A held force relaxed toward the spring's force: f + (h - f) e."""
-    return force + (held - force) * factor
-
-
-@njit(**_JIT)
-def _kick_span(c, j, start, stop, tau, lead, second_half, x_part, y_part, pull, velocity, masses,
-               horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x,
-               e_below, e_above, e_node_y, held_offset, relaxed_offset):
-    """Component c of the particles ``start`` .. ``stop - 1`` of row j: per half action, relax
-    their springs' held forces and their phi over tau / 2, kick by tau, relax again (a second
-    half when ``second_half`` is True, compiled out when None).  ``x_part`` / ``y_part`` None
-    leave out the layer along x / y where its fields stay zero (no x-layer at these columns, no
-    y-layer in this row).  Column i's x-fields are at i - ``held_offset`` (its spring on the
-    left) and i - ``relaxed_offset`` (phi_x) of the side layers' compact arrays.  The x-springs'
-    held forces are stored as relaxed here (springs
-    ``start`` .. ``stop``); the y-springs' are the caller's.  Returns the kinetic energy taken
-    out (J), measured on v + lead * a."""
-    taken = 0.0
-    zero = 0.0
-    one = np.uint64(1)
-    to_held = np.uint64(held_offset)
-    to_relaxed = np.uint64(relaxed_offset)
-    for k in range(stop - start):
-        i = np.uint64(start + k)  # unsigned: no negative-index wrap, so LLVM vectorises
-        f_left = horizontal[c, i]
-        f_right = horizontal[c, i + one]
-        f_below = below[c, i]
-        f_above = above[c, i]
-        inverse_mass = 1.0 / masses[j, i]
-        force_x = f_right - f_left
-        force_y = f_above - f_below
-        if x_part is not None:
-            e_left = spring_x[i]
-            e_right = spring_x[i + one]
-            e_x = node_x[i]
-            h_left = held_x[c, j, i - to_held]
-            h_right = held_x[c, j, i + one - to_held]
-            phi_x = relaxed_x[c, j, i - to_relaxed]
-        if y_part is not None:
-            h_below = held_y[c, j, i]
-            h_above = held_y[c, j + 1, i]
-            phi_y = relaxed_y[c, j, i]
-        start_velocity = np.float64(velocity[c, j, i])
-        v = start_velocity
-        for _ in range(1 if second_half is None else 2):
-            # the springs' relaxed force F* and what the relaxation holds of it
-            push = zero
-            if x_part is not None:
-                h_left = _relax(f_left, h_left, e_left)
-                h_right = _relax(f_right, h_right, e_right)
-                holding_x = h_right - h_left
-                target_x = force_x - holding_x
-                phi_x = _relax(target_x, phi_x, e_x)
-                push -= holding_x + phi_x
-            if y_part is not None:
-                h_below = _relax(f_below, h_below, e_below)
-                h_above = _relax(f_above, h_above, e_above)
-                holding_y = h_above - h_below
-                target_y = force_y - holding_y
-                phi_y = _relax(target_y, phi_y, e_node_y)
-                push -= holding_y + phi_y
-            v = v + tau * push * inverse_mass
-            if x_part is not None:
-                phi_x = _relax(target_x, phi_x, e_x)
-                h_left = _relax(f_left, h_left, e_left)
-                h_right = _relax(f_right, h_right, e_right)
-            if y_part is not None:
-                phi_y = _relax(target_y, phi_y, e_node_y)
-                h_below = _relax(f_below, h_below, e_below)
-                h_above = _relax(f_above, h_above, e_above)
-        velocity[c, j, i] = v
-        if x_part is not None:
-            relaxed_x[c, j, i - to_relaxed] = phi_x
-            # the spring on the left has served both its particles (this one last)
-            held_x[c, j, i - to_held] = h_left
-            if k == stop - start - 1:
-                held_x[c, j, i + one - to_held] = h_right
-        if y_part is not None:
-            relaxed_y[c, j, i] = phi_y
-        ahead = lead * ((force_x + force_y) * inverse_mass + pull)
-        taken += 0.5 * (start_velocity + v + 2.0 * ahead) * (start_velocity - v) / inverse_mass
-    return taken
-
-
-@njit(**_JIT)
-def _kick_row(j, segments, tau, lead, second_half, pull, velocity, masses, horizontal, below,
-              above, held_x, held_y, relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-              e_node_y):
-    """``_kick_span`` over the ``segments`` (k, 5) [start, stop, part, held offset, relaxed
-    offset] of row j, every component; part 1: the x-layer only, 2: the y-layer only, 3: both."""
-    taken = 0.0
-    for s in range(segments.shape[0]):
-        start, stop, part = segments[s, 0], segments[s, 1], segments[s, 2]
-        held_offset, relaxed_offset = segments[s, 3], segments[s, 4]
-        if stop <= start:
-            continue
-        for c in range(velocity.shape[0]):
-            if part == 1:
-                taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
-                                    velocity, masses, horizontal, below, above, held_x, held_y,
-                                    relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-                                    e_node_y, held_offset, relaxed_offset)
-            elif part == 2:
-                taken += _kick_span(c, j, start, stop, tau, lead, second_half, None, True, pull[c],
-                                    velocity, masses, horizontal, below, above, held_x, held_y,
-                                    relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-                                    e_node_y, held_offset, relaxed_offset)
-            else:
-                taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, True, pull[c],
-                                    velocity, masses, horizontal, below, above, held_x, held_y,
-                                    relaxed_x, relaxed_y, spring_x, node_x, e_below, e_above,
-                                    e_node_y, held_offset, relaxed_offset)
-    return taken
-
-
-@njit(**_JIT)
-def _relax_row(held, forces, factor, second_half):
-    """The held forces ``held`` (dim, n) of a row of springs relaxed toward ``forces`` as the
-    particles' loop did: twice per half action, by ``factor``."""
-    for c in range(held.shape[0]):
-        for k in range(held.shape[1]):
-            i = np.uint64(k)
-            h = held[c, i]
-            f = forces[c, i]
-            h = _relax(f, _relax(f, h, factor), factor)
-            if second_half is not None:
-                h = _relax(f, _relax(f, h, factor), factor)
-            held[c, i] = h
-
-
-@njit(**_JIT)
-def _side_strip(j0, j1, start, stop, tau, lead, second_half, x, y, z, velocity, masses, held_x,
-                relaxed_x, held_offset, relaxed_offset, spring_x, node_x, linearised, parameters,
-                tension, pull, buffers):
-    """The side layer's particles ``start`` .. ``stop - 1`` of the rows ``j0`` .. ``j1 - 1``
-    between the bands, where the layer has x-fields only: one call for the whole strip (a call
-    per row costs more than its short span).  Returns the kinetic energy taken out (J)."""
-    ny, nx = x.shape
-    zero = type(parameters.spacing)(0.0)
-    one = np.uint64(1)
+def _side_forces(x, y, z, linearised, parameters, tension, layer):
+    """The side strips' springs at the frozen positions into the layer's side buffer
+    (``sim.layer_kick``): each particle's two x-springs beyond the rest ``tension`` (N) and the
+    net force of its y-springs."""
+    geometry = layer[GEOMETRY]
+    forces = layer[SIDE_FORCES]
+    buffers = layer[BUFFERS]
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
-    taken = 0.0
-    for k in range(stop - start):  # the y-springs below the first row
-        i = np.uint64(start + k)
-        under = site(i, j0 - 1, parameters) if j0 == 0 else _end(x, y, z, j0 - 1, i, zero)
-        _store(below, i, spring_force(under, _end(x, y, z, j0, i, zero), 1, linearised,
-                                      parameters, None), 1, tension, z)
-    for j in range(j0, j1):
-        for k in range(stop - start):  # the y-springs above (the acceleration's rest)
-            i = np.uint64(start + k)
-            over = site(i, j + 1, parameters) if j == ny - 1 else _end(x, y, z, j + 1, i, zero)
-            _store(above, i, spring_force(_end(x, y, z, j, i, zero), over, 1, linearised,
-                                          parameters, None), 1, tension, z)
-        first_spring = max(start, 1)
-        for k in range(min(stop + 1, nx) - first_spring):
-            i = np.uint64(first_spring + k)
-            _store(horizontal, i, spring_force(_end(x, y, z, j, i - one, zero),
-                                               _end(x, y, z, j, i, zero), 0, linearised,
-                                               parameters, None), 0, tension, z)
-        if start == 0:
-            _store(horizontal, 0, spring_force(site(-1, j, parameters), _end(x, y, z, j, 0, zero),
-                                               0, linearised, parameters, None), 0, tension, z)
-        if stop == nx:
-            _store(horizontal, nx, spring_force(_end(x, y, z, j, nx - 1, zero),
-                                                site(nx, j, parameters), 0, linearised,
-                                                parameters, None), 0, tension, z)
-        for c in range(velocity.shape[0]):
-            taken += _kick_span(c, j, start, stop, tau, lead, second_half, True, None, pull[c],
-                                velocity, masses, horizontal, below, above, held_x, held_x,
-                                relaxed_x, relaxed_x, spring_x, node_x, 1.0, 1.0, 1.0,
-                                held_offset, relaxed_offset)
-        below, above = above, below
-    return taken
+    ny = x.shape[0]
+    for s in range(2):
+        width, first_slot, first_column = strip(s, geometry)
+        if width == 0:
+            continue
+        stop = first_column + width
+        _y_springs(0, first_column, stop, x, y, z, linearised, parameters, tension, below)
+        for j in range(ny):
+            _y_springs(j + 1, first_column, stop, x, y, z, linearised, parameters, tension, above)
+            _x_springs(j, first_column, stop + 1, x, y, z, linearised, parameters, tension,
+                       horizontal)
+            for c in range(forces.shape[1]):
+                for k in range(width):
+                    p = first_slot + j * width + k
+                    i = first_column + k
+                    forces[0, c, p] = horizontal[c, i]
+                    forces[1, c, p] = horizontal[c, i + 1]
+                    forces[2, c, p] = above[c, i] - below[c, i]
+            below, above = above, below
 
 
 @njit(**_JIT)
-def act(tau, lead, second_half, position, velocity, masses, held_x, held_y, relaxed_x,
-        relaxed_y, spring_x, spring_y, node_x, node_y, spans, needs, out_of_plane, linearised,
-        parameters, gravity, buffers):
+def act_on(tau, lead, second_half, position, velocity, layer):
     """The layer's action over ``tau`` seconds at frozen positions (see the module docstring),
-    twice in a row when ``second_half`` is True (None: once; a compile-time choice).
+    twice in a row when ``second_half`` is True (None: once; a compile-time choice): the side
+    strips' x-layer, then the band rows' y-layer, each from the springs computed here.
 
-    ``spring_x`` (nx + 1,), ``spring_y`` (ny + 1,), ``node_x`` (nx,), ``node_y`` (ny,): the
-    factors exp(-sigma tau / 2) of the springs and particles (1 outside the layer); ``spans``
-    (2, 2) the side layers' column ranges [start, stop) (with the first column inside), ``needs``
-    (ny,) which particles of each row the layer acts on (``NONE``, ``SIDES``, ``FULL``);
-    ``out_of_plane`` True for (3, ny, nx) states, None for planar (2, ny, nx) ones.
-    ``linearised`` (None or True), ``parameters`` (``sim.kernels.SpringParameters`` in the
-    state's precision) and ``gravity`` ((3,) m/s^2 or None): the lattice's law, as its kernels
-    take it; ``buffers`` (3, 3, nx + 1) float64 scratch.  Returns the kinetic energy taken out
-    (J), counted on the velocities ``lead`` seconds later under the lattice's forces (dt / 2
-    for a leapfrog's half-step velocities, else 0)."""
-    dim, ny, nx = position.shape
-    x, y, z = components(out_of_plane, position)
-    tension = float(spring_force(site(0, 0, parameters), site(1, 0, parameters), 0, linearised,
-                                 parameters, None)[0])
-    pull = gravity_vector(gravity, 0.0)
-    horizontal = buffers[0]
-    below = buffers[1]
-    above = buffers[2]
-    # [start, stop, part) of a band row: it holds y-fields everywhere and x-fields in its
-    # corners (part 1: x, 2: y, 3: both); the side strips between the bands hold x-fields only
-    # the side layers' x-fields are compact: the left columns, then the right ones
-    offsets = np.array([[0, 0], [spans[1, 0] - spans[0, 1] - 1, spans[1, 0] - spans[0, 1]]])
-    band_segments = np.array([[spans[0, 0], spans[0, 1], 3, 0, 0],
-                              [spans[0, 1], spans[1, 0], 2, 0, 0],
-                              [spans[1, 0], spans[1, 1], 3, offsets[1, 0], offsets[1, 1]]])
+    ``layer``: ``MatchedLayer.arguments``.  Returns the kinetic energy taken out (J), counted
+    on the velocities ``lead`` seconds later under the lattice's forces (dt / 2 for a
+    leapfrog's half-step velocities, else 0)."""
+    ny, nx = position.shape[1], position.shape[2]
+    x, y, z = components(layer[OUT_OF_PLANE], position)
+    linearised, parameters = layer[LINEARISED], layer[PARAMETERS]
+    tension = rest_tension(linearised, parameters)
     taken = 0.0
+    geometry = layer[GEOMETRY]
+    if geometry[0] + geometry[1] > 0:
+        _side_forces(x, y, z, linearised, parameters, tension, layer)
+        taken += sides_act(0, ny, tau, lead, second_half, None, position, velocity, layer)
+    buffers = layer[BUFFERS]
+    horizontal, below, above = buffers[0], buffers[1], buffers[2]
+    needs = layer[NEEDS]
     fresh = True  # whether ``below`` must be computed (the row below was not a band row)
-    j = 0
-    while j < ny:
-        if needs[j] == SIDES:  # a strip of side rows between the bands
-            end = j
-            while end < ny and needs[end] == SIDES:
-                end += 1
-            for s in range(2):
-                if spans[s, 1] > spans[s, 0]:
-                    taken += _side_strip(j, end, spans[s, 0], spans[s, 1], tau, lead,
-                                         second_half, x, y, z, velocity, masses, held_x,
-                                         relaxed_x, offsets[s, 0], offsets[s, 1], spring_x,
-                                         node_x, linearised, parameters, tension, pull, buffers)
-            j = end
-            fresh = True
-            continue
+    for j in range(ny):
         if needs[j] == NONE:
-            j += 1
             fresh = True
             continue
         if fresh:
             _y_springs(j, 0, nx, x, y, z, linearised, parameters, tension, below)
         _y_springs(j + 1, 0, nx, x, y, z, linearised, parameters, tension, above)
         _x_springs(j, 0, nx + 1, x, y, z, linearised, parameters, tension, horizontal)
-        taken += _kick_row(j, band_segments, tau, lead, second_half, pull, velocity, masses,
-                           horizontal, below, above, held_x, held_y, relaxed_x, relaxed_y,
-                           spring_x, node_x, spring_y[j], spring_y[j + 1], node_y[j])
-        # the springs below this row have served both their rows
-        if spring_y[j] < 1.0:
-            _relax_row(held_y[:, j, :], below, spring_y[j], second_half)
-        if j == ny - 1 and spring_y[ny] < 1.0:
-            _relax_row(held_y[:, ny, :], above, spring_y[ny], second_half)
+        taken += band_act(j, False, tau, lead, second_half, None, position, velocity,
+                          horizontal, below, above, layer, 0.0)
         below, above = above, below
         fresh = False
-        j += 1
     return taken
-
-
-@njit(**_JIT)
-def act_on(tau, lead, second_half, position, velocity, layer):
-    """``act`` with its arguments after the state's arrays as one tuple ``layer``
-    (``MatchedLayer.arguments``), for the compiled step loops."""
-    return act(tau, lead, second_half, position, velocity, layer[0], layer[1], layer[2],
-               layer[3], layer[4], layer[5], layer[6], layer[7], layer[8], layer[9], layer[10],
-               layer[11], layer[12], layer[13], layer[14], layer[15])
 
 
 def depth_profile(count: int, near: int, far: int, offset: float) -> np.ndarray:
@@ -429,43 +249,61 @@ class MatchedLayer:
         )
         first_end = min(left + 1, nx) if left > 0 else 0  # with the first column inside
         last_start = max(nx - 1 - right, first_end) if right > 0 else nx
-        self.spans = np.array([[0, first_end], [last_start, nx]], dtype=np.int64)
-        rows = np.arange(ny)
-        band = ((bottom > 0) & (rows <= bottom)) | ((top > 0) & (rows >= ny - 1 - top))
-        sides = SIDES if (first_end > 0 or last_start < nx) else NONE
-        if first_end >= last_start:  # the side layers meet: whole rows
-            sides = FULL
-        self.needs = np.where(band, FULL, sides).astype(np.int64)
+        # the side strips' slots (``sim.layer_kick``): the left strip row by row, then the right
+        widths_of_strips = (first_end, nx - last_start)
+        self.geometry = np.array([*widths_of_strips, last_start, ny], dtype=np.int64)
+        columns = np.concatenate([np.tile(np.arange(first_end), ny),
+                                  np.tile(np.arange(last_start, nx), ny)]).astype(np.int64)
+        rows = np.concatenate([np.repeat(np.arange(ny), widths_of_strips[0]),
+                               np.repeat(np.arange(ny), widths_of_strips[1])]).astype(np.int64)
+        self._slot_columns = columns
+        slots = columns.size
+        band_rows = np.arange(ny)
+        band = ((bottom > 0) & (band_rows <= bottom)) | ((top > 0) & (band_rows >= ny - 1 - top))
+        self.needs = np.where(band, BAND, NONE).astype(np.int64)
         self.masses = np.ascontiguousarray(model.masses, dtype=np.float64)
+        self._side_inverse_mass = 1.0 / self.masses[rows, columns]
         self._model = model
-        # x-fields over the side layers' columns only, compact (the left ones, then the right
-        # ones: rows of a side lie next to each other in memory); y-fields over whole rows
-        side_columns = first_end + (nx - last_start)
-        self.fields = (np.zeros((dim, ny, side_columns + 2)), np.zeros((dim, ny + 1, nx)),
-                       np.zeros((dim, ny, side_columns)), np.zeros((dim, ny, nx)))
+        # the fields: the side strips' x-fields (each particle's two held x-spring forces and
+        # phi_x) and the y-fields over whole rows (held y-spring forces, phi_y)
+        self.fields = (np.zeros((dim, slots)), np.zeros((dim, slots)), np.zeros((dim, slots)),
+                       np.zeros((dim, ny + 1, nx)), np.zeros((dim, ny, nx)))
+        self._side_forces = np.zeros((3, dim, slots))
+        self._side_kicks = np.zeros((dim, slots))
         self._buffers = np.zeros((3, 3, nx + 1))
         self._factors: dict[float, tuple] = {}
         self._revision: int | None = None
 
     def factors(self, span: float) -> tuple:
-        """exp(-rate span / 2) of the springs and particles, in the order ``act`` takes them."""
+        """exp(-rate span / 2) of the y-springs (ny + 1,) and the particles' rows (ny,), and of
+        each side slot's left x-spring, right x-spring and particle (3, slots)."""
         factors = self._factors.get(span)
         if factors is None:
-            factors = tuple(np.exp(-0.5 * span * self.rates[name])
-                            for name in ("spring_x", "spring_y", "node_x", "node_y"))
+            def factor(name: str) -> np.ndarray:
+                return np.exp(-0.5 * span * self.rates[name])
+            spring_x, node_x = factor("spring_x"), factor("node_x")
+            columns = self._slot_columns
+            side = np.stack([spring_x[columns], spring_x[columns + 1], node_x[columns]])
+            factors = (factor("spring_y"), factor("node_y"), np.ascontiguousarray(side))
             if len(self._factors) > 4:
                 self._factors.clear()
             self._factors[span] = factors
         return factors
 
-    def arguments(self, span: float, dtype: type = np.float64) -> tuple:
-        """Everything ``act`` takes after the state's arrays, for spans of ``span`` on a state
-        in ``dtype``."""
+    def arguments(self, span: float, dtype: type = np.float64, threads: bool = False) -> tuple:
+        """The layer's tuple for spans of ``span`` on a state in ``dtype``, as ``act_on`` and
+        the leapfrog sweep take it (positions in ``sim.layer_kick``); for the sweep on threads
+        without the springs' parameters (None in their place)."""
         model = self._model
         gravity = np.array(model.gravity, dtype=dtype) if model.has_gravity else None
-        return (self.masses, *self.fields, *self.factors(span), self.spans, self.needs,
+        held_left, held_right, relaxed_x, held_y, relaxed_y = self.fields
+        spring_y, node_y, side_factors = self.factors(span)
+        return (self.masses, held_y, relaxed_y, spring_y, node_y, self.needs,
                 True if model.dim == 3 else None, True if model.linear else None,
-                model.kernel_parameters.as_type(dtype), gravity, self._buffers)
+                None if threads else model.kernel_parameters.as_type(dtype), gravity,
+                self._buffers, self.geometry,
+                held_left, held_right, relaxed_x, side_factors, self._side_inverse_mass,
+                self._side_forces, self._side_kicks)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""

@@ -167,6 +167,7 @@ class Verlet(Integrator):
         blocks = self._block_starts.size - 1
         self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
         self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
+        self._under = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
         self._horizontal = np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype)
         self._drive_power = 0.0
         self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
@@ -213,7 +214,10 @@ class Verlet(Integrator):
             self._driven_accelerations(state, state.time)
         step = self._dt(dt)
         drive = self.drive
-        sponge = layer.arguments(0.5 * dt, self.dtype) if layer is not None else None
+        sponge = None
+        if layer is not None:
+            threaded_sweep = self.parallel and self._leapfrog and n >= 2
+            sponge = layer.arguments(0.5 * dt, self.dtype, threaded_sweep)
         if drive is not None and self._saved.shape[0] < drive.shape[0]:
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
@@ -231,8 +235,8 @@ class Verlet(Integrator):
             steps(
                 n - 1, step, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
                 k.uniform_inverse_mass, k.parameters, k.gravity, self._block_starts,
-                self._boundary, self._below, self._horizontal, start + dt, drive, self._saved,
-                sponge, self._block_totals,
+                self._boundary, self._below, self._horizontal, self._under, start + dt, drive,
+                self._saved, sponge, self._block_totals,
             )
             state.driven += float(self._block_totals[:, 0].sum())
             state.dissipated += float(self._block_totals[:, 1].sum())
