@@ -39,7 +39,7 @@ NONE, BAND = 0, 1
 MASSES, HELD_Y, RELAXED_Y, SPRING_Y, NODE_Y, NEEDS = 0, 1, 2, 3, 4, 5
 OUT_OF_PLANE, LINEARISED, PARAMETERS, GRAVITY, BUFFERS = 6, 7, 8, 9, 10
 GEOMETRY, HELD_LEFT, HELD_RIGHT, RELAXED_X, SIDE_FACTORS, SIDE_INVERSE_MASS = 11, 12, 13, 14, 15, 16
-SIDE_FORCES, SIDE_KICKS = 17, 18
+SIDE_FORCES, SIDE_KICKS, SIDE_MASS, INVERSE_MASSES = 17, 18, 19, 20
 """``GEOMETRY`` (4,) int64: the left strip's width, the right one's, its first column, ny."""
 
 
@@ -68,14 +68,17 @@ def strip(s, geometry):
 
 
 @njit(**_JIT)
-def side_kick(tau, second_half, forces, held_left, held_right, relaxed, factors, inverse_mass,
-              kicks, start, stop):
+def side_kick(tau, lead, second_half, pull, forces, held_left, held_right, relaxed, factors,
+              inverse_mass, mass, kicks, start, stop):
     """The x-layer's kick (m/s) of the slots ``start`` .. ``stop - 1`` into ``kicks``
     (dim, slots): per half action, relax the held forces of the particle's two x-springs and its
     phi over tau / 2, kick by tau, relax again (twice when ``second_half`` is True, once when
     None).  ``forces`` (3, dim, slots): the left and right x-springs' forces beyond the rest
     tension and the y-springs' net force; ``factors`` (3, slots): exp(-sigma tau / 2) of the
-    left spring, the right one and the particle; ``inverse_mass`` (slots,) 1/kg."""
+    left spring, the right one and the particle; ``inverse_mass`` and ``mass`` (slots,) 1/kg
+    and kg.  Returns the part of the kinetic energy taken out (J) that does not depend on the
+    velocities (``side_apply`` adds the rest)."""
+    taken = 0.0
     for c in range(kicks.shape[0]):
         for k in range(stop - start):
             p = np.uint64(start + k)  # unsigned: no negative-index wrap, so LLVM vectorises
@@ -103,29 +106,31 @@ def side_kick(tau, second_half, forces, held_left, held_right, relaxed, factors,
             held_right[c, p] = h_right
             relaxed[c, p] = phi
             kicks[c, p] = kick
+            ahead = lead * ((force + forces[2, c, p]) * inverse_mass[p] + pull[c])
+            taken -= 0.5 * mass[p] * kick * (2.0 * ahead + kick)
+    return taken
 
 
 @njit(**_JIT)
-def side_apply(j0, j1, lead, drift, pull, velocity, position, forces, kicks, inverse_mass,
-               geometry):
+def side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry):
     """Add the side strips' kicks of rows j0 .. j1 - 1 to the velocities (and ``drift`` times
-    them to the positions; None compiles it out).  Returns the kinetic energy taken out (J)."""
+    them to the positions; None compiles it out).  Returns the part of the kinetic energy taken
+    out (J) that depends on the velocities: -m v kick."""
     taken = 0.0
     for s in range(2):
         width, first_slot, first_column = strip(s, geometry)
         for c in range(velocity.shape[0]):
             for j in range(j0, j1):
+                row = first_slot + j * width
                 for k in range(width):
-                    p = first_slot + j * width + k
-                    i = first_column + k
+                    p = np.uint64(row + k)
+                    i = np.uint64(first_column + k)
                     kick = kicks[c, p]
                     before = np.float64(velocity[c, j, i])
-                    ahead = lead * ((forces[1, c, p] - forces[0, c, p] + forces[2, c, p])
-                                    * inverse_mass[p] + pull[c])
                     velocity[c, j, i] = before + kick
                     if drift is not None:
                         position[c, j, i] += drift * kick
-                    taken -= 0.5 * kick * (2.0 * (before + ahead) + kick) / inverse_mass[p]
+                    taken -= mass[p] * kick * before
     return taken
 
 
@@ -134,16 +139,17 @@ def sides_act(j0, j1, tau, lead, second_half, drift, position, velocity, layer):
     """The x-layer's action on rows j0 .. j1 - 1 from the forces in the layer's side buffer.
     Returns the kinetic energy taken out (J)."""
     geometry = layer[GEOMETRY]
-    forces = layer[SIDE_FORCES]
     kicks = layer[SIDE_KICKS]
-    inverse_mass = layer[SIDE_INVERSE_MASS]
+    mass = layer[SIDE_MASS]
+    pull = gravity_vector(layer[GRAVITY], 0.0)
+    taken = 0.0
     for s in range(2):
         width, first_slot, _ = strip(s, geometry)
-        side_kick(tau, second_half, forces, layer[HELD_LEFT], layer[HELD_RIGHT],
-                  layer[RELAXED_X], layer[SIDE_FACTORS], inverse_mass, kicks,
-                  first_slot + j0 * width, first_slot + j1 * width)
-    return side_apply(j0, j1, lead, drift, gravity_vector(layer[GRAVITY], 0.0), velocity,
-                      position, forces, kicks, inverse_mass, geometry)
+        taken += side_kick(tau, lead, second_half, pull, layer[SIDE_FORCES], layer[HELD_LEFT],
+                           layer[HELD_RIGHT], layer[RELAXED_X], layer[SIDE_FACTORS],
+                           layer[SIDE_INVERSE_MASS], mass, kicks, first_slot + j0 * width,
+                           first_slot + j1 * width)
+    return taken + side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry)
 
 
 @njit(**_JIT)
@@ -189,8 +195,8 @@ def keep_row(source, kept):
 
 
 @njit(**_JIT)
-def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, horizontal, below, above,
-              held_y, relaxed_y, e_below, e_above, e_node, shift, drift, position):
+def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_masses, horizontal,
+              below, above, held_y, relaxed_y, e_below, e_above, e_node, shift, drift, position):
     """Component c of band row j's y-layer kick: per half action relax the held forces of each
     particle's y-springs (``e_below``, ``e_above``: their factors) and its phi (``e_node``) over
     tau / 2, kick by tau, relax again.  ``shift`` (N) is taken off the y-springs' forces (their
@@ -203,7 +209,7 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, horizontal, 
         i = np.uint64(k)
         f_below = below[c, i] - shift
         f_above = above[c, i] - shift
-        inverse_mass = 1.0 / masses[j, i]
+        inverse_mass = inverse_masses[j, i]
         force_x = horizontal[c, i + one] - horizontal[c, i]
         force_y = f_above - f_below
         h_below = held_y[c, j, i]
@@ -226,7 +232,7 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, horizontal, 
             position[c, j, i] += drift * (v - before)
         relaxed_y[c, j, i] = phi
         ahead = lead * ((force_x + force_y) * inverse_mass + pull)
-        taken += 0.5 * (before + v + 2.0 * ahead) * (before - v) / inverse_mass
+        taken += 0.5 * (before + v + 2.0 * ahead) * (before - v) * masses[j, i]
     return taken
 
 
@@ -261,9 +267,9 @@ def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizo
     taken = 0.0
     for c in range(velocity.shape[0]):
         taken += band_kick(c, j, tau, lead, second_half, pull[c], velocity, layer[MASSES],
-                           horizontal, below, above, held_y, layer[RELAXED_Y], spring_y[j],
-                           spring_y[j + 1], layer[NODE_Y][j], tension if c == 1 else 0.0, drift,
-                           position)
+                           layer[INVERSE_MASSES], horizontal, below, above, held_y,
+                           layer[RELAXED_Y], spring_y[j], spring_y[j + 1], layer[NODE_Y][j],
+                           tension if c == 1 else 0.0, drift, position)
     if spring_y[j] < 1.0 and not (first and j > 0):  # the springs under j served both rows
         relax_row(held_y[:, j, :], below, spring_y[j], second_half, tension)
     if j == ny - 1 and spring_y[ny] < 1.0:

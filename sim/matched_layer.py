@@ -262,7 +262,9 @@ class MatchedLayer:
         band = ((bottom > 0) & (band_rows <= bottom)) | ((top > 0) & (band_rows >= ny - 1 - top))
         self.needs = np.where(band, BAND, NONE).astype(np.int64)
         self.masses = np.ascontiguousarray(model.masses, dtype=np.float64)
-        self._side_inverse_mass = 1.0 / self.masses[rows, columns]
+        self._inverse_masses = 1.0 / self.masses
+        self._side_mass = np.ascontiguousarray(self.masses[rows, columns])
+        self._side_inverse_mass = 1.0 / self._side_mass
         self._model = model
         # the fields: the side strips' x-fields (each particle's two held x-spring forces and
         # phi_x) and the y-fields over whole rows (held y-spring forces, phi_y)
@@ -303,7 +305,7 @@ class MatchedLayer:
                 None if threads else model.kernel_parameters.as_type(dtype), gravity,
                 self._buffers, self.geometry,
                 held_left, held_right, relaxed_x, side_factors, self._side_inverse_mass,
-                self._side_forces, self._side_kicks)
+                self._side_forces, self._side_kicks, self._side_mass, self._inverse_masses)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""
