@@ -1,9 +1,9 @@
 """The web app in a real (headless) Chromium driven by Playwright.
 
 Each test starts a ``WebApp`` on a free localhost port and stops it (and the browser) at the end.
-Only ``test_page_loads_and_a_gui_change_reaches_the_simulation`` runs by default; the others are
-also marked slow (``pytest -m ''``).  Clicks on particles are aimed by projecting world points
-with the client's camera (which the server knows): the camera looks straight down -z.
+All of them are marked slow (``pytest -m ''``; the page tests in the default suite drive
+Chromium already).  Clicks on particles are aimed by projecting world points with the client's
+camera (which the server knows): the camera looks straight down -z.
 """
 
 from __future__ import annotations
@@ -50,15 +50,18 @@ def choose(page, label: str, option: str) -> None:
 
 
 def to_screen(page, app: WebApp, xy: np.ndarray) -> tuple[float, float]:
-    """Pixel position of the world point (x, y, 0) in the (only) client's view."""
+    """Pixel position of the world point (x, y, 0) in the (only) client's view, whose camera
+    looks straight down -z from above the point it is centred on (the lattice framed beside the
+    panel, so not necessarily the origin)."""
     client = next(iter(app.server.get_clients().values()))
     camera = client.camera
     box = page.locator("canvas").first.bounding_box()
-    half_height = camera.position[2] * math.tan(camera.fov / 2)
+    centre_x, centre_y, height = camera.position
+    half_height = height * math.tan(camera.fov / 2)
     half_width = half_height * box["width"] / box["height"]
     return (
-        box["x"] + (xy[0] / half_width + 1) / 2 * box["width"],
-        box["y"] + (1 - xy[1] / half_height) / 2 * box["height"],
+        box["x"] + ((xy[0] - centre_x) / half_width + 1) / 2 * box["width"],
+        box["y"] + (1 - (xy[1] - centre_y) / half_height) / 2 * box["height"],
     )
 
 
