@@ -200,11 +200,15 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_mass
     """Component c of band row j's y-layer kick: per half action relax the held forces of each
     particle's y-springs (``e_below``, ``e_above``: their factors) and its phi (``e_node``) over
     tau / 2, kick by tau, relax again.  ``shift`` (N) is taken off the y-springs' forces (their
-    rest tension along this component, or 0 when the forces given are beyond it).  The held
-    forces are stored by the caller (``relax_row``) once both their rows have used them.
-    Returns the kinetic energy taken out (J)."""
+    rest tension along this component, or 0 when the forces given are beyond it).  A held force
+    relaxes toward a force that stays put, so after n relaxations it is f + (h - f) e^n: the
+    second half's kick reads it after three.  The held forces are stored by the caller
+    (``relax_row``) once both their rows have used them.  Returns the kinetic energy taken out
+    (J)."""
     taken = 0.0
     one = np.uint64(1)
+    later_below = e_below * e_below * e_below  # three relaxations
+    later_above = e_above * e_above * e_above
     for k in range(velocity.shape[2]):
         i = np.uint64(k)
         f_below = below[c, i] - shift
@@ -212,21 +216,19 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_mass
         inverse_mass = inverse_masses[j, i]
         force_x = horizontal[c, i + one] - horizontal[c, i]
         force_y = f_above - f_below
-        h_below = held_y[c, j, i]
-        h_above = held_y[c, j + 1, i]
+        held_below = held_y[c, j, i]
+        held_above = held_y[c, j + 1, i]
         phi = relaxed_y[c, j, i]
         before = np.float64(velocity[c, j, i])
         v = before
-        for _ in range(1 if second_half is None else 2):
-            h_below = relax(f_below, h_below, e_below)
-            h_above = relax(f_above, h_above, e_above)
+        for half in range(1 if second_half is None else 2):
+            h_below = relax(f_below, held_below, e_below if half == 0 else later_below)
+            h_above = relax(f_above, held_above, e_above if half == 0 else later_above)
             holding = h_above - h_below
             target = force_y - holding
             phi = relax(target, phi, e_node)
             v = v - tau * (holding + phi) * inverse_mass
             phi = relax(target, phi, e_node)
-            h_below = relax(f_below, h_below, e_below)
-            h_above = relax(f_above, h_above, e_above)
         velocity[c, j, i] = v
         if drift is not None:
             position[c, j, i] += drift * (v - before)
@@ -239,18 +241,18 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_mass
 @njit(**_JIT)
 def relax_row(held, forces, factor, second_half, tension):
     """The held forces ``held`` (dim, n) of a row of springs relaxed toward ``forces`` as the
-    particles' kicks did: twice per half action, by ``factor``.  ``tension`` (N) is taken off the
-    forces' y-components (the springs' rest tension when ``forces`` are whole forces, else 0)."""
+    particles' kicks did: twice per half action, by ``factor`` (in one step: toward a force that
+    stays put, n relaxations by e are one by e^n).  ``tension`` (N) is taken off the forces'
+    y-components (the springs' rest tension when ``forces`` are whole forces, else 0)."""
+    total = factor * factor
+    if second_half is not None:
+        total = total * total
     for c in range(held.shape[0]):
         shift = tension if c == 1 else 0.0
         for k in range(held.shape[1]):
             i = np.uint64(k)
-            h = held[c, i]
             f = forces[c, i] - shift
-            h = relax(f, relax(f, h, factor), factor)
-            if second_half is not None:
-                h = relax(f, relax(f, h, factor), factor)
-            held[c, i] = h
+            held[c, i] = relax(f, held[c, i], total)
 
 
 @njit(**_JIT)
