@@ -239,20 +239,22 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_mass
 
 
 @njit(**_JIT)
-def relax_row(held, forces, factor, second_half, tension):
-    """The held forces ``held`` (dim, n) of a row of springs relaxed toward ``forces`` as the
-    particles' kicks did: twice per half action, by ``factor`` (in one step: toward a force that
-    stays put, n relaxations by e are one by e^n).  ``tension`` (N) is taken off the forces'
-    y-components (the springs' rest tension when ``forces`` are whole forces, else 0)."""
+def relax_row(held, j, forces, factor, second_half, tension):
+    """The held forces ``held[:, j]`` (``held`` (dim, rows, n); a view of the row would have
+    strides unknown to the compiler, and its loop would not vectorise) of a row of springs
+    relaxed toward ``forces`` as the particles' kicks did: twice per half action, by ``factor``
+    (in one step: toward a force that stays put, n relaxations by e are one by e^n).
+    ``tension`` (N) is taken off the forces' y-components (the springs' rest tension when
+    ``forces`` are whole forces, else 0)."""
     total = factor * factor
     if second_half is not None:
         total = total * total
     for c in range(held.shape[0]):
         shift = tension if c == 1 else 0.0
-        for k in range(held.shape[1]):
+        for k in range(held.shape[2]):
             i = np.uint64(k)
             f = forces[c, i] - shift
-            held[c, i] = relax(f, held[c, i], total)
+            held[c, j, i] = relax(f, held[c, j, i], total)
 
 
 @njit(**_JIT)
@@ -273,9 +275,9 @@ def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizo
                            layer[RELAXED_Y], spring_y[j], spring_y[j + 1], layer[NODE_Y][j],
                            tension if c == 1 else 0.0, drift, position)
     if spring_y[j] < 1.0 and not (first and j > 0):  # the springs under j served both rows
-        relax_row(held_y[:, j, :], below, spring_y[j], second_half, tension)
+        relax_row(held_y, j, below, spring_y[j], second_half, tension)
     if j == ny - 1 and spring_y[ny] < 1.0:
-        relax_row(held_y[:, ny, :], above, spring_y[ny], second_half, tension)
+        relax_row(held_y, ny, above, spring_y[ny], second_half, tension)
     return taken
 
 
@@ -289,4 +291,4 @@ def relax_block_edges(block_starts, boundary, layer, tension):
     for b in range(1, block_starts.size - 1):
         j = block_starts[b]
         if spring_y[j] < 1.0:
-            relax_row(held_y[:, j, :], boundary[b], spring_y[j], True, tension)
+            relax_row(held_y, j, boundary[b], spring_y[j], True, tension)
