@@ -160,10 +160,10 @@ def shift_saved(j0, j1, table, velocity, saved, sign):
 
 @njit(**_JIT)
 def leapfrog_drive(j0, j1, time, dt, table, position, velocity, saved):
-    """Correct the plain leapfrog kick and drift of the driven particles of rows j0 .. j1 - 1 (v' = v + dt a,
-    x' = x + dt v', a the lattice's, v in ``saved``) for their drives at ``time`` (s): v'' = v +
-    dt a_driven, x'' = x' + dt (v'' - v').  Returns the drive's work (J): its force times the
-    mean of the velocities before and after, times dt."""
+    """Correct the plain leapfrog kick and drift of the driven particles of rows j0 .. j1 - 1
+    (v' = v + dt a, x' = x + dt v', a the lattice's, v in ``saved``) for their drives at
+    ``time`` (s): v'' = v + dt a_driven, x'' = x' + dt (v'' - v').  Returns the drive's work
+    (J): its force times the mean of the velocities before and after, times dt."""
     work = 0.0
     for d in range(table.shape[0]):
         j = int(table[d, ROW])

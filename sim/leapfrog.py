@@ -208,7 +208,6 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
             relax_block_edges(block_starts, boundary, sponge, tension)
 
 
-
 @njit(**_JIT)
 def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts, boundary):
     """The springs below row block_starts[b] into boundary[b] (a function of its own, so that

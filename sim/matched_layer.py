@@ -64,9 +64,6 @@ from sim.layer_kick import (
 from sim.row_updates import components
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
-_INLINE = dict(_JIT, inline="always")
-"""Inlined by numba itself: a call per row that passes a dozen arrays costs their reference
-counting, more than a short span's arithmetic."""
 
 POWER = 2
 """Exponent of the rate's growth with depth."""
