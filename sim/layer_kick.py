@@ -68,45 +68,59 @@ def strip(s, geometry):
 
 
 @njit(**_JIT)
+def held_half(f_left, f_right, force, h_left, h_right, phi, e_left, e_right, e_node, tau,
+              inverse_mass):
+    """One half action of a particle with held forces on both sides along one axis: relax the
+    held forces ``h_left``, ``h_right`` toward the springs' ``f_left``, ``f_right`` and phi
+    toward what they leave of the net ``force`` over tau / 2, kick by tau, relax again.  Returns
+    (h_left, h_right, phi, kick).  The half actions are written out one after the other, not as
+    a loop: LLVM vectorises only innermost loops, and a loop over the halves inside the loop over
+    particles kept the particles' loop scalar (3.7x slower)."""
+    h_left = relax(f_left, h_left, e_left)
+    h_right = relax(f_right, h_right, e_right)
+    holding = h_right - h_left
+    target = force - holding
+    phi = relax(target, phi, e_node)
+    kick = -tau * (holding + phi) * inverse_mass
+    phi = relax(target, phi, e_node)
+    return relax(f_left, h_left, e_left), relax(f_right, h_right, e_right), phi, kick
+
+
+@njit(**_JIT)
 def side_kick(tau, lead, second_half, pull, forces, held_left, held_right, relaxed, factors,
               inverse_mass, mass, kicks, start, stop):
     """The x-layer's kick (m/s) of the slots ``start`` .. ``stop - 1`` into ``kicks``
     (dim, slots): per half action, relax the held forces of the particle's two x-springs and its
     phi over tau / 2, kick by tau, relax again (twice when ``second_half`` is True, once when
-    None).  ``forces`` (3, dim, slots): the left and right x-springs' forces beyond the rest
-    tension and the y-springs' net force; ``factors`` (3, slots): exp(-sigma tau / 2) of the
-    left spring, the right one and the particle; ``inverse_mass`` and ``mass`` (slots,) 1/kg
-    and kg.  Returns the part of the kinetic energy taken out (J) that does not depend on the
-    velocities (``side_apply`` adds the rest)."""
+    None: ``held_half``).  ``forces`` (3, dim, slots): the left and right x-springs' forces
+    beyond the rest tension and the y-springs' net force; ``factors`` (3, slots):
+    exp(-sigma tau / 2) of the left spring, the right one and the particle; ``inverse_mass`` and
+    ``mass`` (slots,) 1/kg and kg.  Returns the part of the kinetic energy taken out (J) that
+    does not depend on the velocities (``side_apply`` adds the rest)."""
     taken = 0.0
     for c in range(kicks.shape[0]):
+        g = pull[0] if c == 0 else (pull[1] if c == 1 else pull[2])
         for k in range(stop - start):
             p = np.uint64(start + k)  # unsigned: no negative-index wrap, so LLVM vectorises
             f_left = forces[0, c, p]
             f_right = forces[1, c, p]
             force = f_right - f_left
-            h_left = held_left[c, p]
-            h_right = held_right[c, p]
-            phi = relaxed[c, p]
+            w = inverse_mass[p]
             e_left = factors[0, p]
             e_right = factors[1, p]
             e_node = factors[2, p]
-            kick = 0.0
-            for _ in range(1 if second_half is None else 2):
-                h_left = relax(f_left, h_left, e_left)
-                h_right = relax(f_right, h_right, e_right)
-                holding = h_right - h_left
-                target = force - holding
-                phi = relax(target, phi, e_node)
-                kick -= tau * (holding + phi) * inverse_mass[p]
-                phi = relax(target, phi, e_node)
-                h_left = relax(f_left, h_left, e_left)
-                h_right = relax(f_right, h_right, e_right)
+            h_left, h_right, phi, kick = held_half(f_left, f_right, force, held_left[c, p],
+                                                   held_right[c, p], relaxed[c, p], e_left,
+                                                   e_right, e_node, tau, w)
+            if second_half is not None:
+                h_left, h_right, phi, more = held_half(f_left, f_right, force, h_left, h_right,
+                                                       phi, e_left, e_right, e_node, tau, w)
+                kick += more
             held_left[c, p] = h_left
             held_right[c, p] = h_right
             relaxed[c, p] = phi
             kicks[c, p] = kick
-            ahead = lead * ((force + forces[2, c, p]) * inverse_mass[p] + pull[c])
+            ahead = lead * ((force + forces[2, c, p]) * w + g)
             taken -= 0.5 * mass[p] * kick * (2.0 * ahead + kick)
     return taken
 
@@ -195,6 +209,18 @@ def keep_row(source, kept):
 
 
 @njit(**_JIT)
+def band_half(force, h_below, h_above, phi, e_node, tau, inverse_mass):
+    """One half action of a band particle whose held forces have been relaxed as read: phi
+    relaxed toward what they leave of the net ``force`` over tau / 2, the kick by tau, phi relaxed
+    again.  Returns (phi, kick).  Written out per half, not looped (``held_half``)."""
+    holding = h_above - h_below
+    target = force - holding
+    phi = relax(target, phi, e_node)
+    kick = -tau * (holding + phi) * inverse_mass
+    return relax(target, phi, e_node), kick
+
+
+@njit(**_JIT)
 def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_masses, horizontal,
               below, above, held_y, relaxed_y, e_below, e_above, e_node, shift, drift, position):
     """Component c of band row j's y-layer kick: per half action relax the held forces of each
@@ -220,15 +246,15 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_mass
         held_above = held_y[c, j + 1, i]
         phi = relaxed_y[c, j, i]
         before = np.float64(velocity[c, j, i])
-        v = before
-        for half in range(1 if second_half is None else 2):
-            h_below = relax(f_below, held_below, e_below if half == 0 else later_below)
-            h_above = relax(f_above, held_above, e_above if half == 0 else later_above)
-            holding = h_above - h_below
-            target = force_y - holding
-            phi = relax(target, phi, e_node)
-            v = v - tau * (holding + phi) * inverse_mass
-            phi = relax(target, phi, e_node)
+        phi, kick = band_half(force_y, relax(f_below, held_below, e_below),
+                              relax(f_above, held_above, e_above), phi, e_node, tau,
+                              inverse_mass)
+        if second_half is not None:
+            phi, more = band_half(force_y, relax(f_below, held_below, later_below),
+                                  relax(f_above, held_above, later_above), phi, e_node, tau,
+                                  inverse_mass)
+            kick += more
+        v = before + kick
         velocity[c, j, i] = v
         if drift is not None:
             position[c, j, i] += drift * (v - before)

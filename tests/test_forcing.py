@@ -191,7 +191,8 @@ def test_a_displacement_driver_with_dashpots_converges_at_the_integrators_order(
 # --- the absorbing layer ---------------------------------------------------------------------
 
 
-def reflected_fraction(wavelength: float, boundary: str, width: int = 30) -> float:
+def reflected_fraction(wavelength: float, boundary: str,
+                       width: int = sim.boundaries.DEFAULT_LAYER_WIDTH) -> float:
     """A Gaussian wave packet of ``wavelength`` (in spacings) starts at rest in the middle of a
     long linear chain and splits into two halves that run into the walls; the fraction of the
     energy back in the interior when the reflections would have returned to the middle."""

@@ -93,29 +93,32 @@ def test_reflection_prints_a_table_and_writes_a_picture(tmp_path, capsys):
     assert picture.stat().st_size > 10_000
 
 
-def test_the_default_layer_absorbs_a_wave_as_long_as_it_is_deep_where_fixed_walls_reflect_it():
-    """A packet of 80 spacings meets a 30-particle layer: a drag that deep stops a quarter of a
-    wave at most and sends most of it back; the matched layer takes it in."""
-    study = reflection.reflection_study(widths=[30], wavelengths=[80.0])
+def test_the_default_layer_absorbs_a_wave_much_longer_than_it_is_deep():
+    """A packet of 80 spacings meets the default layer, a tenth of a wavelength deep: a drag
+    that thin sends most of it back; the matched layer takes it in."""
+    width = sim.boundaries.DEFAULT_LAYER_WIDTH
+    assert width * 10 <= 80
+    study = reflection.reflection_study(widths=[width], wavelengths=[80.0])
     absorbed = float(study.fractions[0, 0])
     assert absorbed <= 0.01
     assert absorbed > 0  # measured, not assumed: some energy does come back
     assert study.fixed_walls is not None and study.fixed_walls[0] > 0.9
-    assert study.as_dict()["measurements"][0]["reflected"]["30"] == absorbed
+    assert study.as_dict()["measurements"][0]["reflected"][str(width)] == absorbed
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("angle, below", [(0.0, 1e-6), (45.0, 5e-4)])
+@pytest.mark.parametrize("angle, below", [(0.0, 1e-3), (45.0, 2e-3)])
 @pytest.mark.parametrize("wavelength", [5.0, 20.0, 80.0])
 def test_the_default_layer_reflects_at_most_one_percent_at_normal_and_oblique_incidence(
         wavelength, angle, below):
-    """The requirement (1 %) and what a matched layer reaches: at normal incidence a chain's
-    layer is exact up to the time step (1e-8); at 45 degrees about 1e-4 comes back."""
+    """The requirement (1 %) and what the default matched layer reaches: at most about 1e-3,
+    for the longest waves, which see its profile change fastest per wavelength."""
     if angle:  # the strip carries two plane waves at +-45 degrees to the walls
         rows, q_x, q_y, fitted = reflection_angle.strip_geometry(wavelength, angle)
         assert q_x == pytest.approx(q_y) and fitted == pytest.approx(wavelength, rel=0.15)
         assert reflection.measure_reflection(30, wavelength, "fixed", angle=angle) > 0.9
-    absorbed = reflection.measure_reflection(30, wavelength, angle=angle)
+    absorbed = reflection.measure_reflection(sim.boundaries.DEFAULT_LAYER_WIDTH, wavelength,
+                                             angle=angle)
     assert 0 < absorbed <= min(0.01, below)
 
 

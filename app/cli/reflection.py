@@ -34,7 +34,7 @@ and at 45 degrees (out-of-plane waves on a strip half a wave wide).
 
 EPILOG = """\
 examples:
-  oscillators reflection                                  # widths 10,30; 7 wavelengths; 0 and 45 deg
+  oscillators reflection                                  # the default layer and one 30 deep, 0 and 45 deg
   oscillators reflection --plot docs/images/reflection.png
   oscillators reflection --widths 30 --wavelengths 10,40,80 --distance 300 --json
   oscillators reflection --widths 30 --strength 1.0      # a gentler layer
@@ -52,7 +52,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--widths", type=_whole_numbers, default=None, metavar="W,W,...",
-        help="layer widths in particles (default 10,30)",
+        help="layer widths in particles (default: the default layer's width, "
+        "sim.boundaries.DEFAULT_LAYER_WIDTH, and 30)",
     )
     parser.add_argument(
         "--wavelengths", type=_numbers, default=None, metavar="L,L,...",

@@ -53,7 +53,8 @@ DT = 0.05
 PACKET_AMPLITUDE = 0.01
 """Peak displacement of the packet (m); the springs are linearised, so only ratios matter."""
 
-DEFAULT_WIDTHS = (10, 30)
+DEFAULT_WIDTHS = (sim.boundaries.DEFAULT_LAYER_WIDTH, 30)
+"""The default layer and a deep one (particles)."""
 DEFAULT_WAVELENGTHS = (5.0, 10.0, 20.0, 30.0, 40.0, 60.0, 80.0)
 
 SHORTEST_WAVELENGTH = 2.5

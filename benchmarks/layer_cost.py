@@ -1,0 +1,94 @@
+"""What the absorbing layer costs inside velocity Verlet's leapfrog sweep, and where.
+
+    .venv/bin/python benchmarks/layer_cost.py                  # default layer and 10 deep
+    .venv/bin/python benchmarks/layer_cost.py --widths 4,6,10 --rounds 20
+
+Times ``sim.leapfrog.leapfrog_steps`` itself (one thread, float64) on the 682x383 interference
+lattice: without the layer, with it, and with its side strips or its band rows emptied (the
+layer's tuple with zero-width strips or no band rows), so that the side strips' part, the band
+rows' part and what is left when both are empty (the per-row calls) are told apart.  Each
+variant runs ``--steps`` steps per round from the same state; the best round of each counts,
+the variants interleaved round by round.  ``oscillators bench`` measures the whole
+``Simulation.step`` (its "instruments" line); this splits the sweep.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+import sim
+from sim import layer_kick, leapfrog
+
+
+def sweep(simulation: sim.Simulation):
+    """A function running n leapfrog steps of ``simulation``'s state with a given layer tuple
+    (None: without the layer)."""
+    stepper = simulation._integrator
+    kernel = stepper.kernel
+    state = simulation.state
+    dt = stepper._dt(simulation.dt)
+
+    def run(layer, steps: int) -> None:
+        leapfrog.leapfrog_steps(
+            steps, dt, kernel.out_of_plane, state.positions, state.velocities,
+            kernel.inverse_mass, kernel.uniform_inverse_mass, kernel.parameters, kernel.gravity,
+            stepper._block_starts, stepper._boundary, stepper._below, stepper._horizontal,
+            stepper._under, 0.0, None, stepper._saved, layer, np.zeros((1, 2)))
+    return run
+
+
+def variants(simulation: sim.Simulation) -> dict:
+    """The layer's tuple as the sweep takes it, and the same with parts emptied."""
+    full = simulation._integrator.sponge.arguments(0.5 * simulation.dt, np.float64)
+
+    def emptied(**changes) -> tuple:
+        layer = list(full)
+        for name, value in changes.items():
+            layer[getattr(layer_kick, name)] = value
+        return tuple(layer)
+    no_strips = full[layer_kick.GEOMETRY].copy()
+    no_strips[:2] = 0
+    no_bands = np.zeros_like(full[layer_kick.NEEDS])
+    return {"layer": full, "bands only": emptied(GEOMETRY=no_strips),
+            "side strips only": emptied(NEEDS=no_bands),
+            "both emptied": emptied(GEOMETRY=no_strips, NEEDS=no_bands)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--widths", default=f"{sim.boundaries.DEFAULT_LAYER_WIDTH},10",
+                        help="layer widths in particles (default: the default layer's and 10)")
+    parser.add_argument("--rounds", type=int, default=10)
+    parser.add_argument("--steps", type=int, default=10)
+    arguments = parser.parse_args()
+    scene = sim.scenes.build("interference")
+    for width in (int(w) for w in arguments.widths.split(",")):
+        model = scene.model.replace(boundary="absorbing", sponge_width=width)
+        simulation = sim.Simulation(dataclasses.replace(scene, model=model), integrator="verlet")
+        simulation.step(100)  # waves in the layer, the kernels compiled
+        start = simulation.state.positions.copy(), simulation.state.velocities.copy()
+        run = sweep(simulation)
+        cases = {"plain": None, **variants(simulation)}
+        for layer in cases.values():
+            run(layer, 1)
+        best = dict.fromkeys(cases, float("inf"))
+        for _ in range(arguments.rounds):
+            for name, layer in cases.items():
+                simulation.state.positions[...], simulation.state.velocities[...] = start
+                started = time.perf_counter()
+                run(layer, arguments.steps)
+                best[name] = min(best[name], (time.perf_counter() - started) / arguments.steps)
+        plain = best["plain"]
+        print(f"layer {width} particles deep, {model.nx}x{model.ny}, ms per step "
+              f"(ratio to the plain sweep):")
+        for name, seconds in best.items():
+            print(f"  {name:18s} {seconds * 1e3:7.3f} ms  {seconds / plain:5.2f}x")
+
+
+if __name__ == "__main__":
+    main()
