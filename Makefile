@@ -18,11 +18,14 @@ run: install  ## install, then serve the web app on the default scene
 	$(BIN)/oscillators serve $(SCENE)
 
 # --dist loadfile: a test module's tests run in one worker, so the kernels a module compiles on a
-# cold cache are compiled once, not by both workers at the same time
+# cold cache are compiled once, not by both workers at the same time.  NUMBA_OPT=1: the default
+# suite's time is mostly compiling kernels, which LLVM's level 1 does faster (README,
+# "Developing"); its kernels are cached apart (sim/_kernel_cache.py).  test-all runs at the
+# level users get.
 test: install  ## install, then run the test suite (includes one real-browser test)
 	bash scripts/ensure-chromium.sh
 	$(BIN)/ruff check sim app tests benchmarks
-	$(BIN)/python -m pytest -n auto --dist loadfile --durations=20
+	NUMBA_OPT=1 $(BIN)/python -m pytest -n auto --dist loadfile --durations=20
 
 test-all: install  ## every test, slow ones included
 	bash scripts/ensure-chromium.sh

@@ -6,7 +6,8 @@ layer's pass is inside Verlet's loops, the spring law inside every sweep.  After
 ``sim/kernels.py`` alone, ``sim/stepping.py``'s cached loops would still run the old spring law.
 This locator stamps each cached kernel of ``sim`` with a hash of all of the package's modules that
 define kernels, so an edit to any of them recompiles every kernel (on a fresh clone nothing is
-cached and nothing changes).
+cached and nothing changes).  Kernels compiled at another optimisation level than numba's default
+are kept in a subfolder of their own (``optimisation_folder``).
 
 It is registered before any kernel is defined (``sim/__init__.py`` imports this module first);
 ``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  If numba's cache internals differ from
@@ -62,6 +63,16 @@ def package_stamp() -> str:
     return _stamp(_kernel_sources())
 
 
+def optimisation_folder() -> str:
+    """The cache's subfolder for numba's optimisation level (``NUMBA_OPT``), "" at the default
+    (3): numba's cache key leaves the level out, so kernels compiled at another level (the
+    default test suite's, ``Makefile``) must not be found by a run at the default one."""
+    from numba.core import config
+
+    level = str(getattr(config.OPT, "_raw_value", config.OPT))  # an int, or "max"
+    return "" if level == "3" else f"opt-{level}"
+
+
 def _register() -> None:
     try:
         from numba.core import caching
@@ -79,6 +90,9 @@ def _register() -> None:
 
         def get_source_stamp(self):  # noqa: D102 - numba's interface
             return package_stamp()
+
+        def get_cache_path(self):  # noqa: D102 - numba's interface
+            return os.path.join(super().get_cache_path(), optimisation_folder())
 
         @classmethod
         def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface

@@ -3,6 +3,11 @@ inlines a function from another module is recompiled when that module changes.""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import sim  # noqa: F401  (registers the locator before the kernels are defined)
 from sim import _kernel_cache, kernels, leapfrog
 
@@ -31,3 +36,19 @@ def test_the_stamp_changes_when_any_one_source_changes(tmp_path):
     assert stamp() == before
     second.write_text("@njit\ndef g(x):\n    return 3 * x\n")
     assert stamp() != before
+
+
+def test_kernels_compiled_at_another_optimisation_level_are_cached_apart():
+    """numba's cache key leaves out its optimisation level: a run at the default level must not
+    load the kernels the default test suite compiles at level 1."""
+    ask = ("from sim import kernels; print(kernels.spring_force._cache._impl._locator"
+           ".get_cache_path())")
+    paths = {}
+    for level in ("3", "1"):
+        environment = dict(os.environ, NUMBA_OPT=level)
+        environment.pop("NUMBA_CACHE_DIR", None)
+        paths[level] = Path(subprocess.run([sys.executable, "-c", ask], env=environment,
+                                           capture_output=True, text=True,
+                                           check=True).stdout.strip())
+    assert paths["3"] == Path(kernels.__file__).parent / "__pycache__"
+    assert paths["1"] == paths["3"] / "opt-1"
