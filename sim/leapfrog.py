@@ -40,11 +40,6 @@ from sim.row_updates import components, kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
-SIDE_CHUNK = 16
-"""Rows whose side strips the absorbing layer kicks at once, while their forces and particles
-are still in cache (a row at a time, the strips' short spans cost more than their arithmetic)."""
-
-
 @njit(**_JIT)
 def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
                   parameters, gravity, below, above_last, horizontal, position, velocity, time,
@@ -61,7 +56,7 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     The absorbing layer (``sponge``: ``sim.matched_layer.MatchedLayer.arguments``, None
     compiles it out) kicks from the springs the rows' passes computed (``sim.layer_kick``;
     ``under`` (3, nx) scratch, ``tension`` the rest tension, N): a band row's y-layer after its
-    pass, the side strips' x-layer every ``SIDE_CHUNK`` rows.  The drive table (``sim.instruments``,
+    pass, the side strips' x-layer once all the rows are swept.  The drive table (``sim.instruments``,
     None compiles it out) acts last: the driven particles get their drive at ``time`` (s;
     velocities kept in ``saved`` (drives, 3) before their row's pass).  ``totals`` (2,) receives
     the drive's work and the layer's take (J).  ``position``/``velocity`` are the full
@@ -75,7 +70,6 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
         geometry = sponge[GEOMETRY]
         side_forces = sponge[SIDE_FORCES]
         sides_under(j0, below, side_forces, geometry)
-    chunk = j0  # the first row whose side strips have not been kicked
     for j in range(j0, j1):
         if drive is not None:
             save_driven(j, drive, velocity, saved)
@@ -129,14 +123,12 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
                                       velocity, horizontal, under, below, sponge, tension)
                 if drive is not None:
                     shift_saved(j, j + 1, drive, velocity, saved, 1.0)
-            if j + 1 - chunk == SIDE_CHUNK or j + 1 == j1:  # the side strips of these rows
-                if drive is not None:
-                    shift_saved(chunk, j + 1, drive, velocity, saved, -1.0)
-                totals[1] += sides_act(chunk, j + 1, 0.5 * dt, -0.5 * dt, True, dt, position,
-                                       velocity, sponge)
-                if drive is not None:
-                    shift_saved(chunk, j + 1, drive, velocity, saved, 1.0)
-                chunk = j + 1
+    if sponge is not None:  # the side strips of all these rows at once: one call, long loops
+        if drive is not None:
+            shift_saved(j0, j1, drive, velocity, saved, -1.0)
+        totals[1] += sides_act(j0, j1, 0.5 * dt, -0.5 * dt, True, dt, position, velocity, sponge)
+        if drive is not None:
+            shift_saved(j0, j1, drive, velocity, saved, 1.0)
     if drive is not None:
         totals[0] += leapfrog_drive(j0, j1, time, dt, drive, position, velocity, saved)
 
