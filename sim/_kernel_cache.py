@@ -6,8 +6,9 @@ layer's pass is inside Verlet's loops, the spring law inside every sweep.  After
 ``sim/kernels.py`` alone, ``sim/stepping.py``'s cached loops would still run the old spring law.
 This locator stamps each cached kernel of ``sim`` with a hash of all of the package's modules that
 define kernels, so an edit to any of them recompiles every kernel (on a fresh clone nothing is
-cached and nothing changes).  Kernels compiled at another optimisation level than numba's default
-are kept in a subfolder of their own (``optimisation_folder``).
+cached and nothing changes).  Kernels compiled at another optimisation level than numba's default,
+the package's and any other module's, are kept in a subfolder of their own
+(``optimisation_folder``).
 
 It is registered before any kernel is defined (``sim/__init__.py`` imports this module first);
 ``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  If numba's cache internals differ from
@@ -104,8 +105,23 @@ def _register() -> None:
                 return None
             return super().from_function(py_func, py_file)
 
-    if not any(cls.__name__ == PackageCacheLocator.__name__ for cls in impl._locator_classes):
-        impl._locator_classes.insert(0, PackageCacheLocator)
+    class LevelCacheLocator(base):  # type: ignore[misc, valid-type]
+        """numba's in-tree cache for kernels outside ``sim`` (e.g. ``app.movie.raster``), in the
+        subfolder of a non-default optimisation level; at the default level numba's own
+        locators answer."""
+
+        def get_cache_path(self):  # noqa: D102 - numba's interface
+            return os.path.join(super().get_cache_path(), optimisation_folder())
+
+        @classmethod
+        def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
+            if not optimisation_folder() or os.environ.get("NUMBA_CACHE_DIR"):
+                return None
+            return super().from_function(py_func, py_file)
+
+    for position, locator in enumerate((PackageCacheLocator, LevelCacheLocator)):
+        if not any(cls.__name__ == locator.__name__ for cls in impl._locator_classes):
+            impl._locator_classes.insert(position, locator)
 
 
 _register()

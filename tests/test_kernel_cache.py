@@ -41,14 +41,17 @@ def test_the_stamp_changes_when_any_one_source_changes(tmp_path):
 def test_kernels_compiled_at_another_optimisation_level_are_cached_apart():
     """numba's cache key leaves out its optimisation level: a run at the default level must not
     load the kernels the default test suite compiles at level 1."""
-    ask = ("from sim import kernels; print(kernels.spring_force._cache._impl._locator"
-           ".get_cache_path())")
+    ask = ("from sim import kernels; from app.movie import raster\n"
+           "for kernel in (kernels.spring_force, raster.upscale_nearest):\n"
+           "    print(kernel._cache._impl._locator.get_cache_path())")
     paths = {}
     for level in ("3", "1"):
         environment = dict(os.environ, NUMBA_OPT=level)
         environment.pop("NUMBA_CACHE_DIR", None)
-        paths[level] = Path(subprocess.run([sys.executable, "-c", ask], env=environment,
-                                           capture_output=True, text=True,
-                                           check=True).stdout.strip())
-    assert paths["3"] == Path(kernels.__file__).parent / "__pycache__"
-    assert paths["1"] == paths["3"] / "opt-1"
+        paths[level] = [Path(line) for line in subprocess.run(
+            [sys.executable, "-c", ask], env=environment, capture_output=True, text=True,
+            check=True).stdout.split()]
+    from app.movie import raster
+    assert paths["3"] == [Path(kernels.__file__).parent / "__pycache__",
+                          Path(raster.__file__).parent / "__pycache__"]
+    assert paths["1"] == [path / "opt-1" for path in paths["3"]]
