@@ -85,30 +85,10 @@ def _register() -> None:
                                                        list):
         return
 
-    class PackageCacheLocator(base):  # type: ignore[misc, valid-type]
-        """numba's in-tree cache (``__pycache__`` beside the module) for the kernels of ``sim``,
-        stamped with every kernel source of the package."""
-
-        def get_source_stamp(self):  # noqa: D102 - numba's interface
-            return package_stamp()
-
-        def get_cache_path(self):  # noqa: D102 - numba's interface
-            return os.path.join(super().get_cache_path(), optimisation_folder())
-
-        @classmethod
-        def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
-            try:
-                inside = Path(py_file).resolve().parent == PACKAGE
-            except (OSError, ValueError):
-                return None
-            if not inside or os.environ.get("NUMBA_CACHE_DIR"):
-                return None
-            return super().from_function(py_func, py_file)
-
     class LevelCacheLocator(base):  # type: ignore[misc, valid-type]
-        """numba's in-tree cache for kernels outside ``sim`` (e.g. ``app.movie.raster``), in the
-        subfolder of a non-default optimisation level; at the default level numba's own
-        locators answer."""
+        """numba's in-tree cache (``__pycache__`` beside the module), in the subfolder of a
+        non-default optimisation level; for kernels outside ``sim`` (e.g. ``app.movie.raster``)
+        only at such a level, numba's own locators answering at the default one."""
 
         def get_cache_path(self):  # noqa: D102 - numba's interface
             return os.path.join(super().get_cache_path(), optimisation_folder())
@@ -118,6 +98,23 @@ def _register() -> None:
             if not optimisation_folder() or os.environ.get("NUMBA_CACHE_DIR"):
                 return None
             return super().from_function(py_func, py_file)
+
+    class PackageCacheLocator(LevelCacheLocator):
+        """The cache of the kernels of ``sim``, at every level, stamped with every kernel source
+        of the package."""
+
+        def get_source_stamp(self):  # noqa: D102 - numba's interface
+            return package_stamp()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
+            try:
+                inside = Path(py_file).resolve().parent == PACKAGE
+            except (OSError, ValueError):
+                return None
+            if not inside or os.environ.get("NUMBA_CACHE_DIR"):
+                return None
+            return super(LevelCacheLocator, cls).from_function(py_func, py_file)  # numba's
 
     for position, locator in enumerate((PackageCacheLocator, LevelCacheLocator)):
         if not any(cls.__name__ == locator.__name__ for cls in impl._locator_classes):

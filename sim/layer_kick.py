@@ -68,21 +68,29 @@ def strip(s, geometry):
 
 
 @njit(**_JIT)
-def held_half(f_left, f_right, force, h_left, h_right, phi, e_left, e_right, e_node, tau,
-              inverse_mass):
-    """One half action of a particle with held forces on both sides along one axis: relax the
-    held forces ``h_left``, ``h_right`` toward the springs' ``f_left``, ``f_right`` and phi
-    toward what they leave of the net ``force`` over tau / 2, kick by tau, relax again.  Returns
-    (h_left, h_right, phi, kick).  The half actions are written out one after the other, not as
-    a loop: LLVM vectorises only innermost loops, and a loop over the halves inside the loop over
+def half_action(force, h_low, h_high, phi, e_node, tau, inverse_mass):
+    """One half action of a particle along one axis, its springs' held forces ``h_low`` and
+    ``h_high`` (below or left, above or right) relaxed as it reads them: phi relaxed toward what
+    they leave of the net ``force`` over tau / 2, the kick by tau, phi relaxed again.  Returns
+    (phi, kick).  The kicks write their half actions out one after the other, not as a loop:
+    LLVM vectorises only innermost loops, and a loop over the halves inside the loop over
     particles kept the particles' loop scalar (3.6x slower on the flagship's side strips)."""
-    h_left = relax(f_left, h_left, e_left)
-    h_right = relax(f_right, h_right, e_right)
-    holding = h_right - h_left
+    holding = h_high - h_low
     target = force - holding
     phi = relax(target, phi, e_node)
     kick = -tau * (holding + phi) * inverse_mass
-    phi = relax(target, phi, e_node)
+    return relax(target, phi, e_node), kick
+
+
+@njit(**_JIT)
+def held_half(f_left, f_right, force, h_left, h_right, phi, e_left, e_right, e_node, tau,
+              inverse_mass):
+    """``half_action`` of a side particle, whose held x-spring forces ``h_left``, ``h_right``
+    relax toward the springs' ``f_left``, ``f_right`` before the kick and again after it.
+    Returns (h_left, h_right, phi, kick)."""
+    h_left = relax(f_left, h_left, e_left)
+    h_right = relax(f_right, h_right, e_right)
+    phi, kick = half_action(force, h_left, h_right, phi, e_node, tau, inverse_mass)
     return relax(f_left, h_left, e_left), relax(f_right, h_right, e_right), phi, kick
 
 
@@ -209,18 +217,6 @@ def keep_row(source, kept):
 
 
 @njit(**_JIT)
-def band_half(force, h_below, h_above, phi, e_node, tau, inverse_mass):
-    """One half action of a band particle whose held forces have been relaxed as read: phi
-    relaxed toward what they leave of the net ``force`` over tau / 2, the kick by tau, phi relaxed
-    again.  Returns (phi, kick).  Written out per half, not looped (``held_half``)."""
-    holding = h_above - h_below
-    target = force - holding
-    phi = relax(target, phi, e_node)
-    kick = -tau * (holding + phi) * inverse_mass
-    return relax(target, phi, e_node), kick
-
-
-@njit(**_JIT)
 def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_masses, horizontal,
               below, above, held_y, relaxed_y, e_below, e_above, e_node, shift, drift, position):
     """Component c of band row j's y-layer kick: per half action relax the held forces of each
@@ -246,11 +242,11 @@ def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_mass
         held_above = held_y[c, j + 1, i]
         phi = relaxed_y[c, j, i]
         before = np.float64(velocity[c, j, i])
-        phi, kick = band_half(force_y, relax(f_below, held_below, e_below),
+        phi, kick = half_action(force_y, relax(f_below, held_below, e_below),
                               relax(f_above, held_above, e_above), phi, e_node, tau,
                               inverse_mass)
         if second_half is not None:
-            phi, more = band_half(force_y, relax(f_below, held_below, later_below),
+            phi, more = half_action(force_y, relax(f_below, held_below, later_below),
                                   relax(f_above, held_above, later_above), phi, e_node, tau,
                                   inverse_mass)
             kick += more

@@ -59,6 +59,8 @@ from sim.layer_kick import (
     band_act,
     rest_tension,
     sides_act,
+    sides_row,
+    sides_under,
     strip,
 )
 from sim.row_updates import components
@@ -147,30 +149,29 @@ def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
 def _side_forces(x, y, z, linearised, parameters, tension, layer):
     """The side strips' springs at the frozen positions into the layer's side buffer
     (``sim.layer_kick``): each particle's two x-springs beyond the rest ``tension`` (N) and the
-    net force of its y-springs."""
+    net force of its y-springs, stored a row at a time as the leapfrog sweep stores them
+    (``sides_under``, ``sides_row``)."""
     geometry = layer[GEOMETRY]
     forces = layer[SIDE_FORCES]
     buffers = layer[BUFFERS]
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
     ny = x.shape[0]
     for s in range(2):
-        width, first_slot, first_column = strip(s, geometry)
-        if width == 0:
-            continue
-        stop = first_column + width
-        _y_springs(0, first_column, stop, x, y, z, linearised, parameters, tension, below)
-        for j in range(ny):
-            _y_springs(j + 1, first_column, stop, x, y, z, linearised, parameters, tension, above)
+        width, _, first_column = strip(s, geometry)
+        _y_springs(0, first_column, first_column + width, x, y, z, linearised, parameters,
+                   tension, below)
+    sides_under(0, below, forces, geometry)
+    for j in range(ny):
+        for s in range(2):
+            width, _, first_column = strip(s, geometry)
+            if width == 0:
+                continue
+            stop = first_column + width
+            _y_springs(j + 1, first_column, stop, x, y, z, linearised, parameters, tension,
+                       above)
             _x_springs(j, first_column, stop + 1, x, y, z, linearised, parameters, tension,
                        horizontal)
-            for c in range(forces.shape[1]):
-                for k in range(width):
-                    p = first_slot + j * width + k
-                    i = first_column + k
-                    forces[0, c, p] = horizontal[c, i]
-                    forces[1, c, p] = horizontal[c, i + 1]
-                    forces[2, c, p] = above[c, i] - below[c, i]
-            below, above = above, below
+        sides_row(j, j + 1 == ny, horizontal, above, forces, geometry, 0.0)
 
 
 @njit(**_JIT)
