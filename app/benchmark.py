@@ -325,24 +325,45 @@ def _instruments(scene, seconds: float) -> dict:
             "cost": {name: base / rate for name, rate in rates.items() if name != "as_is"}}
 
 
+PARTS = {
+    "integrators": "every integrator in float64 on one thread, against plain numpy",
+    "threads": "Verlet and RK4 in float64/float32 on 1 and N threads, against C",
+    "specialisation": "what each of the scene's compile-time flags buys",
+    "instruments": "what periodic rows, absorbing walls and a force driver cost",
+}
+"""The benchmark's parts, in the order they run (``measure(parts=...)``, ``bench --only``)."""
+
+
 def measure(scene_name: str = "interference", overrides: dict | None = None,
-            seconds: float = 2.0, threads: int | None = None, c_reference: bool = True) -> dict:
-    """Run the benchmark and return the numbers (steps per second, ratios, host)."""
+            seconds: float = 2.0, threads: int | None = None, c_reference: bool = True,
+            parts: tuple[str, ...] = tuple(PARTS)) -> dict:
+    """Run the benchmark's ``parts`` (``PARTS``; all by default) and return the numbers (steps
+    per second, ratios, host): the keys "integrators", "configurations" (the threads part),
+    "specialisation" and "instruments" of the parts run."""
     import sim
 
+    unknown = sorted(set(parts) - set(PARTS))
+    if unknown:
+        raise ValueError(f"unknown benchmark parts {unknown}; the parts are {list(PARTS)}")
     scene = sim.scenes.build(scene_name, **(overrides or {}))
     most = threads if threads is not None else min(2, os.cpu_count() or 1)
     thread_counts = sorted({1, most})
-    reference, note = c_module.load() if c_reference else (None, "C reference not requested")
-    return {
+    results = {
         "scene": scene_name,
         "lattice": f"{scene.model.nx}x{scene.model.ny}",
         "particles": scene.model.n_particles,
         "host": host_description(),
         "threads": thread_counts,
-        "c_reference_note": note,
-        "integrators": _integrator_table(scene, seconds),
-        "configurations": _configurations(scene, seconds, thread_counts, reference),
-        "specialisation": _specialisation(scene, seconds),
-        "instruments": _instruments(scene, seconds),
+        "c_reference_note": None,
     }
+    if "integrators" in parts:
+        results["integrators"] = _integrator_table(scene, seconds)
+    if "threads" in parts:
+        reference, note = c_module.load() if c_reference else (None, "C reference not requested")
+        results["c_reference_note"] = note
+        results["configurations"] = _configurations(scene, seconds, thread_counts, reference)
+    if "specialisation" in parts:
+        results["specialisation"] = _specialisation(scene, seconds)
+    if "instruments" in parts:
+        results["instruments"] = _instruments(scene, seconds)
+    return results

@@ -87,6 +87,15 @@ def test_every_long_command_has_the_planned_work_limit(tmp_path, monkeypatch, ca
     assert "limit" in one_line_refusal(capsys, arguments)
 
 
+@pytest.mark.parametrize("parts", ["speed", "", "instruments,threads,x"])
+def test_bench_refuses_parts_it_does_not_have(capsys, parts):
+    with pytest.raises(SystemExit) as exit_:
+        main(["bench", "--only", parts])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "integrators, threads, specialisation, instruments" in err
+
+
 def test_a_scene_files_huge_duration_is_refused_before_a_movie(tmp_path, capsys):
     path = scene(tmp_path, 'name = "long"\nduration = 1e11')
     err = one_line_refusal(capsys, ["movie", str(path), "-o", str(tmp_path / "m.gif")])

@@ -323,3 +323,17 @@ def test_bench_reports_host_vector_width_and_threads():
     assert ("verlet", "float32", 2) in configurations and ("rk4", "float64", 1) in configurations
     gains = report["specialisation"]["rk4"]["gain"]
     assert set(gains) == {"zero_damping_drag_gravity", "inverse_mass_array", "three_dimensional"}
+
+
+@pytest.mark.slow  # compiles the instruments' kernels of the grid in a fresh process
+def test_bench_runs_only_the_parts_asked_for():
+    result = subprocess.run(
+        [sys.executable, "-m", "app.cli", "bench", "--scene", "grid", "--seconds", "0.05",
+         "--only", "instruments", "--json"], capture_output=True, text=True, timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert not {"integrators", "configurations", "specialisation"} & set(report)
+    costs = report["instruments"]["cost"]
+    assert set(costs) == {"periodic", "driven", "absorbing"}
+    assert all(0.3 < cost < 30 for cost in costs.values())  # ratios of measured rates

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from app.benchmark import measure
+from app.benchmark import PARTS, measure
 from app.cli.arguments import parse_overrides, positive_float, positive_int
 from app.cli.limits import check_measurement_seconds
 
@@ -21,7 +21,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "note when there is no compiler), on the interference scene (682x383) by default: "
         "every integrator in float64 on one thread, Verlet and RK4 in float64/float32 on 1 and "
         "N threads with the ratio to C, and what each specialisation buys. Prints the host and "
-        "its vector width.",
+        "its vector width. --only runs some of these parts (e.g. --only instruments, a few "
+        "seconds: what periodic rows, absorbing walls and a driver cost).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="parts (--only):\n" + "\n".join(f"  {name:15s} {what}" for name, what in PARTS.items())
+        + "\n\nexamples:\n  oscillators bench                       # everything (a few minutes)"
+        "\n  oscillators bench --only instruments    # the instruments' cost, side by side"
+        "\n  oscillators bench --seconds 1.5 --json  # the numbers as JSON",
     )
     parser.add_argument("--scene", default="interference")
     parser.add_argument("--seconds", type=positive_float, default=2.0,
@@ -30,15 +36,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--threads", type=positive_int,
                         help="most threads to measure (default: 2, or 1 on one core)")
     parser.add_argument("--no-c", action="store_true", help="skip the C reference")
+    parser.add_argument("--only", type=_parts, default=tuple(PARTS), metavar="PART,...",
+                        help="run only these parts: " + ", ".join(PARTS) + " (default: all)")
     parser.add_argument("--json", action="store_true")
     parser.set_defaults(handler=command_bench)
+
+
+def _parts(text: str) -> tuple[str, ...]:
+    """The benchmark parts named in a comma-separated list, in the order they run."""
+    names = {name.strip().lower() for name in text.split(",") if name.strip()}
+    if not names or names - set(PARTS):
+        raise argparse.ArgumentTypeError(
+            f"expected parts from {', '.join(PARTS)} (comma-separated), got {text!r}")
+    return tuple(name for name in PARTS if name in names)
 
 
 def command_bench(arguments: argparse.Namespace) -> int:
     check_measurement_seconds(arguments.seconds)
     results = measure(
         arguments.scene, parse_overrides(arguments.overrides), arguments.seconds,
-        threads=arguments.threads, c_reference=not arguments.no_c,
+        threads=arguments.threads, c_reference=not arguments.no_c, parts=arguments.only,
     )
     if arguments.json:
         print(json.dumps(results, indent=2))
@@ -57,15 +74,29 @@ def print_table(results: dict) -> None:
           f"load average {host['load_average']:.1f}")
     if "inverse_sqrt" in host:
         print(host["inverse_sqrt"])
+    if "integrators" in results:
+        _print_integrators(results["integrators"])
+    if "configurations" in results:
+        _print_configurations(results)
+    if results["c_reference_note"]:
+        print(f"note: {results['c_reference_note']}")
+    if results.get("specialisation"):
+        _print_specialisation(results["specialisation"])
+
+
+def _print_integrators(integrators: dict) -> None:
     print("\nfloat64, one thread")
     header = f"{'integrator':10s} {'kernel steps/s':>15s} {'Simulation.step':>16s} " \
              f"{'numpy steps/s':>14s} {'kernel/numpy':>13s}"
     print(header)
     print("-" * len(header))
-    for name, row in results["integrators"].items():
+    for name, row in integrators.items():
         print(f"{name:10s} {row['kernel_steps_per_second']:15.1f} "
               f"{row['simulation_steps_per_second']:16.1f} {row['numpy_steps_per_second']:14.2f} "
               f"{row['speedup_over_numpy']:12.1f}x")
+
+
+def _print_configurations(results: dict) -> None:
     print(f"\nprecision and threads (ratio to C = Simulation.step / C kernel; "
           f"threads measured: {', '.join(map(str, results['threads']))})")
     header = f"{'integrator':10s} {'precision':9s} {'threads':>7s} {'kernel steps/s':>15s} " \
@@ -85,9 +116,9 @@ def print_table(results: dict) -> None:
     if c_gains:
         print(f"the C kernel's own speed-up on {results['threads'][-1]} threads (what the memory "
               f"and cores allow): {', '.join(c_gains)}")
-    if results["c_reference_note"]:
-        print(f"note: {results['c_reference_note']}")
-    specialisation = results.get("specialisation")
+
+
+def _print_specialisation(specialisation: dict) -> None:
     if specialisation:
         print("\nscene flags pick a specialised kernel; each effect alone (specialised steps/s over "
               "the variant's):")
