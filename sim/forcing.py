@@ -40,9 +40,6 @@ from sim import boundaries, forcing_kernels, matched_layer, schema, sources
 
 DRIVER_KINDS = ("force", "displacement")
 SPONGE_POWER = matched_layer.POWER
-DEFAULT_SPONGE_STRENGTH = 2.0
-"""Peak damping rate of the sponge in units of omega_0 = sqrt(k / m) (designed with the
-reflection study in ``docs/instruments.md``)."""
 
 _DIRECTIONS = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 

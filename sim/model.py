@@ -161,7 +161,7 @@ class Model:
     barriers: tuple = ()
     boundary: str = "fixed"
     sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH
-    sponge_strength: float = 2.0
+    sponge_strength: float = boundaries.DEFAULT_LAYER_STRENGTH
     sponge_sides: tuple[str, ...] = ()
 
     @classmethod
@@ -210,7 +210,7 @@ class Model:
         from sim import sources as sources_module
 
         if sponge_strength is None:
-            sponge_strength = forcing.DEFAULT_SPONGE_STRENGTH
+            sponge_strength = boundaries.DEFAULT_LAYER_STRENGTH
         try:
             boundary, sponge_width, sponge_strength = forcing.check_boundary(
                 boundary, sponge_width, sponge_strength

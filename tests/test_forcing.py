@@ -266,7 +266,7 @@ def test_scenes_without_driver_or_sponge_step_in_one_compiled_call(monkeypatch):
     (dict(driver=dict(direction="z")), "out of the plane"),
     (dict(driver="column=1,frequency"), "key=value"),
     (dict(boundary="open"), "boundary"),
-    (dict(boundary="absorbing"), "lower sponge_width"),
+    (dict(boundary="absorbing", nx=8, ny=6), "lower sponge_width"),
     (dict(boundary="absorbing", sponge_width=2, sponge_sides="left,front"), "sponge side"),
     (dict(boundary="absorbing", sponge_width=0), "sponge_width"),
 ])

@@ -37,7 +37,7 @@ examples:
   oscillators reflection                                  # the default layer and one 30 deep, 0 and 45 deg
   oscillators reflection --plot docs/images/reflection.png
   oscillators reflection --widths 30 --wavelengths 10,40,80 --distance 300 --json
-  oscillators reflection --widths 30 --strength 1.0      # a gentler layer
+  oscillators reflection --widths 30 --strength 2.0      # a stronger layer
   oscillators reflection --widths 30 --angle 45           # waves arriving at 45 degrees only
 
 Python: from app.study.reflection import reflection_study
@@ -61,7 +61,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--strength", type=positive_float, default=None, metavar="S",
-        help="sponge_strength: peak rate in units of sqrt(k/m) (default 2)",
+        help="sponge_strength: peak rate in units of sqrt(k/m) (default: the default "
+             "layer's, sim.boundaries.DEFAULT_LAYER_STRENGTH)",
     )
     parser.add_argument(
         "--distance", type=bounded_int(10, 20_000), default=300,
@@ -108,12 +109,12 @@ _whole_numbers = _comma_separated(int, lambda value: value >= 1,
 
 def command_reflection(arguments: argparse.Namespace) -> int:
     from app.study import reflection
-    from sim.forcing import DEFAULT_SPONGE_STRENGTH
+    from sim.boundaries import DEFAULT_LAYER_STRENGTH
 
     default_plot(arguments, "reflection.png")
     widths = arguments.widths or list(reflection.DEFAULT_WIDTHS)
     wavelengths = arguments.wavelengths or list(reflection.DEFAULT_WAVELENGTHS)
-    strength = arguments.strength or DEFAULT_SPONGE_STRENGTH
+    strength = arguments.strength or DEFAULT_LAYER_STRENGTH
     control = not arguments.no_control
     angles = [0.0, 45.0] if arguments.angle is None else [arguments.angle]
     reflection.check_plan(widths, wavelengths, arguments.distance)

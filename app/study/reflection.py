@@ -33,7 +33,8 @@ import numpy as np
 
 import sim
 from app.study import reflection_angle
-from sim.forcing import DEFAULT_SPONGE_STRENGTH, SPONGE_POWER
+from sim.boundaries import DEFAULT_LAYER_STRENGTH
+from sim.forcing import SPONGE_POWER
 from sim.integrators import describe, most_accurate
 
 ProgressCallback = Callable[[str], None]
@@ -76,7 +77,7 @@ def group_velocity(wavelength: float, stiffness: float = STIFFNESS, mass: float 
 
 
 def packet_scene(width: int, wavelength: float, boundary: str = "absorbing",
-                 strength: float = DEFAULT_SPONGE_STRENGTH, distance: int = DISTANCE) -> sim.Scene:
+                 strength: float = DEFAULT_LAYER_STRENGTH, distance: int = DISTANCE) -> sim.Scene:
     """The chain of ``2 (distance + width)`` particles with the wave packet in its middle, at
     rest; ``boundary`` "absorbing" (a ``width``-deep sponge at both ends) or "fixed" (the
     control)."""
@@ -107,7 +108,7 @@ def chain_energy(simulation: sim.Simulation, first: int, stop: int) -> float:
 
 
 def measure_reflection(width: int, wavelength: float, boundary: str = "absorbing",
-                       strength: float = DEFAULT_SPONGE_STRENGTH,
+                       strength: float = DEFAULT_LAYER_STRENGTH,
                        distance: int = DISTANCE, angle: float = 0.0) -> float:
     """Energy fraction left between the layers at t = 2 distance / c_g (see the module
     docstring); with ``boundary="fixed"`` the same interior of a chain with fixed walls.
@@ -169,7 +170,7 @@ class ReflectionStudy:
 
 def reflection_study(
     widths: Sequence[int] = DEFAULT_WIDTHS, wavelengths: Sequence[float] = DEFAULT_WAVELENGTHS,
-    strength: float = DEFAULT_SPONGE_STRENGTH, distance: int = DISTANCE, control: bool = True,
+    strength: float = DEFAULT_LAYER_STRENGTH, distance: int = DISTANCE, control: bool = True,
     progress: ProgressCallback | None = None, angle: float = 0.0,
 ) -> ReflectionStudy:
     """Measure every (wavelength, width) pair, and the fixed-wall control per wavelength, at
@@ -298,7 +299,11 @@ def plot_reflection(studies: ReflectionStudy | Sequence[ReflectionStudy], path: 
     profile_axis.legend(fontsize=8)
     for study, axis in zip(studies, axes[1:], strict=True):
         _plot_curves(study, axis, colours)
-    figure.tight_layout()
+    # one legend for the curves' panels, below them: inside, it hid points whatever the corner
+    handles, labels = axes[1].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9,
+                  bbox_to_anchor=(0.5 + 0.08 * (len(studies) > 1), 0.0), frameon=False)
+    figure.tight_layout(rect=(0, 0.07, 1, 1))
     figure.savefig(path, dpi=110)
     plt.close(figure)
 
@@ -320,4 +325,3 @@ def _plot_curves(study: ReflectionStudy, axis: Any, colours: Any) -> None:
                    f"{study.strength:g}; {describe(chain_integrator()).short_label} "
                    f"dt = {DT:g} s)", fontsize=10)
     axis.grid(True, which="major", alpha=0.3)
-    axis.legend(fontsize=8, loc="upper right", bbox_to_anchor=(1.0, 0.88))

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 import sim
-from sim.forcing import DEFAULT_SPONGE_STRENGTH
+from sim.boundaries import DEFAULT_LAYER_STRENGTH
 
 STIFFNESS = 35.0
 MASS = 1.0
@@ -72,7 +72,7 @@ def strip_energy(simulation: sim.Simulation, first: int, stop: int) -> float:
 
 
 def measure(width: int, wavelength: float, angle: float = 0.0,
-            strength: float = DEFAULT_SPONGE_STRENGTH, distance: int = DISTANCE,
+            strength: float = DEFAULT_LAYER_STRENGTH, distance: int = DISTANCE,
             boundary: str = "absorbing") -> float:
     """Reflected energy fraction (see the module docstring) of a ``width``-deep layer."""
     if not angle:
