@@ -56,6 +56,7 @@ def _loop_seconds(loop: str, estimate: object) -> float:
     out = np.zeros_like(position)
     parameters = SpringParameters(1.0, 0.9, 0.1, 1.0, 0.0, 0.0, inverse_sqrt_estimate=estimate)
     inverse_mass = np.ones((ny, nx))
+    inverse_mass.setflags(write=False)  # as the model's (``sim.model.read_only``)
     if loop == "leapfrog":  # the arguments of a planar lattice of equal masses on one thread
         block_starts = np.array([0, ny], dtype=np.int64)
         scratch = (np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)),

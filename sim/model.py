@@ -119,6 +119,17 @@ def _numeric_array(value: Any, name: str, wanted: str) -> np.ndarray:
     return array.astype(float)
 
 
+def read_only(array: np.ndarray) -> np.ndarray:
+    """``array`` read-only (a read-only copy if it is writable), as the kernels take the model's
+    arrays: whether an argument is writable is part of a compiled kernel's signature, so a model
+    that lost the flag (unpickled on a worker) or an array converted to float32 would otherwise
+    compile a second copy of the kernel."""
+    if array.flags.writeable:
+        array = array.copy()
+        array.setflags(write=False)
+    return array
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Model:
     """Immutable lattice description.  Build with ``Model.create`` (validates), not the constructor.

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from sim.model import Model
+from sim.model import Model, read_only
 from sim.modes import polarisations, second_difference_eigenvalues, stiffness_matrix
 from sim.state import State
 
@@ -163,7 +163,7 @@ def _compiled_energy_terms(model: Model, state: State) -> tuple[float, float]:
     z = position[2] if model.dim == 3 else None
     vz = velocity[2] if model.dim == 3 else None
     kinetic, spring = energy_terms(
-        position[0], position[1], z, velocity[0], velocity[1], vz, model.masses, model.linear,
+        position[0], position[1], z, velocity[0], velocity[1], vz, read_only(model.masses), model.linear,
         model.kernel_parameters,
     )
     return float(kinetic), float(spring)

@@ -28,6 +28,9 @@ STIFFNESS = 35.0
 REST_LENGTH = 0.8
 SPONGE = 20
 """Depth of the absorbing layer along every wall (particles)."""
+SPONGE_STRENGTH = 2.0
+"""Its peak rate in units of sqrt(k/m): a deep layer, gentler at its inner edge than the default
+thin one, so the strength is the tanks' own."""
 FRINGE_FREQUENCY = 0.33
 """Driving frequency of two-sources and double-slit (Hz): lambda = 7.8 a on the membrane."""
 SINGLE_SLIT_FREQUENCY = 0.33
@@ -36,7 +39,8 @@ SINGLE_SLIT_FREQUENCY = 0.33
 
 def _membrane(nx: int, ny: int, **extra: Any) -> dict[str, Any]:
     return dict(nx=nx, ny=ny, dim=3, stiffness=STIFFNESS, rest_length=REST_LENGTH, linear=True,
-                boundary="absorbing", sponge_width=SPONGE, **extra)
+                boundary="absorbing", sponge_width=SPONGE,
+                sponge_strength=SPONGE_STRENGTH, **extra)
 
 
 def _plane_wave(frequency: float) -> list[dict[str, Any]]:

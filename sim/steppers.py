@@ -18,19 +18,9 @@ import numpy as np
 
 from sim import host_tuning, instruments, leapfrog, row_blocks, stepping, wavefront
 from sim.kernels import SpringParameters
-from sim.model import Model
+from sim.model import Model, read_only
 from sim.row_updates import HEUN, RK4
 from sim.state import State
-
-
-def _read_only(array: np.ndarray) -> np.ndarray:
-    """``array`` read-only (a read-only copy if it is writable): whether an argument is writable
-    is part of a compiled kernel's signature, so a model that lost the flag (unpickled on a
-    worker, or converted to float32) would otherwise compile a second copy of every kernel."""
-    if array.flags.writeable:
-        array = array.copy()
-        array.setflags(write=False)
-    return array
 
 
 class KernelArguments(NamedTuple):
@@ -58,7 +48,7 @@ class KernelArguments(NamedTuple):
         return cls(
             linear=model.linear,
             out_of_plane=None if model.dim == 2 else True,
-            inverse_mass=_read_only(np.ascontiguousarray(model.inverse_masses, dtype=dtype)),
+            inverse_mass=read_only(np.ascontiguousarray(model.inverse_masses, dtype=dtype)),
             uniform_inverse_mass=(
                 scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),

@@ -94,7 +94,7 @@ def test_reflection_prints_a_table_and_writes_a_picture(tmp_path, capsys):
 
 
 def test_the_default_layer_absorbs_a_wave_much_longer_than_it_is_deep():
-    """A packet of 80 spacings meets the default layer, a tenth of a wavelength deep: a drag
+    """A packet of 80 spacings meets the default layer, less than a tenth of a wavelength deep: a drag
     that thin sends most of it back; the matched layer takes it in."""
     width = sim.boundaries.DEFAULT_LAYER_WIDTH
     assert width * 10 <= 80

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import textwrap
 
 from app.benchmark import PARTS, measure
 from app.cli.arguments import parse_overrides, positive_float, positive_int
@@ -16,13 +17,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``bench`` command to ``oscillators``."""
     parser = subparsers.add_parser(
         "bench", help="steps per second of each integrator against plain numpy and C",
-        description="Benchmark the numba kernels against the same step in vectorised numpy and "
-        "against hand-written C kernels (built with gcc into a cache directory; skipped with a "
-        "note when there is no compiler), on the interference scene (682x383) by default: "
-        "every integrator in float64 on one thread, Verlet and RK4 in float64/float32 on 1 and "
-        "N threads with the ratio to C, and what each specialisation buys. Prints the host and "
-        "its vector width. --only runs some of these parts (e.g. --only instruments, a few "
-        "seconds: what periodic rows, absorbing walls and a driver cost).",
+        description=textwrap.fill(
+            "Benchmark the numba kernels against the same step in vectorised numpy and against "
+            "hand-written C kernels (built with gcc into a cache directory; skipped with a note "
+            "when there is no compiler), on the interference scene (682x383) by default: every "
+            "integrator in float64 on one thread, Verlet and RK4 in float64/float32 on 1 and N "
+            "threads with the ratio to C, what each specialisation buys, and what periodic "
+            "rows, absorbing walls and a force driver cost. Prints the host and its vector "
+            "width. --only runs some of these parts (--only instruments takes seconds).", 95),
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="parts (--only):\n" + "\n".join(f"  {name:15s} {what}" for name, what in PARTS.items())
         + "\n\nexamples:\n  oscillators bench                       # everything (a few minutes)"
