@@ -128,7 +128,9 @@ class AtomicFile:
         except OSError as error:
             raise OutputError(f"cannot write {self.partial}: {error.strerror}") from None
         if fcntl is not None:
-            fcntl.flock(self.descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            # blocking: a writer refused at the same moment may hold a shared lock for as long
+            # as ``_busy_reason`` takes to look (the name is ours alone, nobody else waits on it)
+            fcntl.flock(self.descriptor, fcntl.LOCK_EX)
         self.file: IO[bytes] = os.fdopen(self.descriptor, "wb", closefd=False)
         self.done = False
 

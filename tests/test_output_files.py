@@ -146,6 +146,37 @@ def test_concurrent_atomic_writers_threads(tmp_path):
     assert sorted(outcomes) == ["refused"] * 3 + ["wrote"]
 
 
+def test_writers_racing_for_one_name_either_write_or_are_refused(tmp_path):
+    """Many rounds of writers starting together: each one writes the whole file or is refused
+    with a reason; none fails otherwise (a refused writer looking at the partial file while its
+    creator locks it must not make the creator fail)."""
+    path = tmp_path / "d.bin"
+    unexpected: list[BaseException] = []
+    for round_ in range(60):
+        outcomes: list[str] = []
+        barrier = threading.Barrier(6)
+
+        def write(round_=round_, outcomes=outcomes, barrier=barrier) -> None:
+            barrier.wait()
+            try:
+                with AtomicFile(path, overwrite=True) as output:
+                    output.file.write(bytes([round_ % 256]) * 50_000)
+                outcomes.append("wrote")
+            except OutputError:
+                outcomes.append("refused")
+            except BaseException as error:  # noqa: BLE001 - what the test looks for
+                unexpected.append(error)
+
+        threads = [threading.Thread(target=write) for _ in range(6)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        assert "wrote" in outcomes and len(outcomes) + len(unexpected) == 6
+        assert path.read_bytes() == bytes([round_ % 256]) * 50_000
+    assert not unexpected, unexpected[:3]
+
+
 def test_scene_files_and_pictures_go_through_the_same_writer(tmp_path):
     scene = sim.scenes.build("chain")
     (tmp_path / "s.toml.partial").symlink_to(tmp_path / "target")
