@@ -309,14 +309,20 @@ def test_non_kernel_integrators_only_where_they_apply():
     assert set(integrators.names(nonlinear)) <= set(integrators.ALL_INTEGRATORS)
 
 
-@pytest.mark.slow  # compiles every kernel variant in a fresh process
-def test_bench_reports_host_vector_width_and_threads():
+def bench_report(*options: str) -> dict:
+    """``oscillators bench --scene grid --seconds 0.05 OPTIONS --json`` in a fresh process, its
+    JSON report (the command must succeed)."""
     result = subprocess.run(
         [sys.executable, "-m", "app.cli", "bench", "--scene", "grid", "--seconds", "0.05",
-         "--threads", "2", "--json"], capture_output=True, text=True, timeout=600,
+         *options, "--json"], capture_output=True, text=True, timeout=600,
     )
     assert result.returncode == 0, result.stderr
-    report = json.loads(result.stdout)
+    return json.loads(result.stdout)
+
+
+@pytest.mark.slow  # compiles every kernel variant in a fresh process
+def test_bench_reports_host_vector_width_and_threads():
+    report = bench_report("--threads", "2")
     assert report["host"]["vector_width_bits"] in (128, 256, 512)
     assert report["threads"] == [1, 2]
     configurations = {(r["integrator"], r["precision"], r["threads"]) for r in report["configurations"]}
@@ -327,12 +333,7 @@ def test_bench_reports_host_vector_width_and_threads():
 
 @pytest.mark.slow  # compiles the instruments' kernels of the grid in a fresh process
 def test_bench_runs_only_the_parts_asked_for():
-    result = subprocess.run(
-        [sys.executable, "-m", "app.cli", "bench", "--scene", "grid", "--seconds", "0.05",
-         "--only", "instruments", "--json"], capture_output=True, text=True, timeout=600,
-    )
-    assert result.returncode == 0, result.stderr
-    report = json.loads(result.stdout)
+    report = bench_report("--only", "instruments")
     assert not {"integrators", "configurations", "specialisation"} & set(report)
     costs = report["instruments"]["cost"]
     assert set(costs) == {"periodic", "driven", "absorbing"}
