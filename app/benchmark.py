@@ -7,7 +7,7 @@ printed beside them and included in ``--json``):
 
 * every kernel integrator, float64, one thread: the compiled loop alone
   (``Integrator.advance``), ``Simulation.step`` (the loop plus the blow-up check after each chunk)
-  and the same step in plain vectorised numpy (``sim.reference``);
+  and the same step in plain vectorised numpy (``sim.integrators.reference``);
 * the integrators the C reference implements (``app.c_reference.METHODS``: velocity Verlet and
   RK4) in float64 and float32 on 1 and N threads, each with its ratio to the C kernel (gcc -O3
   -march=native -ffast-math; the C leapfrog in the same precision and thread count for Verlet,
@@ -35,7 +35,7 @@ from collections.abc import Callable
 import numpy as np
 
 from app import c_reference as c_module
-from sim.integrators import PRECISIONS, describe
+from sim.integrators.registry import PRECISIONS, describe
 
 
 def _best_rate(
@@ -59,7 +59,7 @@ def _best_rate(
 
 
 def _numpy_rate(model, integrator: str, positions, velocities, dt: float, seconds: float) -> float:
-    from sim import reference
+    from sim.integrators import reference
 
     state = {"x": positions.copy(), "v": velocities.copy()}
 
@@ -84,7 +84,8 @@ def host_description() -> dict:
     """The machine the numbers belong to."""
     import numba
 
-    from sim import _vector_width, host_tuning
+    from sim.loops import host_tuning
+    from sim.runtime import vector_width as _vector_width
 
     return {
         "cpu": _cpu_name(),
@@ -105,7 +106,7 @@ def _burst(integrator: str) -> int:
 def _integrator_table(scene, seconds: float) -> dict:
     """Every kernel integrator in float64 on one thread: loop, Simulation.step, numpy."""
     import sim
-    from sim.integrators import names
+    from sim.integrators.registry import names
 
     simulation = sim.Simulation(scene)
     table = {}
@@ -217,8 +218,8 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
 
 
 def _rk4_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
-    """``run(steps)``: the compiled RK4 loop (``sim.stepping.rk4_steps``) on ``common``."""
-    from sim import stepping
+    """``run(steps)``: the compiled RK4 loop (``sim.loops.row_sweep.rk4_steps``) on ``common``."""
+    from sim.loops import row_sweep as stepping
 
     dim, _, nx = position.shape
     work = [np.zeros((dim, 4, nx)) for _ in range(4)]
@@ -230,8 +231,8 @@ def _rk4_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int]
 
 
 def _verlet_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
-    """``run(steps)``: the compiled velocity Verlet loop (``sim.stepping.verlet_steps``)."""
-    from sim import stepping
+    """``run(steps)``: the compiled velocity Verlet loop (``sim.loops.row_sweep.verlet_steps``)."""
+    from sim.loops import row_sweep as stepping
 
     acceleration = np.zeros_like(position)
     predicted = np.zeros_like(position)
@@ -251,7 +252,7 @@ two the C reference also implements."""
 def _specialisation(scene, seconds: float) -> dict | None:
     """What each of the scene's specialisations buys, measured one at a time on RK4 and Verlet."""
     import sim
-    from sim.steppers import KernelArguments
+    from sim.integrators.steppers import KernelArguments
 
     model = scene.model
     arguments = KernelArguments.from_model(model)
@@ -297,7 +298,7 @@ INSTRUMENTS_INTEGRATOR = "verlet"
 def _instruments(scene, seconds: float) -> dict:
     """What the teaching instruments cost: ``Simulation.step`` steps/s (velocity Verlet, float64,
     one thread) of the scene as it is, with periodic rows, with absorbing walls (the default
-    layer, ``sim.boundaries.DEFAULT_LAYER_WIDTH`` particles deep, where the lattice is long
+    layer, ``sim.model.boundaries.DEFAULT_LAYER_WIDTH`` particles deep, where the lattice is long
     enough) and with a force driver on one particle; each with its ratio to the scene as it is.
     A scene without them runs the plain compiled loop (the periodic choice is made at compile
     time)."""
@@ -309,7 +310,7 @@ def _instruments(scene, seconds: float) -> dict:
     variants = {"as_is": {}, "periodic": {"boundary": "periodic"},
                 "driven": {"driver": dict(column=model.nx // 2, row=model.ny // 2,
                                           frequency=0.5, amplitude=0.01)}}
-    width = min(sim.boundaries.DEFAULT_LAYER_WIDTH, max(1, min(model.nx, model.ny) // 4))
+    width = min(sim.model.boundaries.DEFAULT_LAYER_WIDTH, max(1, min(model.nx, model.ny) // 4))
     try:
         model.replace(boundary="absorbing", sponge_width=width)
         variants["absorbing"] = {"boundary": "absorbing", "sponge_width": width}

@@ -187,12 +187,6 @@ class ColourScale:
             1.0 / math.log1p(SYMLOG_RANGE))
         return np.minimum(result, np.float32(1.0)).astype(np.float32)
 
-    def value_at(self, fraction: float) -> float:
-        """|value| at ``fraction`` in [0, 1] of the way from zero to the limit."""
-        if not self.logarithmic:
-            return fraction * self.limit
-        return self.limit / SYMLOG_RANGE * math.expm1(fraction * math.log1p(SYMLOG_RANGE))
-
     def fraction(self, values: np.ndarray) -> np.ndarray:
         values = np.asarray(values, dtype=np.float32)
         if not self.signed:
@@ -312,11 +306,6 @@ def scheme(quantity: str) -> Scheme:
         return _SCHEMES[quantity]
     except KeyError:
         raise ValueError(f"no colour scheme for {quantity!r}; known: {', '.join(_SCHEMES)}") from None
-
-
-def schemes() -> tuple[str, ...]:
-    """The quantities that have a colour scheme, in registration order."""
-    return tuple(_SCHEMES)
 
 
 register_scheme(Scheme("displacement", "displacement", "m", SIGNED_FIELD, SIGNED_LINES, "adaptive-symlog"))

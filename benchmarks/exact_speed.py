@@ -14,7 +14,7 @@ import argparse
 import time
 
 import sim
-from sim.integrators import descriptions
+from sim.integrators.registry import descriptions
 
 
 def best_seconds(action, repeats: int) -> float:

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/layer_cost.py                  # default layer and 10 deep
     .venv/bin/python benchmarks/layer_cost.py --widths 4,6,10 --rounds 20
 
-Times ``sim.leapfrog.leapfrog_steps`` itself (one thread, float64) on the 682x383 interference
+Times ``sim.loops.leapfrog.leapfrog_steps`` itself (one thread, float64) on the 682x383 interference
 lattice: without the layer, with it, and with its side strips or its band rows emptied (the
 layer's tuple with zero-width strips or no band rows), so that the side strips' part, the band
 rows' part and what is left when both are empty (the per-row calls) are told apart.  Each
@@ -21,7 +21,8 @@ import time
 import numpy as np
 
 import sim
-from sim import layer_kick, leapfrog
+from sim.forces import absorbing_kicks as layer_kick
+from sim.loops import leapfrog
 
 
 def sweep(simulation: sim.Simulation):
@@ -61,7 +62,7 @@ def variants(simulation: sim.Simulation) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--widths", default=f"{sim.boundaries.DEFAULT_LAYER_WIDTH},10",
+    parser.add_argument("--widths", default=f"{sim.model.boundaries.DEFAULT_LAYER_WIDTH},10",
                         help="layer widths in particles (default: the default layer's and 10)")
     parser.add_argument("--rounds", type=int, default=10)
     parser.add_argument("--steps", type=int, default=10)

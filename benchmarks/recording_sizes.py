@@ -33,7 +33,7 @@ def record(arguments: list[str], path: Path) -> tuple[float, float]:
 def web_recording(directory: Path, name: str = "grid", frames: int = 3600) -> tuple[float, int]:
     import sim
     from app.recording import Recorder
-    from sim.runner import Runner
+    from sim.runtime.runner import Runner
 
     scene = sim.scenes.build(name)
     runner = Runner(sim.Simulation(scene))

@@ -5,7 +5,7 @@
 For each scene (``grid`` 12x8, a 200x200 lattice, ``interference`` 682x383) and each logging
 mode, the scene is first run for a few hundred steps unrecorded (so the field images show waves,
 not a flat lattice), then ``--frames`` frames are recorded one step apart through a
-``sim.runner.Runner``.  Printed per mode:
+``sim.runtime.runner.Runner``.  Printed per mode:
 
 * ms/frame: wall time per recorded frame, simulation included;
 * overhead: ms/frame above the same runner with a no-op subscriber, measured just before (the
@@ -35,7 +35,7 @@ import numpy as np
 import sim
 from app.recording import Recorder, RecordingOptions
 from app.recording.field import video_available
-from sim.runner import Runner
+from sim.runtime.runner import Runner
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-# One 1/sqrt variant for the whole run: the per-host measurement (``sim.host_tuning``) compiles
+# One 1/sqrt variant for the whole run: the per-host measurement (``sim.loops.host_tuning``) compiles
 # both variants of two loops on a fresh machine; tests/test_host_tuning.py checks that the
 # variants agree and that the measurement answers.
 os.environ.setdefault("OSCILLATORS_INVERSE_SQRT", "divide")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import sim
-from sim.prediction import predictor_for
+from sim.theory.prediction import predictor_for
 from tests.lattice_theory import exact_linear_motion, stiffness_matrix
 
 
@@ -121,7 +121,7 @@ def _presets_large_ones_slow() -> list:
 
 
 def _particles(name: str) -> int:
-    parameters = sim.presets.PRESETS[name].parameters
+    parameters = sim.scenes.presets.PRESETS[name].parameters
     return int(parameters.get("nx", 1)) * int(parameters.get("ny", 1))
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import sim
-from sim.blowup import BlowUpRule
+from sim.runtime.blowup import BlowUpRule
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -80,7 +80,7 @@ def test_a_particle_far_beyond_the_lattice_is_a_blow_up() -> None:
 
 def test_a_recording_from_a_zero_joule_start_ends_with_the_blow_up(tmp_path: Path) -> None:
     from app.recording import Recorder
-    from sim.runner import Runner
+    from sim.runtime.runner import Runner
     from tests.test_recording import read_chunks, temporal, texts
 
     scene = sim.scenes.build("catenary")
@@ -144,7 +144,7 @@ def test_a_driven_lattice_from_rest_stepped_one_step_at_a_time_is_not_a_blow_up(
 
 @pytest.mark.parametrize("dim, precision", [(2, np.float64), (3, np.float32)])
 def test_the_largest_displacement_is_the_farthest_coordinate_from_rest(dim, precision):
-    from sim.blowup import largest_displacement
+    from sim.runtime.blowup import largest_displacement
 
     model = sim.scenes.build("grid", nx=7, ny=5, dim=dim).model
     rest = model.rest_positions.T.reshape(dim, model.ny, model.nx)

@@ -112,13 +112,13 @@ def test_mode_energies_of_a_ring_add_up_and_stay_constant():
     scene = sim.scenes.build("grid", nx=10, ny=3, boundary="periodic", linear=True)
     simulation = sim.Simulation(scene, integrator="rk4", dt=0.002)
     simulation.step(185)
-    energies = sim.modes.mode_energies(simulation.model, simulation.positions, simulation.velocities)
+    energies = sim.theory.modes.mode_energies(simulation.model, simulation.positions, simulation.velocities)
     total = sum(float(e.sum()) for e in energies)
     energy = simulation.energy()
     assert total == pytest.approx(energy.kinetic + energy.spring, rel=1e-10)
     before = np.concatenate(energies)
     simulation.step(2500)
-    after = np.concatenate(sim.modes.mode_energies(simulation.model, simulation.positions,
+    after = np.concatenate(sim.theory.modes.mode_energies(simulation.model, simulation.positions,
                                                    simulation.velocities))
     np.testing.assert_allclose(after, before, rtol=0, atol=1e-7 * total)
 
@@ -137,7 +137,7 @@ def test_threads_give_the_same_ring():
 def test_sine_modes_are_refused_on_a_ring_with_a_reason():
     model = sim.Model.create(6, 1, boundary="periodic")
     with pytest.raises(sim.ModelError, match="Fourier"):
-        sim.modes.excited_state(model, 1, 1, 0, 0.1)
+        sim.theory.modes.excited_state(model, 1, 1, 0, 0.1)
 
 
 # --- free ends --------------------------------------------------------------------------------
@@ -203,13 +203,13 @@ def test_the_exact_solver_and_mode_energies_follow_free_ends():
     exact.step(4)
     fine.step(1000)
     np.testing.assert_allclose(exact.positions, fine.positions, atol=1e-9)
-    energies = sim.modes.mode_energies(fine.model, fine.positions, fine.velocities)
+    energies = sim.theory.modes.mode_energies(fine.model, fine.positions, fine.velocities)
     energy = fine.energy()
     # the modes are measured from the equilibrium, where the pre-tension has pulled the free
     # ends inward: its spring energy (below the rest lattice's) is the offset
     settled = sim.Simulation(scene, integrator="rk4", dt=0.002)
     settled.positions = (settled.rest_positions
-                         + sim.modes.static_offset(scene.model).reshape(2, -1).T)
+                         + sim.theory.modes.static_offset(scene.model).reshape(2, -1).T)
     assert settled.energy().spring < 0.0
     assert sum(float(e.sum()) for e in energies) == pytest.approx(
         energy.kinetic + energy.spring - settled.energy().spring, rel=1e-10)

@@ -21,8 +21,8 @@ import pytest
 import sim
 from app.study.choose import choose
 from app.study.linear import ExactLinearSolution
-from sim.errors import displacement, field_error
-from sim.integrators import describe
+from sim.integrators.registry import describe
+from sim.runtime.errors import displacement, field_error
 
 ROOT = Path(__file__).resolve().parents[1]
 TOLERANCE = 1e-3

@@ -11,7 +11,7 @@ import pytest
 from app.cli import main
 from app.recording import Recorder, RecordingError
 from app.recording.track import Track
-from sim import scenes
+from sim.scenes import building as scenes
 from tests.test_recording import read_chunks, temporal, texts
 
 
@@ -194,9 +194,9 @@ def test_huge_or_invalid_lattices_are_refused(capsys, overrides, fragment):
 def test_a_lattice_larger_than_the_memory_is_refused_before_allocating(monkeypatch):
     import tracemalloc
 
-    import sim.model
+    import sim.model.lattice
 
-    monkeypatch.setattr(sim.model, "available_memory", lambda: 100 * 2**20)
+    monkeypatch.setattr(sim.model.lattice, "available_memory", lambda: 100 * 2**20)
     tracemalloc.start()
     try:
         with pytest.raises(sim.model.ModelError, match=r"GB of memory.*0\.10 GB are available"):
@@ -212,7 +212,7 @@ def test_the_memory_estimate_covers_a_real_simulation():
     import tracemalloc
 
     import sim
-    from sim.model import estimated_bytes
+    from sim.model.lattice import estimated_bytes
 
     for dim in (2, 3):  # compile the kernels first: numba's compiler allocates too
         warm = sim.Simulation(sim.scenes.build("grid", nx=8, ny=8, dim=dim), integrator="verlet")
@@ -278,7 +278,7 @@ def test_a_recorder_whose_writes_fail_closes_its_file_and_the_runner_goes_on(
     tmp_path, monkeypatch
 ):
     import sim
-    from sim.runner import Runner
+    from sim.runtime.runner import Runner
 
     real = shutil.disk_usage
     calls = []

@@ -12,10 +12,10 @@ import pytest
 
 from app.cli import main
 from app.study import continuum as study
-from sim.bodies import Body, Shape
-from sim.continuum import ContinuumSolution
-from sim.model import ModelError
-from sim.simulation import Simulation
+from sim.model.lattice import ModelError
+from sim.runtime.simulation import Simulation
+from sim.scenes.bodies import Body, Shape
+from sim.scenes.continuum import ContinuumSolution
 
 
 def _prony_omega(series: np.ndarray, dt: float) -> float:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from app.web.continuum import ContinuumPage
-from sim.bodies import Body, Shape
+from sim.scenes.bodies import Body, Shape
 from tests.helpers import free_port, wait_for
 
 pytestmark = pytest.mark.browser

@@ -20,7 +20,7 @@ from app.recording.continuum import (
     entity,
     record_continuum,
 )
-from sim.bodies import Body, Shape
+from sim.scenes.bodies import Body, Shape
 
 PARTICLES = (4, 16, 64)
 FRAMES = 8

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from app.study import accuracy, executor, stability
-from sim import scenes
+from sim.scenes import building as scenes
 
 ROOT = Path(__file__).resolve().parents[1]
 DASK = Path(sys.executable).with_name("dask")

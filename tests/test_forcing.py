@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import sim
-from sim.model import ModelError
+from sim.model.lattice import ModelError
 
 STIFFNESS = 35.0
 
@@ -192,7 +192,7 @@ def test_a_displacement_driver_with_dashpots_converges_at_the_integrators_order(
 
 
 def reflected_fraction(wavelength: float, boundary: str,
-                       width: int = sim.boundaries.DEFAULT_LAYER_WIDTH) -> float:
+                       width: int = sim.model.boundaries.DEFAULT_LAYER_WIDTH) -> float:
     """A Gaussian wave packet of ``wavelength`` (in spacings) starts at rest in the middle of a
     long linear chain and splits into two halves that run into the walls; the fraction of the
     energy back in the interior when the reflections would have returned to the middle."""

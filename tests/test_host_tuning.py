@@ -1,5 +1,5 @@
 """The two float64 1/sqrt variants compute the same forces, and the per-host choice answers for
-each loop family (``sim.host_tuning``)."""
+each loop family (``sim.loops.host_tuning``)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import sim
-from sim import host_tuning
-from sim.kernels import spring_force
+from sim.forces.springs import spring_force
+from sim.loops import host_tuning
 
 
 def test_the_estimate_and_the_division_give_the_same_forces():

@@ -1,4 +1,4 @@
-"""Every value from outside passes one schema (``sim.schema``): scene files, ``--set`` and the
+"""Every value from outside passes one schema (``sim.model.schema``): scene files, ``--set`` and the
 page.  Each refusal is one line (CLI exit 2), never a traceback or a warning flood; long commands
 share one planned-work limit; names reach the terminal as text."""
 
@@ -11,7 +11,7 @@ import pytest
 
 from app.cli import main
 from app.web.inputs import InputRefused, choice, number, whole_number
-from sim import schema
+from sim.model import schema
 
 
 def scene(tmp_path, body: str, model: str = "nx = 3\nny = 2\n", name: str = "s"):

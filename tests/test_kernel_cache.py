@@ -9,7 +9,9 @@ import sys
 from pathlib import Path
 
 import sim  # noqa: F401  (registers the locator before the kernels are defined)
-from sim import _kernel_cache, kernels, leapfrog
+from sim.forces import springs as kernels
+from sim.loops import leapfrog
+from sim.runtime import kernel_cache as _kernel_cache
 
 
 def test_the_kernels_cache_is_stamped_with_every_kernel_source_of_the_package():

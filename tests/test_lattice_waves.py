@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import sim
-from sim import lattice_waves, slits
-from sim.model import Model
-from sim.screen import IntensityScreen
+from sim.instruments.screen import IntensityScreen
+from sim.model.lattice import Model
+from sim.theory import lattice_waves, slits
 
 K, A, L = 35.0, 1.0, 0.8  # the paper's stiffness, spacing and pre-tensioned rest length
 

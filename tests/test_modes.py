@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import sim
-from sim.modes import ModalBasis, excited_state, mode_energies, mode_frequency
+from sim.theory.modes import ModalBasis, excited_state, mode_energies, mode_frequency
 from tests.helpers import wait_for
 from tests.lattice_theory import stiffness_matrix
 

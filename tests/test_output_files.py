@@ -1,6 +1,6 @@
 """Files are written only where the user said, atomically: sanitised default names that stay in
 their folder, exclusive ``.partial`` files never opened through a link, a second writer to one
-path refused with one line, missing folders refused (``sim.files`` and every writer)."""
+path refused with one line, missing folders refused (``sim.storage.files`` and every writer)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 import sim
 from app.cli import main
 from app.recording import Recorder, RecordingError
-from sim.files import AtomicFile, OutputError, default_output, safe_name
+from sim.storage.files import AtomicFile, OutputError, default_output, safe_name
 
 
 def scene_file(folder, name: str):
@@ -181,8 +181,8 @@ def test_scene_files_and_pictures_go_through_the_same_writer(tmp_path):
     scene = sim.scenes.build("chain")
     (tmp_path / "s.toml.partial").symlink_to(tmp_path / "target")
     with pytest.raises(OutputError, match="symbolic link"):
-        sim.scene_files.save(scene, tmp_path / "s.toml")
+        sim.scenes.scene_files.save(scene, tmp_path / "s.toml")
     assert not (tmp_path / "target").exists()
     with pytest.raises(OutputError, match="does not exist"):
-        sim.scene_files.save(scene, tmp_path / "missing" / "s.toml")
-    assert sim.scene_files.save(scene, tmp_path / "t.toml").is_file()
+        sim.scenes.scene_files.save(scene, tmp_path / "missing" / "s.toml")
+    assert sim.scenes.scene_files.save(scene, tmp_path / "t.toml").is_file()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import sim
-from sim.model import Model
+from sim.model.lattice import Model
 from tests.lattice_theory import exact_linear_motion, stiffness_matrix
 
 K = 35.0  # N/m, the paper's default stiffness
@@ -287,7 +287,7 @@ def _kernel_matrix() -> list:
 
 @pytest.mark.parametrize("dim, linear, extras, integrator", _kernel_matrix())
 def test_steps_match_plain_numpy(dim, linear, extras, integrator):
-    from sim import reference
+    from sim.integrators import reference
 
     model = Model.create(
         7, 4, dim=dim, stiffness=K, rest_length=0.85, linear=linear,
@@ -369,7 +369,7 @@ def test_bad_names_and_steps_are_refused_clearly():
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("linear", [False, True])
 def test_compiled_energy_matches_numpy_energy(dim, linear):
-    from sim import observables
+    from sim.theory import observables
 
     model = Model.create(5, 3, dim=dim, stiffness=K, rest_length=0.9, linear=linear,
                          mass=np.linspace(1, 2, 15).reshape(3, 5))

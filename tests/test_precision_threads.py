@@ -20,8 +20,10 @@ import pytest
 
 import sim
 from app.cli.arguments import IntegratorChoices
-from sim import integrators, steppers, stepping
-from sim.integrators import IntegratorDescription
+from sim.integrators import registry as integrators
+from sim.integrators import steppers
+from sim.integrators.registry import IntegratorDescription
+from sim.loops import row_sweep as stepping
 
 K = 35.0
 EPS32 = float(np.finfo(np.float32).eps) / 2
@@ -231,9 +233,9 @@ def test_float32_kernels_compute_in_float32():
 def test_precision_from_scene_files_and_cli(tmp_path):
     scene = sim.scenes.build("chain", precision="float32")
     path = tmp_path / "chain.toml"
-    sim.scene_files.save(scene, path)
-    assert sim.scene_files.load_file(str(path)).precision == "float32"
-    assert sim.Simulation(sim.scene_files.load_file(str(path))).precision == "float32"
+    sim.scenes.scene_files.save(scene, path)
+    assert sim.scenes.scene_files.load_file(str(path)).precision == "float32"
+    assert sim.Simulation(sim.scenes.scene_files.load_file(str(path))).precision == "float32"
     with pytest.raises(sim.SceneError):
         sim.scenes.build("chain", precision="float16")
     result = subprocess.run(

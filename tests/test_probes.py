@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import sim
-from sim.modes import excited_state
-from sim.probes import ProbeSeries, dominant_frequencies, spectrum, uniform_series
+from sim.instruments.probes import ProbeSeries, dominant_frequencies, spectrum, uniform_series
+from sim.theory.modes import excited_state
 
 
 def chain_frequency(n: int, model: sim.Model) -> float:

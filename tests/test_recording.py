@@ -19,7 +19,7 @@ from app.recording import Recorder, RecordingError, RecordingOptions, destinatio
 from app.recording.explain import table_rows
 from app.recording.field import video_available
 from app.recording.layout import ENERGY_TERMS
-from sim.runner import Runner
+from sim.runtime.runner import Runner
 from tests.helpers import wait_for
 
 REPO = Path(__file__).resolve().parent.parent
@@ -504,7 +504,7 @@ def test_document_names_the_displaced_particle_and_the_command(grid_file, tmp_pa
 
 def test_line_colours_are_readable_on_light_and_dark_themes(grid_file):
     from app.recording import style
-    from sim.integrators import INTEGRATORS, describe
+    from sim.integrators.registry import INTEGRATORS, describe
 
     colours = [*style.TERM_COLOURS.values(), *(describe(name).colour for name in INTEGRATORS),
                style.DRIFT_COLOUR, style.NEUTRAL_COLOUR]

@@ -13,7 +13,7 @@ from rerun.chunk import RrdReader
 import sim
 from app.cli import main
 from app.recording import Recorder, RecordingOptions, instruments, style
-from sim.runner import Runner
+from sim.runtime.runner import Runner
 from tests.test_recording import as_array, document, read_chunks, scalar, temporal
 
 
@@ -187,7 +187,7 @@ def test_mode_energies_are_thinned_and_refused_where_they_cannot_run(tmp_path, c
 
 
 def test_nearest_mode_is_the_one_sim_probes_names():
-    from sim.probes import nearest_modes
+    from sim.instruments.probes import nearest_modes
 
     for model in (sim.scenes.build("resonance").model,
                   sim.scenes.build("membrane", nx=6, ny=5).model):

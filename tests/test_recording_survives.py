@@ -18,7 +18,7 @@ from rerun.chunk import RrdReader
 import sim
 from app.cli import main
 from app.recording import Recorder, RecordingError, RecordingOptions, destination
-from sim.runner import Runner
+from sim.runtime.runner import Runner
 from tests.test_recording import read_chunks, temporal, texts
 
 REPO = Path(__file__).resolve().parent.parent

@@ -1,4 +1,4 @@
-"""Adding an integrator touches ``sim/integrators.py`` and nothing else: a throw-away method,
+"""Adding an integrator touches ``sim/integrators/registry.py`` and nothing else: a throw-away method,
 registered here and nowhere else, appears in the command line's ``--integrator`` choices, runs
 from the command line, is offered by the web page's Method menu and is measured by the accuracy
 sweep.  Its physics (bounded energy of a symplectic method) is checked in
@@ -12,7 +12,7 @@ import pytest
 
 import sim
 from app.cli import build_parser, main
-from sim import integrators
+from sim.integrators import registry as integrators
 from tests.helpers import free_port, wait_for
 from tests.test_precision_threads import SymplecticEuler
 

@@ -13,7 +13,7 @@ import pytest
 
 import sim
 from app.cli import main
-from sim import ripple_tank, scene_files
+from sim.scenes import ripple_tank, scene_files
 from tests.test_recording import read_chunks, temporal
 from tests.test_recording_instruments import tensor
 
@@ -23,7 +23,7 @@ inside its far-field line: each slit's wave weakens away from the axis (cos(thet
 which pulls the intensity maxima toward it (measured: 3 % at the preset's screen 105 m away)."""
 MODEL_TOLERANCE = 0.5
 """How far (m, half a spacing) a measured maximum may lie from the maximum of the two-slit
-intensity predicted from the dispersion relation (``sim.slits.two_slit_intensity``)."""
+intensity predicted from the dispersion relation (``sim.theory.slits.two_slit_intensity``)."""
 
 
 @pytest.mark.parametrize("name", ["two-sources", "single-slit", "double-slit"])
@@ -31,7 +31,7 @@ def test_ripple_tank_presets_drive_the_membranes_u_z_behind_absorbing_walls(name
     model = sim.scenes.build(name).model
     assert model.dim == 3 and model.walls.absorbing and model.sources
     assert all(source.direction == (0.0, 0.0, 1.0) for source in model.sources)
-    wave = sim.lattice_waves.polarisation(model, "z")
+    wave = sim.theory.lattice_waves.polarisation(model, "z")
     along, across = wave.long_wave_speeds()
     assert along == pytest.approx(across)  # isotropic at long wavelengths
     # speed sqrt(T / (a m)), T = k (a - L): sqrt(35 * 0.2) m/s
@@ -148,11 +148,11 @@ def test_double_slit_maxima_agree_with_the_lattice_theory():
     assert {-1, 0, 1} <= set(fringes)
     assert fringes[0]["measured_y"] == pytest.approx(0.0, abs=0.1)
     setup = ripple_tank.SlitSetup.of(model)
-    wave = sim.lattice_waves.polarisation(model, "z")
+    wave = sim.theory.lattice_waves.polarisation(model, "z")
     omega = 2 * math.pi * setup.frequency
     centres = tuple(0.5 * (low + high) for low, high in setup.openings)
     ys = np.linspace(-90.0, 90.0, 3601)
-    predicted = sim.slits.two_slit_intensity(wave, omega, centres, measurement.distance, ys)
+    predicted = sim.theory.slits.two_slit_intensity(wave, omega, centres, measurement.distance, ys)
     d = centres[1] - centres[0]
     for order in (-1, 1):
         fringe = fringes[order]

@@ -13,7 +13,7 @@ import sys
 import time
 
 import sim
-from sim.runner import Runner
+from sim.runtime.runner import Runner
 from tests.helpers import free_port, wait_for
 
 
@@ -23,7 +23,7 @@ def test_a_raising_subscriber_is_detached_and_the_others_keep_their_frames():
     errors: list[BaseException] = []
     calls = []
 
-    def broken(frame: sim.runner.Frame) -> None:
+    def broken(frame: sim.runtime.runner.Frame) -> None:
         calls.append(frame.step)
         raise RuntimeError("plot exploded")
 
@@ -39,7 +39,7 @@ def test_a_raising_subscriber_is_detached_and_the_others_keep_their_frames():
 def test_a_failing_error_handler_does_not_stop_the_background_loop():
     runner = Runner(sim.Simulation(sim.scenes.build("grid")), max_fps=500)
 
-    def broken(frame: sim.runner.Frame) -> None:
+    def broken(frame: sim.runtime.runner.Frame) -> None:
         raise OSError("disk full")
 
     def broken_handler(error: BaseException) -> None:

@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 import sim
-from sim import scene_files, scenes
-from sim.scenes import SceneError
+from sim.scenes import building as scenes
+from sim.scenes import scene_files
+from sim.scenes.building import SceneError
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -293,10 +294,10 @@ def test_the_cli_runs_a_downloaded_zip_scene(tmp_path, capsys):
     from app.cli import main
 
     scene = sim.scenes.build("ionic", nx=4, ny=3)
-    suffix, content = sim.scene_files.to_bytes(scene)
+    suffix, content = sim.scenes.scene_files.to_bytes(scene)
     assert suffix == ".zip"
     archive = tmp_path / "ionic.zip"
     archive.write_bytes(content)
     assert main(["run", str(archive), "--steps", "3", "--quiet", "--json"]) == 0
-    loaded = sim.scene_files.load_file(archive)
+    loaded = sim.scenes.scene_files.load_file(archive)
     np.testing.assert_array_equal(loaded.model.masses, scene.model.masses)

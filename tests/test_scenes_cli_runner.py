@@ -11,7 +11,7 @@ import pytest
 import sim
 from app import cli
 from app.cli.arguments import parse_overrides
-from sim.runner import Runner
+from sim.runtime.runner import Runner
 
 
 def test_scene_file_round_trip_keeps_masses_displacements_and_velocities(tmp_path):
@@ -22,8 +22,8 @@ def test_scene_file_round_trip_keeps_masses_displacements_and_velocities(tmp_pat
         name="mine", model=scene.model, description="a test", integrator="verlet", dt=0.02,
         initial_positions=scene.initial_positions, initial_velocities=velocities,
     )
-    path = sim.scene_files.save(scene, tmp_path / "mine.toml")
-    loaded = sim.scene_files.load(path)
+    path = sim.scenes.scene_files.save(scene, tmp_path / "mine.toml")
+    loaded = sim.scenes.scene_files.load(path)
     assert loaded.name == "mine" and loaded.integrator == "verlet" and loaded.dt == 0.02
     np.testing.assert_array_equal(loaded.model.masses, scene.model.masses)
     np.testing.assert_array_equal(loaded.initial_positions, scene.initial_positions)
@@ -38,7 +38,7 @@ def test_a_hand_written_scene_file_loads(tmp_path):
         'name = "by hand"\nintegrator = "rk4"\ndt = 0.01\n[model]\nnx = 3\nny = 1\n'
         "stiffness = 10.0\nmass = 2.0\n[initial]\ndisplacements = [[1, 0.2, 0.0]]\n"
     )
-    scene = sim.scene_files.load(path)
+    scene = sim.scenes.scene_files.load(path)
     simulation = sim.Simulation(scene)
     assert simulation.positions[1, 0] == pytest.approx(scene.model.rest_positions[1, 0] + 0.2)
     simulation.step(10)
@@ -64,16 +64,16 @@ def test_bad_scene_files_get_clear_errors(tmp_path, text, message):
     path = tmp_path / "bad.toml"
     path.write_text(text)
     with pytest.raises(sim.SceneError, match=message):
-        sim.scene_files.load(path)
+        sim.scenes.scene_files.load(path)
 
 
 def test_missing_or_binary_scene_file_is_a_clear_error(tmp_path):
     with pytest.raises(sim.SceneError, match="cannot read scene file"):
-        sim.scene_files.load(tmp_path / "nowhere.toml")
+        sim.scenes.scene_files.load(tmp_path / "nowhere.toml")
     binary = tmp_path / "binary.toml"
     binary.write_bytes(bytes(range(256)))
     with pytest.raises(sim.SceneError, match="not a text"):
-        sim.scene_files.load(binary)
+        sim.scenes.scene_files.load(binary)
 
 
 # --- command line ------------------------------------------------------------------------------

@@ -10,8 +10,8 @@ import pytest
 
 import sim
 from app.cli.arguments import parse_overrides
-from sim import scene_files
-from sim.model import ModelError
+from sim.model.lattice import ModelError
+from sim.scenes import scene_files
 
 STIFFNESS = 35.0
 

@@ -16,7 +16,7 @@ import pytest
 import sim
 from app.study.accuracy import accuracy_study, recommend
 from app.study.linear import ExactLinearSolution, NotExactError
-from sim.integrators import FORCE_EVALUATIONS
+from sim.integrators.registry import FORCE_EVALUATIONS
 
 # Per-integrator steps (s) in the asymptotic range on the linearised 12x8 grid, T = 2 s
 # (omega_max = 11.75 rad/s): small enough that Euler's growth exp(omega^2 dt T / 2) stays near 1,

@@ -65,7 +65,7 @@ def test_resonance_modes_are_the_chain_modes_and_the_default_grid_resolves_them(
     assert [line.label for line in lines] == [f"n={n}" for n in range(1, 13)]
     for n, line in enumerate(lines, start=1):
         assert line.frequency == pytest.approx(
-            sim.presets.chain_mode_frequency(n, 12, STIFFNESS, 1.0), rel=1e-9)
+            sim.scenes.presets.chain_mode_frequency(n, 12, STIFFNESS, 1.0), rel=1e-9)
         assert line.decay_rate == pytest.approx(0.05)  # drag 0.1 N s/m on 1 kg: beta / 2
     grid = response.default_frequencies(lines)
     for line in lines:
@@ -96,7 +96,7 @@ def test_reflection_prints_a_table_and_writes_a_picture(tmp_path, capsys):
 def test_the_default_layer_absorbs_a_wave_much_longer_than_it_is_deep():
     """A packet of 80 spacings meets the default layer, less than a tenth of a wavelength deep: a drag
     that thin sends most of it back; the matched layer takes it in."""
-    width = sim.boundaries.DEFAULT_LAYER_WIDTH
+    width = sim.model.boundaries.DEFAULT_LAYER_WIDTH
     assert width * 10 <= 80
     study = reflection.reflection_study(widths=[width], wavelengths=[80.0])
     absorbed = float(study.fractions[0, 0])
@@ -119,7 +119,7 @@ def test_the_default_layer_reflects_at_most_one_percent_at_normal_and_oblique_in
         rows, q_x, q_y, fitted = reflection_angle.strip_geometry(wavelength, angle)
         assert q_x == pytest.approx(q_y) and fitted == pytest.approx(wavelength, rel=0.15)
         assert reflection.measure_reflection(30, wavelength, "fixed", angle=angle) > 0.9
-    absorbed = reflection.measure_reflection(sim.boundaries.DEFAULT_LAYER_WIDTH, wavelength,
+    absorbed = reflection.measure_reflection(sim.model.boundaries.DEFAULT_LAYER_WIDTH, wavelength,
                                              angle=angle)
     assert 0 < absorbed <= min(0.01, below)
 
@@ -166,8 +166,8 @@ def test_a_linearised_chain_responds_as_its_normal_modes_predict():
     """The resonance preset with linearised springs: equal masses, drag only, so the modal sum
     is exact; at the third mode (lag near 90 degrees) and halfway to the fourth."""
     scene = sim.scenes.build("resonance", linear=True)
-    third = sim.presets.chain_mode_frequency(3, 12, STIFFNESS, 1.0)
-    fourth = sim.presets.chain_mode_frequency(4, 12, STIFFNESS, 1.0)
+    third = sim.scenes.presets.chain_mode_frequency(3, 12, STIFFNESS, 1.0)
+    fourth = sim.scenes.presets.chain_mode_frequency(4, 12, STIFFNESS, 1.0)
     curve = response.response_curve(scene, frequencies=[third, 0.5 * (third + fourth)])
     at_mode, between = curve.points
     for point in curve.points:

@@ -141,7 +141,7 @@ def test_paths_typed_into_the_page_touch_no_file_on_the_server(browser, tmp_path
     scenes, recordings = tmp_path / "scenes", tmp_path / "recordings"
     scenes.mkdir()
     secret = tmp_path / "secret.toml"
-    sim.scene_files.save(sim.scenes.build("single"), secret)
+    sim.scenes.scene_files.save(sim.scenes.build("single"), secret)
     secret.write_text(secret.read_text().replace('name = "single"', 'name = "canary"'))
     (scenes / "link.toml").symlink_to(secret)
     cwd_before = set(os.listdir("."))

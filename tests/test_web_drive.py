@@ -16,9 +16,9 @@ import sim
 from app.web.app import WebApp
 from app.web.control import DRIVE_RAMP, LatticeRunner, SimulationControl
 from app.web.folders.drive import mode_frequencies
-from sim.forcing import Driver
-from sim.modes import ModalBasis
-from sim.probes import mode_table
+from sim.instruments.probes import mode_table
+from sim.model.forcing import Driver
+from sim.theory.modes import ModalBasis
 from tests.helpers import wait_for
 from tests.test_web_safety import press, send, settle
 

@@ -15,7 +15,7 @@ import pytest
 
 import sim
 from app.web.folders.measure import Stopwatch
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 from tests.test_web_safety import press, send, settle
 
 
@@ -141,7 +141,7 @@ def test_the_screen_averages_the_frames_and_draws_the_slit_theory(web_app):
     folder = web_app.panel.folders.pop("screen")  # fed by hand below, not by the frame pump
     model = web_app.runner.simulation.model
     column = folder.screen.column
-    setup = sim.ripple_tank.SlitSetup.of(model)
+    setup = sim.scenes.ripple_tank.SlitSetup.of(model)
     theory = setup.theory(model, column)
     assert [f.y for f in folder._theory[0]] == [f.y for f in theory]
     # frames with u_z = g(y) sin(omega t): the screen shows <u^2> = g^2 / 2
@@ -182,7 +182,7 @@ def test_the_tape_measures_spacings_and_metres_and_the_stopwatch_counts_simulate
 def test_the_folders_follow_sources_and_barriers_changed_elsewhere(web_app):
     web_app.replace_scene(small_double_slit(), source="test")
     source = web_app.runner.simulation.model.sources[0]
-    changed = sim.forcing.Driver.create({**source.as_table(), "frequency": 0.21})
+    changed = sim.model.forcing.Driver.create({**source.as_table(), "frequency": 0.21})
     web_app.runner.post(lambda simulation: simulation.set_parameters(
         sources=[changed], barriers=[{"column": 30, "openings": [[18, 22]]}])).result(timeout=30)
     model = web_app.runner.simulation.model

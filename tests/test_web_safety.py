@@ -160,7 +160,7 @@ def test_download_then_upload_gives_back_the_same_scene(web_app):
 def test_a_scene_file_in_the_scenes_directory_opens_by_name(web_app, folders):
     scenes, _ = folders
     scene = chain_with_masses()
-    sim.scene_files.save(scene, scenes / "lesson.toml")
+    sim.scenes.scene_files.save(scene, scenes / "lesson.toml")
     panel = web_app.panel
     press(panel.scene.files.list_button)
     assert panel.scene.files.server_scenes.options == ("lesson.toml",)
@@ -249,9 +249,9 @@ def test_programmatic_values_post_no_commands(web_app):
 def test_only_regular_scene_files_inside_the_directory_are_offered(tmp_path):
     scenes = tmp_path / "scenes"
     scenes.mkdir()
-    sim.scene_files.save(sim.scenes.build("chain"), scenes / "chain.toml")
+    sim.scenes.scene_files.save(sim.scenes.build("chain"), scenes / "chain.toml")
     outside = tmp_path / "secret.toml"
-    sim.scene_files.save(sim.scenes.build("single"), outside)
+    sim.scenes.scene_files.save(sim.scenes.build("single"), outside)
     (scenes / "escape.toml").symlink_to(outside)
     (scenes / "folder.toml").mkdir()
     os.mkfifo(scenes / "pipe.toml")

@@ -29,7 +29,7 @@ _SOURCES = ("ckernels.c", "ckernels_t.h")
 
 @dataclasses.dataclass(frozen=True)
 class CMethod:
-    """One method of the C kernels: the integrator it matches (its name in ``sim.integrators``),
+    """One method of the C kernels: the integrator it matches (its name in ``sim.integrators.registry``),
     what it is called, the precisions it runs in and whether it runs on OpenMP threads."""
 
     integrator: str

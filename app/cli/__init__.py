@@ -74,7 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     from sim import ModelError, SceneError
-    from sim.schema import printable
+    from sim.model.schema import printable
 
     try:
         return int(arguments.handler(arguments) or 0)

@@ -21,7 +21,7 @@ from app.cli.study_output import (
     scene_picture,
 )
 from app.study.accuracy_reference import REFINEMENT
-from sim.integrators import INTEGRATORS, most_accurate
+from sim.integrators.registry import INTEGRATORS, most_accurate
 
 LARGE_LATTICE = 20_000
 """Above this many particles the sweep runs in float64 only unless --precisions says otherwise."""
@@ -162,7 +162,7 @@ def recommendation(scene, tolerance: float, integrators: list[str], executor, qu
     its runs through the sweep's executor, with the bar of `oscillators choose`."""
     from app.cli.choose import Bar
     from app.study.choose import choose
-    from sim.integrators import describe
+    from sim.integrators.registry import describe
 
     compiled = [name for name in integrators if describe(name).kernel] or None
     bar = Bar(quiet)

@@ -13,8 +13,8 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from sim.files import check_target
-from sim.integrators import ALL_INTEGRATORS
+from sim.integrators.registry import ALL_INTEGRATORS
+from sim.storage.files import check_target
 
 EPILOG = """examples:
   oscillators scenes
@@ -91,7 +91,7 @@ def parse_overrides(pairs: Sequence[str] | None) -> dict[str, Any]:
         if "=" not in pair:
             raise ValueError(f"--set takes key=value, got {pair!r}")
         key, text = (part.strip() for part in pair.split("=", 1))
-        if key in ("driver", "sources", "barriers"):  # key=value lists, ";" between (sim.forcing)
+        if key in ("driver", "sources", "barriers"):  # key=value lists, ";" between (sim.model.forcing)
             overrides[key] = None if text.lower() in ("none", "off", "") else text
         elif key in ("boundary", "sponge_sides"):
             overrides[key] = text
@@ -173,7 +173,8 @@ def add_length_arguments(parser: argparse.ArgumentParser, steps_help: str) -> No
 
 def scene_from_arguments(arguments: argparse.Namespace):
     """Build the Scene named by the parsed arguments (preset + overrides, or a file)."""
-    from sim import scene_files, scenes
+    from sim.scenes import building as scenes
+    from sim.scenes import scene_files
 
     overrides = parse_overrides(arguments.overrides)
     if arguments.scene.endswith((".toml", ".zip")):
@@ -198,7 +199,7 @@ def simulation_from_arguments(arguments: argparse.Namespace):
 
 def check_output_file(output: Path, force: bool, suffix: str) -> None:
     """Refuse a directory, an existing file unless ``force``, and a folder that does not exist
-    (checked before anything runs, see ``sim.files.check_target``); ``suffix`` (".rrd", ".mp4")
+    (checked before anything runs, see ``sim.storage.files.check_target``); ``suffix`` (".rrd", ".mp4")
     is the ending the message suggests."""
     check_target(output, force)
     if output.is_dir():  # check_target says so too; kept for the suffix in the message

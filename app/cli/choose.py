@@ -46,7 +46,7 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``choose`` command to ``oscillators``."""
-    from sim.errors import MEASURES
+    from sim.runtime.errors import MEASURES
 
     parser = subparsers.add_parser(
         "choose", help="the cheapest integrator and dt that meet a tolerance (verified)",
@@ -79,7 +79,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _names(text: str) -> list[str]:
-    from sim.integrators import IntegratorError, check_integrator_name
+    from sim.integrators.registry import IntegratorError, check_integrator_name
 
     names = [name.strip() for name in text.split(",") if name.strip()]
     if not names:

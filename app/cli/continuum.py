@@ -17,8 +17,8 @@ from app.cli.study_output import (
     progress_bar,
     save_picture,
 )
-from sim.bodies import BODY_KINDS, SHAPE_KINDS
-from sim.model import MAX_SIDE
+from sim.model.lattice import MAX_SIDE
+from sim.scenes.bodies import BODY_KINDS, SHAPE_KINDS
 
 DEFAULT_PARTICLES = {"string": "4,16,64,256,1024", "membrane": "4,8,16,32,64"}
 LARGEST = {"string": MAX_SIDE, "membrane": 1024}
@@ -161,7 +161,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def command_continuum(arguments: argparse.Namespace) -> int:
     from app.study import continuum, continuum_report
-    from sim.bodies import Body
+    from sim.scenes.bodies import Body
 
     check_plot_path(arguments)
     if arguments.record:

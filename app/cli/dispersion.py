@@ -17,7 +17,7 @@ from app.cli.study_output import (
     progress_bar,
     write_picture,
 )
-from sim.integrators import most_accurate
+from sim.integrators.registry import most_accurate
 
 DISPERSION_PARTICLES = (4, 6000)
 """Range of --particles: the wave-speed chain has 3x as many, at most ``sim.model.MAX_SIDE``."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from sim.integrators import estimated_seconds
+from sim.integrators.registry import estimated_seconds
 
 MAX_STEPS = 10**8
 """Most steps one command may plan (about 100 s of Verlet on the 5-particle chain)."""

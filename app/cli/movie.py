@@ -25,7 +25,7 @@ from app.cli.arguments import (
 from app.cli.limits import planned_steps
 from app.colours import SCALES
 from app.movie.options import COLOURS, DEFAULTS, MAX_FRAMES, MovieOptions
-from sim.files import PARTIAL_SUFFIX
+from sim.storage.files import PARTIAL_SUFFIX
 
 GIF_FRAMES = DEFAULTS["gif"][2]
 

@@ -37,7 +37,7 @@ from app.recording.field import FIELD_MODES, video_available
 from app.recording.options import DETAIL_LIMIT, RecordingOptions
 from app.recording.recorder import Recorder
 from app.recording.scales import QUANTITIES
-from sim.files import PARTIAL_SUFFIX, default_output
+from sim.storage.files import PARTIAL_SUFFIX, default_output
 
 DEFAULT_FOLDER = Path("recordings")
 """Where a recording goes without -o: DEFAULT_FOLDER/<scene name, made a plain file name>.rrd."""
@@ -295,7 +295,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from sim import BlowUpError, Simulation
-    from sim.runner import Runner
+    from sim.runtime.runner import Runner
 
     if arguments.scene.endswith(PARTIAL_SUFFIX):
         return _salvage(arguments)

@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--widths", type=_whole_numbers, default=None, metavar="W,W,...",
         help="layer widths in particles (default: the default layer's width, "
-        "sim.boundaries.DEFAULT_LAYER_WIDTH, and 30)",
+        "sim.model.boundaries.DEFAULT_LAYER_WIDTH, and 30)",
     )
     parser.add_argument(
         "--wavelengths", type=_numbers, default=None, metavar="L,L,...",
@@ -62,7 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--strength", type=positive_float, default=None, metavar="S",
         help="sponge_strength: peak rate in units of sqrt(k/m) (default: the default "
-             "layer's, sim.boundaries.DEFAULT_LAYER_STRENGTH)",
+             "layer's, sim.model.boundaries.DEFAULT_LAYER_STRENGTH)",
     )
     parser.add_argument(
         "--distance", type=bounded_int(10, 20_000), default=300,
@@ -109,7 +109,7 @@ _whole_numbers = _comma_separated(int, lambda value: value >= 1,
 
 def command_reflection(arguments: argparse.Namespace) -> int:
     from app.study import reflection
-    from sim.boundaries import DEFAULT_LAYER_STRENGTH
+    from sim.model.boundaries import DEFAULT_LAYER_STRENGTH
 
     default_plot(arguments, "reflection.png")
     widths = arguments.widths or list(reflection.DEFAULT_WIDTHS)

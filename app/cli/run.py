@@ -61,8 +61,8 @@ def command_run(arguments: argparse.Namespace) -> int:
     probes = None
     if arguments.probe:
         from app.recording.instruments import check_probes, parse_probe
-        from sim.observables import highest_frequency
-        from sim.probes import ProbeSeries
+        from sim.instruments.probes import ProbeSeries
+        from sim.theory.observables import highest_frequency
 
         model = simulation.model
         try:
@@ -144,8 +144,8 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
 def _probe_report(probes: Any) -> list[dict[str, Any]]:
     """Each probe's strongest motion component and its dominant frequencies, with the nearest
     normal mode (equal masses)."""
-    from sim.modes import POLARISATION_NAMES
-    from sim.probes import nearest_modes
+    from sim.instruments.probes import nearest_modes
+    from sim.theory.modes import POLARISATION_NAMES
 
     model = probes.model
     displacements = probes.displacements

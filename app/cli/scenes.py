@@ -32,8 +32,9 @@ def command_scenes(arguments: argparse.Namespace) -> int:
     from app.cli.choose import format_choice
     from app.study.choose import choose
     from app.study.choose_runs import RunTask, run_setting
-    from sim import ModelError, Simulation, scenes
-    from sim.prediction import predictor_for
+    from sim import ModelError, Simulation
+    from sim.scenes import building as scenes
+    from sim.theory.prediction import predictor_for
 
     names = arguments.names or scenes.names()
     unknown = [name for name in names if name not in scenes.names()]

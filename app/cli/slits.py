@@ -56,7 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def command_slits(arguments: argparse.Namespace) -> int:
     from app.study import slits
-    from sim.ripple_tank import SlitError
+    from sim.scenes.ripple_tank import SlitError
 
     scene = scene_from_arguments(arguments)
     default_plot(arguments, scene_picture(scene, "screen"))

@@ -17,7 +17,7 @@ from app.cli.study_output import (
     progress_bar,
     write_picture,
 )
-from sim.integrators import INTEGRATORS
+from sim.integrators.registry import INTEGRATORS
 
 STABILITY_STEPS = (10, 100_000)
 """Smallest and largest --steps of a stability trial."""

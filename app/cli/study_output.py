@@ -13,8 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from sim.files import AtomicFile, safe_name
-from sim.schema import printable
+from sim.model.schema import printable
+from sim.storage.files import AtomicFile, safe_name
 
 
 def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = None) -> None:
@@ -87,7 +87,7 @@ def emit(arguments: argparse.Namespace, data: dict[str, Any], text: str) -> None
 
 
 def write_picture(path: str, plot: Callable[[Any, str], None], study: Any) -> None:
-    """Draw ``study`` with ``plot`` into ``path`` (a PNG) through ``sim.files.AtomicFile``: an
+    """Draw ``study`` with ``plot`` into ``path`` (a PNG) through ``sim.storage.files.AtomicFile``: an
     exclusive temporary file beside it, renamed when the picture is complete.  ``plot`` draws
     into a private temporary folder first (it may name and write files as it likes there)."""
     import tempfile

@@ -28,7 +28,7 @@ from app.recording.scales import (
     displacement_axis,
     field_values,
 )
-from sim.integrators import most_accurate
+from sim.integrators.registry import most_accurate
 
 POSITION_COLUMNS = {"Points2D:positions": 2, "Points3D:positions": 3,
                     "Mesh3D:vertex_positions": 3}

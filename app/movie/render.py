@@ -25,7 +25,7 @@ from app.movie.options import MovieOptions, default_colour
 from app.movie.painter import Painter
 from app.movie.recorded_field import open_recording
 from app.movie.simulated import SimulationSource
-from sim.files import AtomicFile
+from sim.storage.files import AtomicFile
 
 
 def _encode_in_background(writer: Any, frames: queue.Queue, errors: list[BaseException]) -> None:
@@ -102,7 +102,7 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
         return open_recording(Path(scene_or_simulation), options)
     scene = scene_or_simulation
     if hasattr(scene, "step") and hasattr(scene, "state"):  # a running Simulation: snapshot it
-        from sim.scenes import scene_from_simulation
+        from sim.scenes.building import scene_from_simulation
 
         scene = scene_from_simulation(scene)
         options = dataclasses.replace(

@@ -1,4 +1,4 @@
-"""Rerun recordings of simulations: ``Recorder`` (a ``sim.runner.Runner`` subscriber that writes a
+"""Rerun recordings of simulations: ``Recorder`` (a ``sim.runtime.runner.Runner`` subscriber that writes a
 ``.rrd`` file, ``app.recording.recorder``) with what to log (``RecordingOptions``,
 ``app.recording.options``) and the fixed colour scales (``look_ahead``, ``app.recording.scales``).
 The ``oscillators record`` command uses them.

@@ -1,5 +1,5 @@
-"""A rerun recording of the continuum limit: one body (``sim.bodies``) at several particle counts
-and the exact continuum solution (``sim.continuum``), all on one timeline, so a student scrubs
+"""A rerun recording of the continuum limit: one body (``sim.scenes.bodies``) at several particle counts
+and the exact continuum solution (``sim.scenes.continuum``), all on one timeline, so a student scrubs
 the comparison.
 
 Entities (N written with four digits, so they sort: ``N0016``):
@@ -15,7 +15,7 @@ Entities (N written with four digits, so they sort: ``N0016``):
 * ``/scene``: a read-me saying what is drawn.
 
 The timeline is ``time`` (simulated seconds) with ``frame`` beside it.  The lattices are run with
-the study's first step (``sim.bodies.Body.first_step``: a tenth of a / c), shortened so that
+the study's first step (``sim.scenes.bodies.Body.first_step``: a tenth of a / c), shortened so that
 every frame time is a whole number of steps.  The file is written as ``NAME.rrd.partial`` and
 renamed when complete (``app.recording.destination``).
 """
@@ -34,9 +34,9 @@ import rerun.blueprint as rrb
 import app.recording.destination as destination
 from app.colours import get as colour_map
 from app.recording.recorder import APPLICATION_ID
-from sim.bodies import Body
-from sim.continuum import ContinuumSolution
-from sim.simulation import Simulation
+from sim.runtime.simulation import Simulation
+from sim.scenes.bodies import Body
+from sim.scenes.continuum import ContinuumSolution
 
 CURVE_POINTS = 400
 """Intervals of the continuum curve drawn over a string."""

@@ -1,4 +1,4 @@
-"""The file a recording is written to: opening it safely (``sim.files.AtomicFile``: an exclusive
+"""The file a recording is written to: opening it safely (``sim.storage.files.AtomicFile``: an exclusive
 ``NAME.rrd.partial`` beside the target, renamed when complete), the free disk space it needs
 (checked before the first step and during the run), and how much of a ``.partial`` file left by
 a killed recorder can be read back.
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import rerun as rr
 
-from sim.files import AtomicFile, OutputError, partial_path
+from sim.storage.files import AtomicFile, OutputError, partial_path
 
 __all__ = ["AtomicFile", "RecordingError", "partial_path"]
 

@@ -13,7 +13,7 @@ import rerun as rr
 
 from app.recording.layout import DRIVEN_TERM, TreePaths, energy_terms
 from app.recording.style import NEUTRAL_COLOUR, TERM_COLOURS, integrator_colour
-from sim.observables import Energy
+from sim.theory.observables import Energy
 
 
 class EnergyView:

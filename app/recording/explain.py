@@ -19,7 +19,7 @@ import numpy as np
 
 import app.recording.instruments as instruments
 from app.recording.scales import AXIS_NAMES, UNITS, ColourScales
-from sim import boundaries
+from sim.model import boundaries
 
 PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     # parameter: (symbol, unit, meaning)

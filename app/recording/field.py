@@ -33,7 +33,7 @@ import rerun as rr
 
 from app.colours import MAGNITUDE, SIGNED_FIELD
 from app.recording.scales import SIGNED, field_values
-from sim.model import Model
+from sim.model.lattice import Model
 
 FIELD_MODES = ("jpeg", "video", "raw")
 

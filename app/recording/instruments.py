@@ -3,11 +3,11 @@
 * **Probes** (``--probe I,J``): the displacement from rest (m) of the particle in column I, row J,
   one time series per component that can move (x and y; z too in 3-D) at
   ``T/probes/<I>_<J>/<component>``, every recorded frame.  When the recording ends, the amplitude
-  spectrum of each series (``sim.probes.spectrum``: Hann window, a sine of amplitude A reads A)
+  spectrum of each series (``sim.instruments.probes.spectrum``: Hann window, a sine of amplitude A reads A)
   is logged statically as a bar chart (m against Hz) at ``T/spectra/<I>_<J>/<component>``, and
   its strongest peaks, with the lattice's nearest normal-mode frequencies for equal masses
-  (``sim.probes.nearest_modes``), go into the read-me.
-* **Mode energies** (``--modes``): ``sim.modes.mode_energies`` of a recorded frame, per
+  (``sim.instruments.probes.nearest_modes``), go into the read-me.
+* **Mode energies** (``--modes``): ``sim.theory.modes.mode_energies`` of a recorded frame, per
   polarisation, as a float32 tensor (J) at ``T/modes/<polarisation>/energy`` and as a heat map
   in log colour at ``T/modes/<polarisation>/image``.  They cost 7 bytes a mode and polarisation
   (4 for the tensor, 3 for the colours), so they are limited twice: lattices wider or taller than
@@ -33,8 +33,8 @@ import rerun as rr
 from app.colours import MAGNITUDE, Colour, map_values
 from app.recording.layout import COMPONENT_NAMES, TreePaths, probe_label
 from app.recording.style import legend_png
-from sim import boundaries
-from sim.model import Model, ModelError
+from sim.model import boundaries
+from sim.model.lattice import Model, ModelError
 
 MODE_IMAGE_SIDE = 128
 """Largest width and height (modes) of a mode-energy image; larger lattices are block-summed."""
@@ -93,7 +93,7 @@ class ProbeLog:
     """The probes of one tree: their series every frame, their spectra at the end."""
 
     def __init__(self, paths: TreePaths, model: Model, probes: Sequence[tuple[int, int]]) -> None:
-        from sim.probes import ProbeSeries
+        from sim.instruments.probes import ProbeSeries
 
         self.paths = paths
         self.model = model
@@ -127,7 +127,7 @@ class ProbeLog:
     def finish(self, stream: rr.RecordingStream, driver: Any = None) -> list[str]:
         """Log each series' spectrum (static bar charts, m against Hz) and return markdown lines
         naming the peaks and the normal modes nearest to them."""
-        from sim.probes import dominant_frequencies, spectrum, uniform_series
+        from sim.instruments.probes import dominant_frequencies, spectrum, uniform_series
 
         times = self.series.times
         if times.size < 3:
@@ -173,9 +173,9 @@ class ProbeLog:
 
 
 def nearest_mode(model: Model, frequency: float) -> Any:
-    """The normal mode (``sim.probes.ModeMatch``) whose frequency is closest to ``frequency``
+    """The normal mode (``sim.instruments.probes.ModeMatch``) whose frequency is closest to ``frequency``
     (Hz), for equal masses between walls (None otherwise)."""
-    from sim.probes import nearest_modes
+    from sim.instruments.probes import nearest_modes
 
     found = nearest_modes(model, frequency)
     return found[0] if found else None
@@ -186,8 +186,8 @@ def nearest_mode(model: Model, frequency: float) -> Any:
 
 def check_modes(model: Model) -> None:
     """Raise ValueError if the normal modes of ``model`` cannot be computed (unequal masses on
-    more than ``sim.modes.DENSE_PARTICLE_LIMIT`` particles), without computing them."""
-    from sim.modes import DENSE_PARTICLE_LIMIT
+    more than ``sim.theory.modes.DENSE_PARTICLE_LIMIT`` particles), without computing them."""
+    from sim.theory.modes import DENSE_PARTICLE_LIMIT
 
     if not model.uniform_mass and model.n_particles > DENSE_PARTICLE_LIMIT:
         raise ValueError(
@@ -198,8 +198,8 @@ def check_modes(model: Model) -> None:
 
 
 def modal_basis(model: Model) -> Any:
-    """``sim.modes.ModalBasis`` of ``model``; raises ValueError saying why there is none."""
-    from sim.modes import ModalBasis
+    """``sim.theory.modes.ModalBasis`` of ``model``; raises ValueError saying why there is none."""
+    from sim.theory.modes import ModalBasis
 
     try:
         return ModalBasis.of(model)
@@ -290,7 +290,7 @@ class ModeLog:
         """Per polarisation the (ny', nx') float64 energies (J) the file holds: [n-1, m-1] for
         mode (m, n) with equal masses, modes in rising frequency row by row otherwise; summed
         over blocks for lattices larger than ``MODE_IMAGE_SIDE``."""
-        from sim.modes import mode_energies
+        from sim.theory.modes import mode_energies
 
         model = self.model
         rows, columns = mode_blocks(model)

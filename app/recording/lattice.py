@@ -21,7 +21,7 @@ from app.recording.layout import TreePaths
 from app.recording.options import LoggingPlan
 from app.recording.scales import ColourScales
 from app.recording.style import ANCHOR_COLOUR, NEUTRAL_COLOUR, PARTICLE_COLOUR
-from sim.model import Model
+from sim.model.lattice import Model
 
 
 def grid_triangles(nx: int, ny: int) -> np.ndarray:

@@ -14,7 +14,7 @@ import app.recording.instruments as instruments
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.scales import QUANTITIES
 from app.recording.screen import check_screen
-from sim.model import Model
+from sim.model.lattice import Model
 
 DETAIL_LIMIT = 2500
 """Lattices with at most this many particles (50x50) are logged particle by particle (and drawn
@@ -52,7 +52,7 @@ class RecordingOptions:
     probes: (column, row) of particles whose displacement is recorded every frame, with their
         spectra at the end (``app.recording.instruments``).
     screen: column of an intensity screen (``app.recording.screen``), or None.
-    modes: record the energy per normal mode (``sim.modes.mode_energies``).
+    modes: record the energy per normal mode (``sim.theory.modes.mode_energies``).
     modes_every: recorded frames between two mode-energy frames; None: as often as
         ``instruments.MODES_BUDGET_BYTES`` allows for the expected number of frames.
     """

@@ -1,4 +1,4 @@
-"""Record a running simulation into a rerun ``.rrd`` file, as a subscriber of ``sim.runner.Runner``.
+"""Record a running simulation into a rerun ``.rrd`` file, as a subscriber of ``sim.runtime.runner.Runner``.
 
 ``sim`` knows nothing of rerun: the ``Recorder`` subscribes to a runner's frames and logs them.
 
@@ -18,7 +18,7 @@ How it stays fast and safe:
   (``RecordingStream.flush``), so memory stays flat on long runs and an interrupted run has
   everything up to the last flush on disk;
 * the file is written as ``NAME.rrd.partial`` (created exclusively, never through a link, see
-  ``sim.files.AtomicFile``) and renamed to ``NAME.rrd`` by ``close()`` once rerun has flushed
+  ``sim.storage.files.AtomicFile``) and renamed to ``NAME.rrd`` by ``close()`` once rerun has flushed
   and closed it: a file under the final name is always complete; rerun writes small messages,
   so a ``.partial`` left by a killed recorder reads back up to its last few frames
   (``destination.salvage``);
@@ -62,8 +62,8 @@ from app.recording.options import DEFAULT_FRAME_INTERVAL, RecordingOptions
 from app.recording.scales import ColourScales, look_ahead
 from app.recording.style import nice_number
 from app.recording.track import Track
-from sim.model import Model
-from sim.runner import Frame, Runner
+from sim.model.lattice import Model
+from sim.runtime.runner import Frame, Runner
 
 APPLICATION_ID = "coupled_oscillators"
 

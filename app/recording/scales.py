@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.integrators import describe, descriptions
+from sim.integrators.registry import describe, descriptions
 
 QUANTITIES = ("displacement", "magnitude", "speed")
 """Field quantities of recordings: signed displacement component (m), |u| (m), |v| (m/s)."""

@@ -1,11 +1,11 @@
 """The intensity screen in a recording: <u^2> (m^2) along one column, averaged over the last whole
-periods of the drive (``sim.screen.IntensityScreen``), logged whenever another whole period has
+periods of the drive (``sim.instruments.screen.IntensityScreen``), logged whenever another whole period has
 passed.
 
 * ``T/screen/intensity``: the profile along the screen as a bar chart (one bar per row, row 0
   first), the latest one at each time;
 * ``T/screen/rows/<j>``: a time series of the intensity at each row where the fringe theory
-  (``sim.ripple_tank``, lambda from the lattice's dispersion) puts a fringe, so the build-up of
+  (``sim.scenes.ripple_tank``, lambda from the lattice's dispersion) puts a fringe, so the build-up of
   the bright and dark fringes is seen against time;
 * ``T/screen/theory``: the theory lines as text (order, kind, y in m, row), logged once.
 
@@ -18,8 +18,8 @@ import numpy as np
 import rerun as rr
 
 from app.recording.layout import TreePaths
-from sim.model import Model
-from sim.screen import IntensityScreen
+from sim.instruments.screen import IntensityScreen
+from sim.model.lattice import Model
 
 PERIODS = 4
 """Whole periods the screen averages over."""
@@ -40,7 +40,7 @@ class ScreenLog:
     """The screen on ``column`` of one tree."""
 
     def __init__(self, paths: TreePaths, model: Model, column: int) -> None:
-        from sim import ripple_tank
+        from sim.scenes import ripple_tank
 
         drivers = ((model.driver,) if model.driver is not None else ()) + tuple(model.sources)
         driver = drivers[0]

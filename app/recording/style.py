@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from app.colours import Colour, ColourMap
-from sim.integrators import IntegratorError, describe
+from sim.integrators.registry import IntegratorError, describe
 
 WHITE: Colour = (255, 255, 255)
 DARK_BACKGROUND: Colour = (13, 16, 17)

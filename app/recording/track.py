@@ -22,8 +22,8 @@ from app.recording.layout import TreePaths, tree_paths
 from app.recording.options import LoggingPlan
 from app.recording.scales import ColourScales
 from app.recording.screen import ScreenLog
-from sim.model import Model
-from sim.runner import Frame
+from sim.model.lattice import Model
+from sim.runtime.runner import Frame
 
 
 class Track:

@@ -14,7 +14,7 @@ The recommendation for a tolerance is the fastest measured configuration whose e
 reference's own error is within the tolerance; the largest dt each integrator could afford is
 also predicted from its measured convergence order, *run*, and kept only if it meets the tolerance.
 An integrator without time-step error that applies to the scene (``kernel`` False in
-``sim.integrators``, the exact normal-mode solver of linear scenes) is run once for comparison.
+``sim.integrators.registry``, the exact normal-mode solver of linear scenes) is run once for comparison.
 ``accuracy_report`` shows the result as text and a picture.
 """
 
@@ -38,8 +38,8 @@ from app.study.accuracy_reference import (
 )
 from app.study.accuracy_runs import Measurer, Run, jsonable, precisions_of, warm_up
 from app.study.executor import serial
-from sim.integrators import FORCE_EVALUATIONS, ORDERS, describe, descriptions, most_accurate
-from sim.observables import highest_frequency
+from sim.integrators.registry import FORCE_EVALUATIONS, ORDERS, describe, descriptions, most_accurate
+from sim.theory.observables import highest_frequency
 
 ProgressCallback = Callable[[str], None]
 

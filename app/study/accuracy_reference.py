@@ -22,7 +22,7 @@ import numpy as np
 
 import sim
 from app.study import linear
-from sim.integrators import describe, most_accurate
+from sim.integrators.registry import describe, most_accurate
 
 ProgressCallback = Callable[[str], None]
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from app.study.accuracy import AccuracyStudy
-from sim.integrators import describe
+from sim.integrators.registry import describe
 
 
 def _format(value: float | None, spec: str = ".3g") -> str:

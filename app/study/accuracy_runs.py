@@ -30,7 +30,7 @@ from app.study.accuracy_reference import (
     initial_state,
     position_error,
 )
-from sim.integrators import describe
+from sim.integrators.registry import describe
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """``choose``: the cheapest (integrator, dt) that meets an error tolerance over a scene's whole
 duration, verified by running exactly that setting before it is offered.
 
-The error is one of the two measures of ``sim.errors``: the field error (relative L2 distance of
+The error is one of the two measures of ``sim.runtime.errors``: the field error (relative L2 distance of
 the final displacement field from a reference, which carries phase; the default where a
 reference is affordable) or the energy error (the energy balance).  The field reference is the
 exact normal-mode solution of a linear scene, else RK4 halved until halving changes the field by
@@ -40,7 +40,8 @@ import sim
 from app.study.accuracy_runs import jsonable
 from app.study.choose_plan import AIM, predicted_dt, predictor_or_none, step_seconds
 from app.study.choose_runs import MapRuns, RunOutcome, RunTask, run_setting, serial_map, steps_for
-from sim.errors import (
+from sim.integrators.registry import describe, most_accurate
+from sim.runtime.errors import (
     CONVERGED_FRACTION,
     MEASURES,
     exact_final_displacement,
@@ -48,8 +49,7 @@ from sim.errors import (
     field_error,
     halving_converged,
 )
-from sim.integrators import describe, most_accurate
-from sim.observables import highest_frequency
+from sim.theory.observables import highest_frequency
 
 COST_RATIO = 20.0
 """An integrator predicted to cost more than this times the cheapest prediction is not run."""

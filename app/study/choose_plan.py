@@ -1,5 +1,5 @@
 """What ``choose`` plans before it runs anything: the step each integrator should need, from the
-normal-mode prediction (``sim.prediction``), and what a step costs, measured.
+normal-mode prediction (``sim.theory.prediction``), and what a step costs, measured.
 
 ``predicted_dt`` searches the prediction of the linearised lattice (exact for a linear undamped
 scene, an estimate otherwise) for the largest dt whose predicted error in the chosen measure is
@@ -19,9 +19,9 @@ import time
 import numpy as np
 
 import sim
-from sim.integrators import describe
-from sim.model import ModelError
-from sim.observables import highest_frequency
+from sim.integrators.registry import describe
+from sim.model.lattice import ModelError
+from sim.theory.observables import highest_frequency
 
 AIM = 0.5
 """Fraction of the tolerance a candidate's predicted error aims at (room for the prediction's
@@ -35,7 +35,7 @@ TIMING_SECONDS = 0.15
 def predictor_or_none(scene: sim.Scene) -> object | None:
     """The normal-mode ``Predictor`` of the scene's initial state, None when the scene has none
     (a driver or absorbing layer, or modes too costly to compute)."""
-    from sim.prediction import predictor_for_scene
+    from sim.theory.prediction import predictor_for_scene
 
     try:
         return predictor_for_scene(scene.model, np.asarray(scene.initial_positions),

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sim.integrators import describe
+from sim.integrators.registry import describe
 
 
 def plot_choice(data: dict[str, Any], path: str) -> None:

@@ -3,7 +3,7 @@ one seam through which every batch of runs goes (``MapRuns``).
 
 ``run_setting(task)`` runs ``task.scene`` from its initial state for ``task.steps`` steps of
 ``task.dt`` s with ``task.integrator`` and returns a ``RunOutcome``: the displacement field at
-the end ((dim, ny, nx) m, float64), the energy error (``sim.errors.energy_error``), the wall
+the end ((dim, ny, nx) m, float64), the energy error (``sim.runtime.errors.energy_error``), the wall
 seconds of the stepping alone (the kernels are compiled by a one-step warm-up first) and the
 blow-up message, if any.  A task with a ``time_limit`` is abandoned (``RunOutcome.abandoned``)
 once its stepping has taken longer than that: ``choose`` gives it the wall time of the best
@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 
 import sim
-from sim.errors import displacement, energy_error
+from sim.runtime.errors import displacement, energy_error
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,5 +1,5 @@
-"""The continuum-limit study: one body (``sim.bodies``) at several particle counts against the exact
-continuum solution (``sim.continuum``), and the measured order of convergence in the spacing a.
+"""The continuum-limit study: one body (``sim.scenes.bodies``) at several particle counts against the exact
+continuum solution (``sim.scenes.continuum``), and the measured order of convergence in the spacing a.
 
 For each n the body's lattice is run with an integrator of the registry at dt = courant * a / c
 from its shape, released at rest, and compared at a few times (fractions of the crossing time
@@ -7,7 +7,7 @@ from its shape, released at rest, and compared at a few times (fractions of the 
 
 * the continuum solution at the particles: the **error** (relative L2 distance, the largest over
   the times, relative to the shape's norm at the particles);
-* the lattice's own exact normal-mode solution (``sim.exact``): the **time-stepping error** of the
+* the lattice's own exact normal-mode solution (``sim.theory.exact``): the **time-stepping error** of the
   run.  The step is verified: while it is more than ``TIME_ERROR_SHARE`` of the lattice's
   distance from the continuum (the discretisation error), dt is halved and the run repeated,
   so what the table shows is the continuum limit, not the integrator.
@@ -27,11 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from sim.bodies import DEFAULT_COURANT, Body
-from sim.continuum import ContinuumSolution
-from sim.exact import ExactSolver
-from sim.simulation import BlowUpError, Simulation
-from sim.state import State
+from sim.model.state import State
+from sim.runtime.simulation import BlowUpError, Simulation
+from sim.scenes.bodies import DEFAULT_COURANT, Body
+from sim.scenes.continuum import ContinuumSolution
+from sim.theory.exact import ExactSolver
 
 TIMES = (0.25, 0.5, 0.75, 1.0)
 """Comparison times as fractions of the crossing time 2 L0 / c."""
@@ -149,7 +149,7 @@ def lattice_run(body: Body, particles: int, integrator: str, dt: float, times: S
 
 
 def exact_lattice(body: Body, particles: int, times: Sequence[float]) -> list[np.ndarray]:
-    """The lattice's own exact normal-mode solution (``sim.exact``) at ``times``: (ny, nx) each."""
+    """The lattice's own exact normal-mode solution (``sim.theory.exact``) at ``times``: (ny, nx) each."""
     scene = body.scene(particles)
     model = scene.model
     solver = ExactSolver(model, State.from_particle_arrays(model, scene.initial_positions,

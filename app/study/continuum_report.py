@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from app.study.continuum import ContinuumStudy
-from sim.continuum import lattice_frequencies
+from sim.scenes.continuum import lattice_frequencies
 
 EXCITED_SHARE = 1e-3
 """A mode counts as excited when its coefficient is above this share of the largest."""

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 
 import sim
-from sim.integrators import most_accurate
-from sim.observables import highest_frequency
+from sim.integrators.registry import most_accurate
+from sim.theory.observables import highest_frequency
 
 ProgressCallback = Callable[[str], None]
 

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from sim.model import Model
+from sim.model.lattice import Model
 
 MAX_DEGREES_OF_FREEDOM = 3000
 """Largest dim * nx * ny solved with dense eigen-decompositions."""

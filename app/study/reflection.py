@@ -33,9 +33,9 @@ import numpy as np
 
 import sim
 from app.study import reflection_angle
-from sim.boundaries import DEFAULT_LAYER_STRENGTH
-from sim.forcing import SPONGE_POWER
-from sim.integrators import describe, most_accurate
+from sim.integrators.registry import describe, most_accurate
+from sim.model.boundaries import DEFAULT_LAYER_STRENGTH
+from sim.model.forcing import SPONGE_POWER
 
 ProgressCallback = Callable[[str], None]
 
@@ -54,7 +54,7 @@ DT = 0.05
 PACKET_AMPLITUDE = 0.01
 """Peak displacement of the packet (m); the springs are linearised, so only ratios matter."""
 
-DEFAULT_WIDTHS = (sim.boundaries.DEFAULT_LAYER_WIDTH, 30)
+DEFAULT_WIDTHS = (sim.model.boundaries.DEFAULT_LAYER_WIDTH, 30)
 """The default layer and a deep one (particles)."""
 DEFAULT_WAVELENGTHS = (5.0, 10.0, 20.0, 30.0, 40.0, 60.0, 80.0)
 

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 import sim
-from sim.boundaries import DEFAULT_LAYER_STRENGTH
+from sim.model.boundaries import DEFAULT_LAYER_STRENGTH
 
 STIFFNESS = 35.0
 MASS = 1.0
@@ -37,8 +37,6 @@ DISTANCE = 300
 AMPLITUDE = 0.01
 REST_LENGTH = 1e-6
 """Rest length (m) of the springs: T = k (a - L) = k a to a part in a million."""
-ANGLES = (0.0, 45.0)
-"""Incidence angles (degrees from the wall's normal) the study measures."""
 
 
 def strip_geometry(wavelength: float, angle: float) -> tuple[int, float, float, float]:

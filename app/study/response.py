@@ -1,6 +1,6 @@
 """Resonance curves: the steady amplitude of a driven lattice against the driver's frequency.
 
-For each frequency f the scene (which must have a driver, ``sim.forcing.Driver``) is run from
+For each frequency f the scene (which must have a driver, ``sim.model.forcing.Driver``) is run from
 rest with the driver's frequency replaced by f, for the driver's start and ramp plus a settle time
 in which the transient dies out, then the probed particle's displacement along the driver's
 direction is sampled over a few drive periods and fitted by least squares with
@@ -92,7 +92,7 @@ class ResponseCurve:
 
     scene: str
     model: sim.Model
-    driver: sim.forcing.Driver
+    driver: sim.model.forcing.Driver
     probe: tuple[int, int]
     integrator: str
     dt: float
@@ -243,7 +243,7 @@ def measure_point(
 
 
 def probe_index(model: sim.Model, probe: tuple[int, int] | None,
-                driver: sim.forcing.Driver) -> int:
+                driver: sim.model.forcing.Driver) -> int:
     """Particle index of (column, row), checked; the driven particle when ``probe`` is None."""
     if probe is None:
         return driver.row * model.nx + driver.column
@@ -265,7 +265,7 @@ def check_frequencies(frequencies: Sequence[float], dt: float) -> None:
         )
 
 
-def planned_steps(driver: sim.forcing.Driver, frequencies: Sequence[float],
+def planned_steps(driver: sim.model.forcing.Driver, frequencies: Sequence[float],
                   settles: Sequence[float], periods: int, dt: float) -> list[int]:
     """Steps of each frequency's run (start, ramp, settle and fit window)."""
     return [math.ceil((driver.start + driver.ramp + settle + periods / frequency) / dt) + 1

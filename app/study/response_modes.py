@@ -4,7 +4,7 @@ last, and the steady response they predict (the theory behind ``app.study.respon
 Settle time (``settle_time``, per frequency): about the lattice at rest every normal mode j
 obeys q'' + beta_j q' + omega_j^2 q = (its shape at the driver) F(t), and its free transient
 decays as exp(-r_j t), r_j = beta_j / 2 (the slow root when overdamped).  beta_j is the mode's
-drag and dashpot rate (``sim.modes.ModalBasis``) plus, with absorbing walls, the sponge's rate
+drag and dashpot rate (``sim.theory.modes.ModalBasis``) plus, with absorbing walls, the sponge's rate
 averaged over the mode's shape (a Rayleigh quotient, good while the damping is weak).  The
 transient a smooth ramp of T seconds leaves in mode j, relative to the steady amplitude at the
 probe, is estimated as g(|omega_j - omega| T) |c_j / D_j| / |sum_k c_k / D_k|, with
@@ -18,7 +18,7 @@ message.  With a displacement driver (the lattice
 is then held at the driven particle) the slowest excited mode sets the time alone.
 
 The normal modes (``mode_lines``) are drawn as vertical lines on the curve, labelled: equal
-masses give the sine modes (m, n) of ``sim.modes`` (``n=m`` on a chain), unequal masses the
+masses give the sine modes (m, n) of ``sim.theory.modes`` (``n=m`` on a chain), unequal masses the
 eigenmodes numbered in rising frequency.  Only modes the driver excites and the probe can see (no
 node at either particle) are drawn.  With a displacement driver the driven particle is held to
 the prescribed motion, so the resonances are those of the lattice with that particle held, near
@@ -42,8 +42,8 @@ from collections.abc import Sequence
 import numpy as np
 
 import sim
-from sim.forcing import sponge_rates
-from sim.modes import POLARISATION_NAMES, ModalBasis
+from sim.model.forcing import sponge_rates
+from sim.theory.modes import POLARISATION_NAMES, ModalBasis
 
 SETTLE_FACTOR = 1000.0
 """The default settle time brings the estimated transient down to 1/SETTLE_FACTOR of the steady
@@ -79,7 +79,7 @@ class ModeLine:
         return self.decay_rate / (2 * math.pi)
 
 
-def driver_of(scene: sim.Scene) -> sim.forcing.Driver:
+def driver_of(scene: sim.Scene) -> sim.model.forcing.Driver:
     """The scene's driver; ValueError saying how to add one when it has none."""
     driver = scene.model.driver
     if driver is None:
@@ -87,7 +87,7 @@ def driver_of(scene: sim.Scene) -> sim.forcing.Driver:
     return driver
 
 
-def driven_components(model: sim.Model, driver: sim.forcing.Driver) -> list[int]:
+def driven_components(model: sim.Model, driver: sim.model.forcing.Driver) -> list[int]:
     """The displacement components (0 x, 1 y, 2 z) along which the driver pushes."""
     return [component for component in range(model.dim)
             if abs(driver.direction[component]) > 1e-12]
@@ -115,7 +115,7 @@ def _chain_label(model: sim.Model, m: int, n: int) -> str:
     return f"({m},{n})"
 
 
-def all_modes(model: sim.Model, driver: sim.forcing.Driver, probe: int) -> list[ModeLine]:
+def all_modes(model: sim.Model, driver: sim.model.forcing.Driver, probe: int) -> list[ModeLine]:
     """Every normal mode of the driven polarisations with its transient decay rate (drag,
     dashpots and the sponge's Rayleigh quotient) and its shape at the driver and the probe.
     Raises ``sim.ModelError`` for unequal-mass lattices too large for the dense eigen-solver."""
@@ -168,7 +168,7 @@ def _not_at_a_node(values: Sequence[float]) -> np.ndarray:
     return magnitudes > 1e-9 * magnitudes.max()
 
 
-def mode_lines(model: sim.Model, driver: sim.forcing.Driver, probe: int,
+def mode_lines(model: sim.Model, driver: sim.model.forcing.Driver, probe: int,
                lines: Sequence[ModeLine] | None = None) -> list[ModeLine]:
     """The normal modes that can show in the response at ``probe``: no node at the driven
     particle nor at the probe, lowest frequency first (zero-frequency modes left out).
@@ -198,7 +198,7 @@ def _undamped_message(line: ModeLine) -> str:
     )
 
 
-def modal_response(model: sim.Model, driver: sim.forcing.Driver, probe: int,
+def modal_response(model: sim.Model, driver: sim.model.forcing.Driver, probe: int,
                    frequencies: Sequence[float] | np.ndarray,
                    lines: Sequence[ModeLine] | None = None) -> np.ndarray | None:
     """Complex steady amplitude (m) of the probe's displacement along the drive predicted by the
@@ -229,7 +229,7 @@ def modal_response(model: sim.Model, driver: sim.forcing.Driver, probe: int,
     return force * np.where(coupling == 0, 0.0, terms).sum(axis=1)
 
 
-def settle_time(model: sim.Model, driver: sim.forcing.Driver, frequency: float,
+def settle_time(model: sim.Model, driver: sim.model.forcing.Driver, frequency: float,
                 probe: int | None = None, factor: float = SETTLE_FACTOR,
                 lines: Sequence[ModeLine] | None = None) -> float:
     """Seconds after the ramp for the transient the driver at ``frequency`` (Hz) starts to fall
@@ -284,7 +284,7 @@ def settle_time(model: sim.Model, driver: sim.forcing.Driver, frequency: float,
     return high
 
 
-def one_particle_parameters(model: sim.Model, driver: sim.forcing.Driver
+def one_particle_parameters(model: sim.Model, driver: sim.model.forcing.Driver
                             ) -> tuple[float, float, float] | None:
     """(F0 / m in N/kg, omega_0 in rad/s, beta in 1/s) of a one-particle lattice driven by a
     force along one axis, for ``damped_oscillator_amplitude``; None for anything else."""

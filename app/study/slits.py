@@ -1,7 +1,7 @@
 """Slit experiments measured: run a scene with a slit barrier (presets single-slit and
 double-slit, or any scene with a column barrier and a source), record the intensity screen
-(``sim.screen.IntensityScreen``: <u^2> over whole periods along a column) and set the measured
-fringes beside the far-field theory lines (``sim.ripple_tank.SlitSetup``: lambda from the
+(``sim.instruments.screen.IntensityScreen``: <u^2> over whole periods along a column) and set the measured
+fringes beside the far-field theory lines (``sim.scenes.ripple_tank.SlitSetup``: lambda from the
 lattice's own dispersion relation at the driving frequency).
 
 ``measure(scene, ...)`` returns a ``SlitMeasurement``; ``plot(measurement, path)`` draws the
@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 import sim
-from sim import ripple_tank
-from sim.screen import IntensityScreen
+from sim.instruments.screen import IntensityScreen
+from sim.scenes import ripple_tank
 
 PERIODS = 4
 """Whole periods the screen averages over."""
@@ -85,7 +85,7 @@ def measure(scene: sim.Scene, *, column: int | None = None, duration: float | No
         raise ValueError(f"the run of {duration:g} s is shorter than one period ({period:g} s)")
     y = np.asarray(model.rest_positions[screen.rows, 1])
     rows = compare(y, intensity, fringes, model)
-    wave = sim.lattice_waves.polarisation(model, setup.component)
+    wave = sim.theory.lattice_waves.polarisation(model, setup.component)
     speed = wave.long_wave_speeds()[0]
     x0, y0 = model.origin
     component = "xyz".index(setup.component)
@@ -102,7 +102,7 @@ def measure(scene: sim.Scene, *, column: int | None = None, duration: float | No
 
 def compare(y: np.ndarray, intensity: np.ndarray, fringes: list, model: Any
             ) -> list[dict[str, Any]]:
-    """One dict per theory fringe (``sim.slits.Fringe``): order, kind, theory y, the measured y
+    """One dict per theory fringe (``sim.theory.slits.Fringe``): order, kind, theory y, the measured y
     of the intensity's extremum within 0.3 fringe spacings of it (None if there is none inside)
     and their difference (m); ``y`` (ny,) m and ``intensity`` (ny,) along the screen."""
     spacing = _fringe_spacing(fringes, model)

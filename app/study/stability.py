@@ -29,7 +29,7 @@ import numpy as np
 
 import sim
 from app.study.executor import serial
-from sim.integrators import describe
+from sim.integrators.registry import describe
 
 ProgressCallback = Callable[[str], None]
 

@@ -2,7 +2,7 @@
 
 Modules:
 
-* ``control``: ``LatticeRunner`` (the ``sim.runner.Runner`` plus particles held by a drag) and
+* ``control``: ``LatticeRunner`` (the ``sim.runtime.runner.Runner`` plus particles held by a drag) and
   ``SimulationControl``, the commands the page sends (no viser here; unit-tested directly);
 * ``view``: draws frames into a viser scene (particles, springs, walls, selection), coloured with
   the maps of ``app.colours``;

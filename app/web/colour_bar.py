@@ -22,7 +22,7 @@ import threading
 import numpy as np
 import viser
 
-from sim.model import Model
+from sim.model.lattice import Model
 
 BAR_FRACTION = 0.6
 """Width of a phone's in-scene colour bar under the lattice, as a fraction of the lattice's

@@ -1,5 +1,5 @@
-"""The "Continuum limit" page: one body (``sim.bodies``) at several particle counts, stacked one
-above another, moving on one clock, with the exact continuum solution (``sim.continuum``) drawn
+"""The "Continuum limit" page: one body (``sim.scenes.bodies``) at several particle counts, stacked one
+above another, moving on one clock, with the exact continuum solution (``sim.scenes.continuum``) drawn
 over each and the distance from it shown live per N.
 
 * a **string**: each row shows the beads and the line through them (blue; the displacement
@@ -31,8 +31,8 @@ from app.colours import get as colour_map
 from app.recording.continuum import CURVE_POINTS, BodyRun, drawn_exaggeration
 from app.web.inputs import InputRefused, as_html, from_user, number
 from app.web.security import AccessPolicy, checked_server
-from sim.bodies import Body
-from sim.continuum import ContinuumSolution
+from sim.scenes.bodies import Body
+from sim.scenes.continuum import ContinuumSolution
 
 FPS = 30.0
 DEFAULT_SECONDS_PER_CROSSING = 8.0

@@ -5,7 +5,7 @@ No viser here: the GUI and the scene callbacks call ``SimulationControl`` method
 middle of one).  Every method returns the command's ``concurrent.futures.Future``, so tests (and
 callers that care) can wait for it.
 
-``LatticeRunner`` is ``sim.runner.Runner`` plus *pins*: particles held at a position while a
+``LatticeRunner`` is ``sim.runtime.runner.Runner`` plus *pins*: particles held at a position while a
 browser drags them.  Pins belong to an owner (a client id), so a browser that disconnects
 mid-drag is released with ``release(owner)`` and nothing stays stuck.
 
@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 import sim
-from sim.forcing import Driver
-from sim.runner import Runner
+from sim.model.forcing import Driver
+from sim.runtime.runner import Runner
 
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
@@ -257,7 +257,7 @@ class SimulationControl:
         return self.runner.post(command)
 
     def set_sources(self, sources: Sequence[Driver]) -> concurrent.futures.Future:
-        """Replace the scene's sources (``sim.sources``) from now on; a bad one raises and changes
+        """Replace the scene's sources (``sim.model.sources``) from now on; a bad one raises and changes
         nothing.  The Future holds the model's new sources."""
         chosen = tuple(sources)
 
@@ -268,7 +268,7 @@ class SimulationControl:
         return self.runner.post(command)
 
     def set_barriers(self, barriers: Sequence[Any]) -> concurrent.futures.Future:
-        """Replace the scene's barriers (``sim.sources.Barrier``: pinned particles with openings)
+        """Replace the scene's barriers (``sim.model.sources.Barrier``: pinned particles with openings)
         from now on; a bad one raises and changes nothing.  The Future holds the new barriers."""
         chosen = tuple(barriers)
 

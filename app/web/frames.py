@@ -36,7 +36,7 @@ import numpy as np
 import viser
 from PIL import Image
 
-from sim.model import Model
+from sim.model.lattice import Model
 
 IMAGE_LIMIT = 50_000
 """From this many particles on (and while the points stay at rest), the field is a picture."""

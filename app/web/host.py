@@ -25,7 +25,7 @@ from app.web.control import LatticeRunner, SimulationControl
 from app.web.recording import WebRecordings
 from app.web.scene_files import SceneDirectory
 from app.web.view import LatticeView
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 
 class PanelHost(Protocol):

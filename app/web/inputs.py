@@ -2,7 +2,7 @@
 
 A browser's min/max are hints, not limits: a page (or anything speaking viser's protocol) can send
 any number, NaN or infinity included, and any string for a dropdown.  The panel passes every value
-through these functions (the checks of ``sim.schema``, which scene files and ``--set`` pass too)
+through these functions (the checks of ``sim.model.schema``, which scene files and ``--set`` pass too)
 before it becomes a command (and ``from_user`` keeps callbacks from
 acting on values the server assigned itself); a bad one raises ``InputRefused`` with a
 message for the page, and nothing changes.  Text shown in the page goes through ``as_html`` so a
@@ -19,7 +19,7 @@ from typing import Any
 
 import viser
 
-from sim import schema
+from sim.model import schema
 
 
 class InputRefused(schema.Refused):
@@ -28,7 +28,7 @@ class InputRefused(schema.Refused):
 
 def number(value: Any, name: str, low: float, high: float, *, low_open: bool = False) -> float:
     """``value`` as a finite float in [low, high] (or (low, high] with ``low_open``); a string
-    or a boolean is refused (``sim.schema.number``, the check scene files and ``--set`` pass)."""
+    or a boolean is refused (``sim.model.schema.number``, the check scene files and ``--set`` pass)."""
     return schema.number(value, name, low, high, low_open=low_open, error=InputRefused)
 
 

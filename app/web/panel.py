@@ -48,7 +48,7 @@ from app.web.folders.study import StudyFolder
 from app.web.folders.view_settings import ViewSettingsFolder
 from app.web.host import Folder, PanelHost
 from app.web.inputs import amber_html
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 FOLDERS: tuple[type[Folder], ...] = (
     RunFolder,

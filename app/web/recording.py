@@ -22,8 +22,8 @@ from typing import Any
 
 import sim
 from app.web.jobs import PageJobs
-from sim.files import partial_path, safe_name
-from sim.runner import Runner
+from sim.runtime.runner import Runner
+from sim.storage.files import partial_path, safe_name
 
 
 class RecordingBusy(RuntimeError):

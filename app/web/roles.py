@@ -36,7 +36,7 @@ import viser
 from viser import _messages
 
 from app.web.inputs import as_html
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 TEACHER_PATH = "/teacher/"
 """Websocket path prefix of the teacher link (followed by the token)."""

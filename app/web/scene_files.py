@@ -6,7 +6,7 @@ directly in the directory, which, after following symlinks, is still inside the 
 Anything else (``../x``, an absolute path, a device, a pipe, a symlink out of the directory, a
 name that was never listed) is refused with ``SceneFileRefused``.  Saving goes to the user's
 browser as a download and opening a file of one's own is an upload; neither touches the server's
-disk (``sim.scene_files.to_bytes`` / ``from_bytes``).
+disk (``sim.scenes.scene_files.to_bytes`` / ``from_bytes``).
 """
 
 from __future__ import annotations
@@ -73,4 +73,4 @@ class SceneDirectory:
             )
         root = self._resolved_root()
         assert root is not None  # names() found it
-        return sim.scene_files.load(root / name, within=root)
+        return sim.scenes.scene_files.load(root / name, within=root)

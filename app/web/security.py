@@ -44,7 +44,7 @@ from urllib.parse import urlsplit
 import viser
 import websockets.asyncio.server
 
-from sim.scene_files import MAX_UPLOAD_BYTES as MAX_SCENE_UPLOAD_BYTES
+from sim.scenes.scene_files import MAX_UPLOAD_BYTES as MAX_SCENE_UPLOAD_BYTES
 
 _SERVE_PATCH_LOCK = threading.Lock()
 

@@ -35,8 +35,8 @@ import viser
 from app import colours
 from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, ColourBar
 from app.web.frames import DEFAULT_FPS, FieldImage, uses_image
-from sim.model import Model
-from sim.runner import Frame
+from sim.model.lattice import Model
+from sim.runtime.runner import Frame
 
 SPHERE_LIMIT = 2500
 """Up to this many particles, draw instanced spheres; above, a point cloud."""

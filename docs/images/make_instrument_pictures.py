@@ -31,9 +31,9 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 
 import sim  # noqa: E402
-from sim.modes import mode_energies  # noqa: E402
-from sim.observables import highest_frequency  # noqa: E402
-from sim.probes import ProbeSeries, dominant_frequencies, mode_table, spectrum  # noqa: E402
+from sim.theory.modes import mode_energies  # noqa: E402
+from sim.theory.observables import highest_frequency  # noqa: E402
+from sim.instruments.probes import ProbeSeries, dominant_frequencies, mode_table, spectrum  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 STIFFNESS = 35.0

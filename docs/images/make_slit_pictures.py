@@ -36,7 +36,7 @@ def ellipse(path: str = "docs/images/point-source-ellipse.png", time: float = 12
     simulation = sim.Simulation(model, integrator="verlet", dt=0.02)
     simulation.step(int(round(time / 0.02)))
     field = (simulation.positions[:, 1] - model.rest_positions[:, 1]).reshape(n, n)
-    along, across = sim.lattice_waves.polarisation(model, "y").long_wave_speeds()
+    along, across = sim.theory.lattice_waves.polarisation(model, "y").long_wave_speeds()
     figure, axes = plt.subplots(figsize=(5.6, 5.2), dpi=100)
     limit = float(np.abs(field).max())
     half = (n - 1) / 2

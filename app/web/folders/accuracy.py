@@ -4,7 +4,7 @@
   0 for the exact dynamics) as a number and its own plot; amber above the tolerance, red above ten
   times it, with a sentence saying why it happens for this integrator and what to do.
 * **Predicted**: the energy and phase error that the current integrator and dt will have after
-  the scene's duration, from the normal modes of the scene's initial state (``sim.prediction``),
+  the scene's duration, from the normal modes of the scene's initial state (``sim.theory.prediction``),
   computed in a background thread whenever the model, integrator or dt changes.
 * **Choose for me**: ``app.study.choose`` on the scene as it is now (``app.web.choosing``, the
   code of `oscillators choose` and of the Speed-vs-accuracy folder): the cheapest integrator and
@@ -38,8 +38,8 @@ from app.web.inputs import (
     warning_html,
 )
 from app.web.widgets import History, say
-from sim.integrators import describe
-from sim.runner import Frame
+from sim.integrators.registry import describe
+from sim.runtime.runner import Frame
 
 HISTORY = 600
 """Points kept in the error plot."""
@@ -174,7 +174,7 @@ class AccuracyFolder(Folder):
 
     def _predictor(self, simulation: sim.Simulation) -> Any:
         """The scene's initial state in the current model's modes (cached per model)."""
-        from sim.prediction import predictor_for_scene
+        from sim.theory.prediction import predictor_for_scene
 
         key = id(simulation.model)
         if key not in self._predictors:

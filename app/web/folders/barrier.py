@@ -4,7 +4,7 @@ separation.
 Shown for scenes with a barrier along a column (single-slit, double-slit, or a scene file with
 ``[[model.barriers]]``).  *Slits* (one or two), *Slit width* (open particles per slit) and
 *Separation* (particles between the two slits' centres) rebuild the barrier's openings around the
-same centre row (``sim.sources.slit_openings``) from now on; the pinned particles of the new
+same centre row (``sim.model.sources.slit_openings``) from now on; the pinned particles of the new
 barrier stop where they are.  The line under the sliders says the gap between the pinned
 particles either side of a slit (the width the fringe theory uses) and the slits' separation in
 metres.  A barrier whose openings are neither one nor two equal slits is shown as it is
@@ -22,8 +22,8 @@ import sim
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, whole_number
 from app.web.widgets import say, show_number
-from sim.runner import Frame
-from sim.sources import Barrier, SourceError, slit_openings
+from sim.model.sources import Barrier, SourceError, slit_openings
+from sim.runtime.runner import Frame
 
 SLITS = {"one": 1, "two": 2}
 """The dropdown's entries and their numbers of slits."""

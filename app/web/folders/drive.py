@@ -2,7 +2,7 @@
 
 *Drive this particle* drives the selected particle (or, with nothing selected, the particle
 driven now) with a sinusoidal force A k sin(2 pi f t) or a prescribed displacement
-A sin(2 pi f t) along x, y (or z in 3-D scenes) (``sim.forcing.Driver``); the drive starts
+A sin(2 pi f t) along x, y (or z in 3-D scenes) (``sim.model.forcing.Driver``); the drive starts
 at the current time and ramps up over ``DRIVE_RAMP`` seconds.  *Stop driving* removes the driver
 (the work it did stays in the energy account).  The folder shows the driver that acts now and
 the work it has done, and lists the lattice's lowest normal-mode frequencies for the chosen
@@ -34,9 +34,9 @@ from app.web.inputs import (
     whole_number,
 )
 from app.web.widgets import say, show_number
-from sim.forcing import DRIVER_KINDS, Driver
-from sim.modes import POLARISATION_NAMES, ModalBasis, polarisations, second_difference_eigenvalues
-from sim.runner import Frame
+from sim.model.forcing import DRIVER_KINDS, Driver
+from sim.runtime.runner import Frame
+from sim.theory.modes import POLARISATION_NAMES, ModalBasis, polarisations, second_difference_eigenvalues
 
 LISTED_MODES = 5
 """How many of the lowest normal-mode frequencies the folder lists."""

@@ -15,7 +15,7 @@ import numpy as np
 import sim
 from app.web.host import Folder, PanelHost
 from app.web.widgets import History, PlotAxis
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 ENERGY_HISTORY = 600
 """Points kept in the energy plot."""

@@ -54,7 +54,7 @@ class SceneFileControls:
         def _(event: viser.GuiEvent) -> None:
             try:
                 scene = host.control.snapshot().result(timeout=30)
-                suffix, content = sim.scene_files.to_bytes(scene)
+                suffix, content = sim.scenes.scene_files.to_bytes(scene)
             except Exception as error:  # a failed save must not take the page down
                 say(message(), error, "could not save")
                 return
@@ -68,10 +68,10 @@ class SceneFileControls:
             upload = self.upload_button.value
             name = str(upload.name)[:200]
             try:
-                limit = sim.scene_files.MAX_UPLOAD_BYTES
+                limit = sim.scenes.scene_files.MAX_UPLOAD_BYTES
                 if len(upload.content) > limit:
                     raise InputRefused(f"the file is larger than {limit / 1e6:g} MB")
-                scene = sim.scene_files.from_bytes(bytes(upload.content), name)
+                scene = sim.scenes.scene_files.from_bytes(bytes(upload.content), name)
                 host.replace_scene(scene, source=f"upload {name}")
             except ERRORS as error:
                 say(message(), error, f"could not open {name}")

@@ -1,6 +1,6 @@
 """The page's "Integrator" folder: the method, the time step and how the steps run.
 
-The method dropdown offers the integrators of the registry (``sim.integrators``) that apply to
+The method dropdown offers the integrators of the registry (``sim.integrators.registry``) that apply to
 the running model (e.g. the exact solver once the springs are linearised).  Below the time step a
 line says whether it is stable (``Simulation.stability``, computed in the simulation thread
 whenever the model or the method changes).  Steps per frame, precision and threads set how the
@@ -22,8 +22,8 @@ from app.web.folders.accuracy import has_time_step_error
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, choice, from_user, number, ok_html, warning_html, whole_number
 from app.web.widgets import say
-from sim.integrators import PRECISIONS
-from sim.runner import Frame
+from sim.integrators.registry import PRECISIONS
+from sim.runtime.runner import Frame
 
 MAX_DT = 10.0
 """Largest time step (s) the page accepts."""

@@ -23,7 +23,7 @@ import sim
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, from_user, whole_number
 from app.web.widgets import say
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 TAPE_COLOUR = (230, 126, 34)
 REFRESH_SECONDS = 0.2

@@ -2,7 +2,7 @@
 
 *Probe the selection* watches up to ``MAX_PROBES`` selected particles: a runner subscriber (in the
 simulation thread, cheap: a few numbers per frame) appends their displacements to a
-``sim.probes.ProbeSeries`` at every published frame; about twice a second the folder plots the
+``sim.instruments.probes.ProbeSeries`` at every published frame; about twice a second the folder plots the
 chosen component against time and its spectrum (amplitude against frequency), and lists the
 dominant frequencies with the nearest normal modes of the lattice (equal masses).  A reset or a
 new scene starts the series again and empties the plots at once.  The plots' value axes take the
@@ -21,9 +21,9 @@ import sim
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, warning_html
 from app.web.widgets import PlotAxis
-from sim.modes import POLARISATION_NAMES
-from sim.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
-from sim.runner import Frame
+from sim.instruments.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
+from sim.runtime.runner import Frame
+from sim.theory.modes import POLARISATION_NAMES
 
 MAX_PROBES = 4
 """Particles probed at once (one line each in the plots)."""

@@ -23,7 +23,7 @@ from app.web.host import Folder, PanelHost
 from app.web.inputs import as_html, from_user, ok_html
 from app.web.jobs import MOVIE_FRAME_LIMIT, JobBusy
 from app.web.widgets import download_name, say
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 
 class RecordingFolder(Folder):

@@ -19,7 +19,7 @@ import viser
 
 from app.web.host import Folder, PanelHost
 from app.web.inputs import amber_html, as_html, from_user, warning_html
-from sim.runner import Frame
+from sim.runtime.runner import Frame
 
 STATUS_INTERVAL = 0.5
 """Seconds between two updates of the status line."""

@@ -1,7 +1,7 @@
 """The page's "Scene" folder: what runs, a preset built at a chosen size, its walls and files.
 
 The folder shows the scene's name, source, size and parameters.  *Build scene* replaces the
-lattice by a preset (``sim.scenes``) with its own parameters at the chosen nx x ny (up to
+lattice by a preset (``sim.scenes.building``) with its own parameters at the chosen nx x ny (up to
 ``MAX_PAGE_PARTICLES``: larger lattices are for the command line).  The walls
 (``app.web.folders.walls``) and the Files subfolder (``app.web.folders.files``) share the
 folder's message line.
@@ -59,7 +59,7 @@ class SceneFolder(Folder):
                 self.show_scene(host.runner.simulation)  # every page: the scene in use
                 say(self.message, error)
                 return
-            parameters = sim.presets.PRESETS[name].parameters
+            parameters = sim.scenes.presets.PRESETS[name].parameters
             self.nx.value = int(parameters.get("nx", 1))
             self.ny.value = int(parameters.get("ny", 1))
 
@@ -75,7 +75,7 @@ class SceneFolder(Folder):
                         f"{nx}x{ny} = {nx * ny:,} particles; the page builds up to "
                         f"{MAX_PAGE_PARTICLES:,} (use `oscillators run` for larger lattices)"
                     )
-                parameters = sim.presets.PRESETS[name].parameters
+                parameters = sim.scenes.presets.PRESETS[name].parameters
                 overrides = {}
                 if nx != parameters.get("nx", 1):
                     overrides["nx"] = nx

@@ -1,13 +1,13 @@
 """The page's "Screen" folder: the intensity along a column of the lattice, with the fringe theory.
 
-Shown for scenes with sources.  The screen (``sim.screen.IntensityScreen``) watches the frames the
+Shown for scenes with sources.  The screen (``sim.instruments.screen.IntensityScreen``) watches the frames the
 page draws (it never changes the state): <u^2> of the sources' displacement component along the
 chosen column, averaged over the last ``PERIODS`` whole periods of the first source.  About once a
 second a picture shows it against y (relative to its peak); for a scene with a slit barrier
-(``sim.ripple_tank.SlitSetup``) the theory lines are drawn over it: two slits' maxima at
+(``sim.scenes.ripple_tank.SlitSetup``) the theory lines are drawn over it: two slits' maxima at
 d sin(theta) = m lambda, one slit's minima at w sin(theta) = m lambda, theta from the slits'
 centre, with the lattice's own wave vector at the driving frequency along each ray
-(``sim.slits``: d q_y = 2 pi m);
+(``sim.theory.slits``: d q_y = 2 pi m);
 dots mark the measured extrema next to them (``app.study.slits.compare``).  For two point
 sources in one column (two-sources) the lines are their maxima, d sin(theta) = (m - dphi / 2 pi)
 lambda with dphi the phase difference, so they swing with the Sources folder's slider.  The chosen column is
@@ -31,9 +31,10 @@ from app.study.slits import compare
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, from_user, ok_html, whole_number
 from app.web.widgets import MATPLOTLIB_LOCK, say
-from sim import lattice_waves, ripple_tank, slits
-from sim.runner import Frame
-from sim.screen import IntensityScreen
+from sim.instruments.screen import IntensityScreen
+from sim.runtime.runner import Frame
+from sim.scenes import ripple_tank
+from sim.theory import lattice_waves, slits
 
 PERIODS = 4
 """Whole periods the screen averages over."""

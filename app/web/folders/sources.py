@@ -1,4 +1,4 @@
-"""The page's "Sources" folder: the scene's sources (``sim.sources``), one at a time.
+"""The page's "Sources" folder: the scene's sources (``sim.model.sources``), one at a time.
 
 Shown for scenes with sources (two-sources, single-slit, double-slit, or any scene file with
 ``[[model.sources]]``).  The dropdown picks a source; its frequency, amplitude and phase sliders
@@ -28,9 +28,9 @@ from app.web.folders.drive import highest_mode_frequency, round_up
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, number, ok_html, whole_number
 from app.web.widgets import say, show_number
-from sim.forcing import Driver, ForcingError
-from sim.runner import Frame
-from sim.sources import ALL_ROWS, SourceError
+from sim.model.forcing import Driver, ForcingError
+from sim.model.sources import ALL_ROWS, SourceError
+from sim.runtime.runner import Frame
 
 MAX_AMPLITUDE_SPACINGS = 0.5
 """Largest source amplitude the page accepts, in lattice spacings (a loaded scene's larger

@@ -1,7 +1,7 @@
 """The page's "Modes" folder: the energy in each normal mode, live, and one mode excited alone.
 
 The lattice linearised about its equilibrium is a sum of independent normal modes
-(``sim.modes``).  For equal masses the mode (m, n) of a polarisation has m half-waves along x and
+(``sim.theory.modes``).  For equal masses the mode (m, n) of a polarisation has m half-waves along x and
 n along y; the folder draws the energy of every (m, n) as an nx-by-ny heat map on a log colour
 scale with a colour bar, for the chosen polarisation, refreshed about once a second from the
 latest frame in a background thread (the simulation never waits for it).  Typing (m, n) shows that
@@ -34,14 +34,14 @@ from app.web.inputs import (
     whole_number,
 )
 from app.web.widgets import MATPLOTLIB_LOCK, say
-from sim.modes import (
+from sim.runtime.runner import Frame
+from sim.theory.modes import (
     POLARISATION_NAMES,
     ModalBasis,
     excited_state,
     mode_energies,
     mode_frequency,
 )
-from sim.runner import Frame
 
 REFRESH_SECONDS = 1.0
 """Seconds between two pictures of the spectrum (more on large lattices, see ``_interval``)."""

@@ -1,6 +1,6 @@
 """The walls controls of the page's "Scene" folder: which boundary the running lattice has.
 
-The dropdown offers the registered boundaries (``sim.boundaries``) and, for a loaded scene whose
+The dropdown offers the registered boundaries (``sim.model.boundaries``) and, for a loaded scene whose
 boundary is not among them, that one too, so the widget always shows the walls in use.  *Apply
 walls* changes the running lattice's walls and keeps its state; a change the model or the running
 integrator cannot take is refused with the model's own explanation and the widgets show the walls
@@ -18,7 +18,7 @@ import sim
 from app.web.host import PanelHost
 from app.web.inputs import choice, from_user, ok_html, whole_number
 from app.web.widgets import ERRORS, say
-from sim import boundaries
+from sim.model import boundaries
 
 
 def offered(model: sim.Model) -> list[str]:

@@ -1,0 +1,316 @@
+"""The matched layer's kicks and the relaxation of its fields, given the springs' forces
+(``sim.forces.absorbing_layer`` for the layer's equations, its fields and its action at frozen
+positions), and the same action inside a leapfrog sweep, which has just computed those springs
+for its own kick.
+
+The layer splits into two parts whose kicks add: the x-layer of the side strips (the left and
+right layers' columns, over every row) and the y-layer of the band rows (the bottom and top
+layers' rows, over every column); a corner has both.  The x-layer's fields and forces are laid
+out flat, one side strip after the other and row after row (``SideStrips``), so that its kick is
+one long loop that vectorises; each particle keeps its own copy of the held forces of its two
+x-springs (both copies see the same forces and factors, so they stay equal).  The y-layer acts
+a band row at a time.
+
+A kick does not depend on the velocities, so inside a leapfrog sweep it is added after the
+sweep's kick and drift, with the drift it missed (``drift``: the particle also moves by dt
+times its kick).  Each kick returns the kinetic energy it took out (J), measured on the
+velocities ``lead`` seconds later under the lattice's forces; kicks applied one after another
+measure from the velocity the previous one left, so their takes add up exactly.
+
+Arrays: the state's (dim, ny, nx) positions (m) and velocities (m/s); ``horizontal``
+(3, nx + 1) the forces of a row's x-springs (spring i joins particle i - 1, or the left anchor,
+to particle i), ``below`` / ``above`` (3, nx) those of the y-springs under and over the row (N);
+``layer`` the tuple ``MatchedLayer.arguments``, read by the positions named here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from sim.forces.springs import gravity_vector, site, spring_force
+
+_JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+NONE, BAND = 0, 1
+"""Whether the y-layer acts on a row."""
+
+# the layer's tuple (``MatchedLayer.arguments``), by position
+MASSES, HELD_Y, RELAXED_Y, SPRING_Y, NODE_Y, NEEDS = 0, 1, 2, 3, 4, 5
+OUT_OF_PLANE, LINEARISED, PARAMETERS, GRAVITY, BUFFERS = 6, 7, 8, 9, 10
+GEOMETRY, HELD_LEFT, HELD_RIGHT, RELAXED_X, SIDE_FACTORS, SIDE_INVERSE_MASS = 11, 12, 13, 14, 15, 16
+SIDE_FORCES, SIDE_KICKS, SIDE_MASS, INVERSE_MASSES = 17, 18, 19, 20
+"""``GEOMETRY`` (4,) int64: the left strip's width, the right one's, its first column, ny."""
+
+
+@njit(**_JIT)
+def relax(force, held, factor):
+    """A held force relaxed toward the spring's force: f + (h - f) e."""
+    return force + (held - force) * factor
+
+
+@njit(**_JIT)
+def rest_tension(linearised, parameters):
+    """The springs' tension at rest (N): the force of an x-spring between two rest sites."""
+    return float(spring_force(site(0, 0, parameters), site(1, 0, parameters), 0, linearised,
+                              parameters, None)[0])
+
+
+# --- the x-layer: the side strips, flat --------------------------------------------------------
+
+
+@njit(**_JIT)
+def strip(s, geometry):
+    """Side strip s (0 left, 1 right): its width, first slot and first column."""
+    if s == 0:
+        return geometry[0], 0, 0
+    return geometry[1], geometry[3] * geometry[0], geometry[2]
+
+
+@njit(**_JIT)
+def half_action(force, h_low, h_high, phi, e_node, tau, inverse_mass):
+    """One half action of a particle along one axis, its springs' held forces ``h_low`` and
+    ``h_high`` (below or left, above or right) relaxed as it reads them: phi relaxed toward what
+    they leave of the net ``force`` over tau / 2, the kick by tau, phi relaxed again.  Returns
+    (phi, kick).  The kicks write their half actions out one after the other, not as a loop:
+    LLVM vectorises only innermost loops, and a loop over the halves inside the loop over
+    particles kept the particles' loop scalar (3.6x slower on the flagship's side strips)."""
+    holding = h_high - h_low
+    target = force - holding
+    phi = relax(target, phi, e_node)
+    kick = -tau * (holding + phi) * inverse_mass
+    return relax(target, phi, e_node), kick
+
+
+@njit(**_JIT)
+def held_half(f_left, f_right, force, h_left, h_right, phi, e_left, e_right, e_node, tau,
+              inverse_mass):
+    """``half_action`` of a side particle, whose held x-spring forces ``h_left``, ``h_right``
+    relax toward the springs' ``f_left``, ``f_right`` before the kick and again after it.
+    Returns (h_left, h_right, phi, kick)."""
+    h_left = relax(f_left, h_left, e_left)
+    h_right = relax(f_right, h_right, e_right)
+    phi, kick = half_action(force, h_left, h_right, phi, e_node, tau, inverse_mass)
+    return relax(f_left, h_left, e_left), relax(f_right, h_right, e_right), phi, kick
+
+
+@njit(**_JIT)
+def side_kick(tau, lead, second_half, pull, forces, held_left, held_right, relaxed, factors,
+              inverse_mass, mass, kicks, start, stop):
+    """The x-layer's kick (m/s) of the slots ``start`` .. ``stop - 1`` into ``kicks``
+    (dim, slots): per half action, relax the held forces of the particle's two x-springs and its
+    phi over tau / 2, kick by tau, relax again (twice when ``second_half`` is True, once when
+    None: ``held_half``).  ``forces`` (3, dim, slots): the left and right x-springs' forces
+    beyond the rest tension and the y-springs' net force; ``factors`` (3, slots):
+    exp(-sigma tau / 2) of the left spring, the right one and the particle; ``inverse_mass`` and
+    ``mass`` (slots,) 1/kg and kg.  Returns the part of the kinetic energy taken out (J) that
+    does not depend on the velocities (``side_apply`` adds the rest)."""
+    taken = 0.0
+    for c in range(kicks.shape[0]):
+        g = pull[0] if c == 0 else (pull[1] if c == 1 else pull[2])
+        for k in range(stop - start):
+            p = np.uint64(start + k)  # unsigned: no negative-index wrap, so LLVM vectorises
+            f_left = forces[0, c, p]
+            f_right = forces[1, c, p]
+            force = f_right - f_left
+            w = inverse_mass[p]
+            e_left = factors[0, p]
+            e_right = factors[1, p]
+            e_node = factors[2, p]
+            h_left, h_right, phi, kick = held_half(f_left, f_right, force, held_left[c, p],
+                                                   held_right[c, p], relaxed[c, p], e_left,
+                                                   e_right, e_node, tau, w)
+            if second_half is not None:
+                h_left, h_right, phi, more = held_half(f_left, f_right, force, h_left, h_right,
+                                                       phi, e_left, e_right, e_node, tau, w)
+                kick += more
+            held_left[c, p] = h_left
+            held_right[c, p] = h_right
+            relaxed[c, p] = phi
+            kicks[c, p] = kick
+            ahead = lead * ((force + forces[2, c, p]) * w + g)
+            taken -= 0.5 * mass[p] * kick * (2.0 * ahead + kick)
+    return taken
+
+
+@njit(**_JIT)
+def side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry):
+    """Add the side strips' kicks of rows j0 .. j1 - 1 to the velocities (and ``drift`` times
+    them to the positions; None compiles it out).  Returns the part of the kinetic energy taken
+    out (J) that depends on the velocities: -m v kick."""
+    taken = 0.0
+    for s in range(2):
+        width, first_slot, first_column = strip(s, geometry)
+        for c in range(velocity.shape[0]):
+            for j in range(j0, j1):
+                row = first_slot + j * width
+                for k in range(width):
+                    p = np.uint64(row + k)
+                    i = np.uint64(first_column + k)
+                    kick = kicks[c, p]
+                    before = np.float64(velocity[c, j, i])
+                    velocity[c, j, i] = before + kick
+                    if drift is not None:
+                        position[c, j, i] += drift * kick
+                    taken -= mass[p] * kick * before
+    return taken
+
+
+@njit(**_JIT)
+def sides_act(j0, j1, tau, lead, second_half, drift, position, velocity, layer):
+    """The x-layer's action on rows j0 .. j1 - 1 from the forces in the layer's side buffer.
+    Returns the kinetic energy taken out (J)."""
+    geometry = layer[GEOMETRY]
+    kicks = layer[SIDE_KICKS]
+    mass = layer[SIDE_MASS]
+    pull = gravity_vector(layer[GRAVITY], 0.0)
+    taken = 0.0
+    for s in range(2):
+        width, first_slot, _ = strip(s, geometry)
+        taken += side_kick(tau, lead, second_half, pull, layer[SIDE_FORCES], layer[HELD_LEFT],
+                           layer[HELD_RIGHT], layer[RELAXED_X], layer[SIDE_FACTORS],
+                           layer[SIDE_INVERSE_MASS], mass, kicks, first_slot + j0 * width,
+                           first_slot + j1 * width)
+    return taken + side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry)
+
+
+@njit(**_JIT)
+def sides_under(j, below, forces, geometry):
+    """Start row j's net y-force in the side buffer ``forces`` (3, dim, slots) from the springs
+    under it (``below``, whole forces)."""
+    for s in range(2):
+        width, first_slot, first_column = strip(s, geometry)
+        for c in range(forces.shape[1]):
+            for k in range(width):
+                forces[2, c, first_slot + j * width + k] = -below[c, first_column + k]
+
+
+@njit(**_JIT)
+def sides_row(j, last, horizontal, above, forces, geometry, tension):
+    """Row j's x-springs (beyond the rest ``tension``, N) and the y-springs over it into the side
+    buffer ``forces``, after ``sides_under`` of row j; the latter also start row j + 1's net
+    y-force unless ``last``."""
+    for s in range(2):
+        width, first_slot, first_column = strip(s, geometry)
+        for c in range(forces.shape[1]):
+            shift = tension if c == 0 else 0.0
+            for k in range(width):
+                p = first_slot + j * width + k
+                i = first_column + k
+                forces[0, c, p] = horizontal[c, i] - shift
+                forces[1, c, p] = horizontal[c, i + 1] - shift
+                forces[2, c, p] += above[c, i]
+                if not last:
+                    forces[2, c, p + width] = -above[c, i]
+
+
+# --- the y-layer: the band rows ----------------------------------------------------------------
+
+
+@njit(**_JIT)
+def keep_row(source, kept):
+    """Copy a row of forces (3, n) aside (a loop: a slice assignment in the sweep's row loop
+    slowed its plain pass more than twofold)."""
+    for c in range(source.shape[0]):
+        for i in range(source.shape[1]):
+            kept[c, i] = source[c, i]
+
+
+@njit(**_JIT)
+def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_masses, horizontal,
+              below, above, held_y, relaxed_y, e_below, e_above, e_node, shift, drift, position):
+    """Component c of band row j's y-layer kick: per half action relax the held forces of each
+    particle's y-springs (``e_below``, ``e_above``: their factors) and its phi (``e_node``) over
+    tau / 2, kick by tau, relax again.  ``shift`` (N) is taken off the y-springs' forces (their
+    rest tension along this component, or 0 when the forces given are beyond it).  A held force
+    relaxes toward a force that stays put, so after n relaxations it is f + (h - f) e^n: the
+    second half's kick reads it after three.  The held forces are stored by the caller
+    (``relax_row``) once both their rows have used them.  Returns the kinetic energy taken out
+    (J)."""
+    taken = 0.0
+    one = np.uint64(1)
+    later_below = e_below * e_below * e_below  # three relaxations
+    later_above = e_above * e_above * e_above
+    for k in range(velocity.shape[2]):
+        i = np.uint64(k)
+        f_below = below[c, i] - shift
+        f_above = above[c, i] - shift
+        inverse_mass = inverse_masses[j, i]
+        force_x = horizontal[c, i + one] - horizontal[c, i]
+        force_y = f_above - f_below
+        held_below = held_y[c, j, i]
+        held_above = held_y[c, j + 1, i]
+        phi = relaxed_y[c, j, i]
+        before = np.float64(velocity[c, j, i])
+        phi, kick = half_action(force_y, relax(f_below, held_below, e_below),
+                              relax(f_above, held_above, e_above), phi, e_node, tau,
+                              inverse_mass)
+        if second_half is not None:
+            phi, more = half_action(force_y, relax(f_below, held_below, later_below),
+                                  relax(f_above, held_above, later_above), phi, e_node, tau,
+                                  inverse_mass)
+            kick += more
+        v = before + kick
+        velocity[c, j, i] = v
+        if drift is not None:
+            position[c, j, i] += drift * (v - before)
+        relaxed_y[c, j, i] = phi
+        ahead = lead * ((force_x + force_y) * inverse_mass + pull)
+        taken += 0.5 * (before + v + 2.0 * ahead) * (before - v) * masses[j, i]
+    return taken
+
+
+@njit(**_JIT)
+def relax_row(held, j, forces, factor, second_half, tension):
+    """The held forces ``held[:, j]`` (``held`` (dim, rows, n); a view of the row would have
+    strides unknown to the compiler, and its loop would not vectorise) of a row of springs
+    relaxed toward ``forces`` as the particles' kicks did: twice per half action, by ``factor``
+    (in one step: toward a force that stays put, n relaxations by e are one by e^n).
+    ``tension`` (N) is taken off the forces' y-components (the springs' rest tension when
+    ``forces`` are whole forces, else 0)."""
+    total = factor * factor
+    if second_half is not None:
+        total = total * total
+    for c in range(held.shape[0]):
+        shift = tension if c == 1 else 0.0
+        for k in range(held.shape[2]):
+            i = np.uint64(k)
+            f = forces[c, i] - shift
+            held[c, j, i] = relax(f, held[c, j, i], total)
+
+
+@njit(**_JIT)
+def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizontal, below,
+             above, layer, tension):
+    """The y-layer's action on band row j from its springs' forces (beyond the rest ``tension``
+    when it is 0, whole forces otherwise), then the held forces of the springs under it relaxed,
+    unless ``first`` and j > 0 (row j opens a row block swept in parallel with the one below,
+    which still reads them: ``relax_block_edges``).  Returns the kinetic energy taken out (J)."""
+    ny = velocity.shape[1]
+    spring_y = layer[SPRING_Y]
+    held_y = layer[HELD_Y]
+    pull = gravity_vector(layer[GRAVITY], 0.0)
+    taken = 0.0
+    for c in range(velocity.shape[0]):
+        taken += band_kick(c, j, tau, lead, second_half, pull[c], velocity, layer[MASSES],
+                           layer[INVERSE_MASSES], horizontal, below, above, held_y,
+                           layer[RELAXED_Y], spring_y[j], spring_y[j + 1], layer[NODE_Y][j],
+                           tension if c == 1 else 0.0, drift, position)
+    if spring_y[j] < 1.0 and not (first and j > 0):  # the springs under j served both rows
+        relax_row(held_y, j, below, spring_y[j], second_half, tension)
+    if j == ny - 1 and spring_y[ny] < 1.0:
+        relax_row(held_y, ny, above, spring_y[ny], second_half, tension)
+    return taken
+
+
+@njit(**_JIT)
+def relax_block_edges(block_starts, boundary, layer, tension):
+    """The held forces of the y-springs under each row block but the first relaxed, after both
+    their rows were swept (``band_act``); ``boundary`` (blocks + 1, 3, nx) holds those springs'
+    whole forces before the sweep (``sim.loops.leapfrog``)."""
+    spring_y = layer[SPRING_Y]
+    held_y = layer[HELD_Y]
+    for b in range(1, block_starts.size - 1):
+        j = block_starts[b]
+        if spring_y[j] < 1.0:
+            relax_row(held_y, j, boundary[b], spring_y[j], True, tension)

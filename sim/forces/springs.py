@@ -1,0 +1,500 @@
+"""Numba kernels: the spring forces of the lattice, computed one row of particles at a time.
+
+Everything here is a pure function over arrays and scalars, compiled with ``@njit(cache=True)``;
+the loop shapes (``sim.loops``: row sweep, row blocks, wavefront, leapfrog) fuse the integrators'
+updates into sweeps over these row functions, and the Python layer (``sim.integrators.steppers``,
+``sim.runtime.simulation``) orchestrates.
+
+Layout (chosen for speed, see the README's benchmark section):
+
+* a field over the lattice is a C-contiguous ``(ny, nx)`` float64 array per component:
+  ``x, y`` (and ``z`` for out-of-plane motion) in m, ``vx, vy, vz`` in m/s;
+* particle ``(row j, column i)`` rests at ``(origin_x + i*spacing, origin_y + j*spacing)``; the wall
+  anchors sit one spacing outside the lattice on all four sides and never move, so they are not
+  stored: a spring to a wall is the same spring computation with an anchor (``site``) as one end;
+* ``SpringParameters.periodic`` joins the ends of every row into a ring (the left and right
+  wall springs become one spring between the last and the first particle of the row), again
+  chosen at compile time; rows stay independent sweeps, so the wavefronts are unchanged;
+  ``SpringParameters.free_ends`` removes the left and right wall springs (free ends), likewise;
+* each spring is computed once per sweep: ``vertical_springs(j)`` gives the forces of the springs
+  that end in row j from below (row j-1 to j; j = 0 from the bottom wall, j = ny to the top wall),
+  a buffer of ``nx``; ``horizontal_springs(j)`` those of row j, a buffer of ``nx + 1``;
+  ``row_accelerations`` sums them for the particles of row j.  A sweep keeps the buffer of the
+  springs below the current row from the previous row, so rows already swept may be overwritten:
+  that lets the integrators fuse their updates into the force sweep.
+
+Specialisation: optional terms are passed as ``None`` when a scene does not have them (``z, vz``
+for a planar scene, ``dashpot``, ``drag``, ``gravity``), and so are the compile-time choices of
+the spring law (``linearised``) and of a row's ends (wall anchors or particles).  Numba compiles
+one machine-code version per combination of argument types and prunes the ``is None`` branches
+at compile time, so an undamped planar scene runs code with no damping, drag, gravity or
+out-of-plane arithmetic at all.  A force term is added in one place: the spring law
+(``spring_force``) or the sum of the forces on a particle (``particle_acceleration``).
+
+Spring law: force on the first end F = k (|d| - L) d / |d| with d = r_second - r_first (the
+paper's equation (11) with the sign kept: a compressed spring pushes); a dashpot beside it adds
+c ((v_second - v_first) . d) d / |d|^2.  The linearised law (``linear=True``) uses stiffness k
+along the rest direction of the spring and T/a across it (``tension_stiffness``), T = k (a - L).
+A spring squeezed to zero length exerts no force instead of producing NaN.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+_JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+class SpringParameters(NamedTuple):
+    """The spring constants as the kernels take them (a numba-friendly named tuple).
+
+    ``stiffness`` k (N/m), ``rest_length`` L (m), ``tension_stiffness`` T/a (N/m) of the
+    linearised law, ``spacing`` a (m), ``origin_x``/``origin_y`` rest position of particle (0, 0)
+    (m).  All fields have the precision of the state they are used with (``as_type``).
+    """
+
+    stiffness: float
+    rest_length: float
+    tension_stiffness: float
+    spacing: float
+    origin_x: float
+    origin_y: float
+    smallest_squared_length: float = 1e-24
+    """Below this squared length (m^2) a spring has no direction; its force is taken as zero."""
+    inverse_sqrt_estimate: object = None
+    """None: 1/sqrt computed as 1 / sqrt(x); True: from the CPU's single-precision estimate and
+    two Newton steps (float64 only; which is faster depends on the host, ``sim.loops.host_tuning``)."""
+    periodic: object = None
+    """None: walls at the left and right ends of the rows; True: each row is a ring, its last
+    particle joined to its first by one spring (the left and right edges are the same spring,
+    seen from both sides).  A compile-time choice like the optional terms."""
+    free_ends: object = None
+    """True: the rows' end particles have no spring to the left and right walls (free ends);
+    None: they do.  A compile-time choice."""
+
+    def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
+        """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
+        scalar = np.dtype(dtype).type
+        numbers = (scalar(value) for value in self[:7])
+        return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate,
+                                periodic=self.periodic, free_ends=self.free_ends)
+
+
+@njit(**_JIT)
+def _inverse_square_root(value, estimate_first):
+    """1 / sqrt(value) in the precision of ``value``.
+
+    ``estimate_first`` None: computed as 1 / sqrt(value) (with fastmath, float32 becomes the CPU's
+    estimate and one Newton step).  True (float64 only): the CPU's single-precision estimate
+    refined by two Newton steps, each of which doubles the correct bits (about 12 -> 24 -> 48+;
+    relative error below 1e-15) -- faster on CPUs with 512-bit vectors and slow double square
+    roots, slower on others; ``sim.loops.host_tuning`` measures which at first use.
+    """
+    if estimate_first is None:
+        return type(value)(1.0) / np.sqrt(value)
+    estimate = np.float64(np.float32(1.0) / np.sqrt(np.float32(value)))
+    estimate = estimate * (1.5 - 0.5 * value * estimate * estimate)
+    return estimate * (1.5 - 0.5 * value * estimate * estimate)
+
+
+# --- one spring: its two ends and its law -------------------------------------------------------
+#
+# A spring end is a tuple (x, y, z, vx, vy, vz) in m and m/s: a particle of the state, or a wall
+# anchor (a rest site of the lattice that never moves).  The force of a spring depends only on
+# its two ends, so the wall, ring and interior springs are one computation with different ends.
+# The per-spring functions take scalars and tuples only, never arrays: LLVM inlines them into the
+# row loops, which load the ends themselves (a call per spring that passes arrays would cost
+# reference counting and vectorisation).
+
+
+@njit(**_JIT)
+def site(i, j, parameters):
+    """The rest site of column i, row j as a spring end at rest; i = -1 or nx, j = -1 or ny are
+    the wall anchors."""
+    T = type(parameters.spacing)
+    zero = T(0.0)
+    return (parameters.origin_x + T(i) * parameters.spacing,
+            parameters.origin_y + T(j) * parameters.spacing, zero, zero, zero, zero)
+
+
+@njit(**_JIT)
+def particle(x, y, z, vx, vy, vz, r, i):
+    """The particle stored at row index r, column i of the (rows, nx) fields as a spring end; z
+    and vz are zero in a planar scene (``z``, ``vz`` None).  For the ends of a row; the row loops
+    load their particles inline."""
+    zero = type(x[r, i])(0.0)
+    if z is None:
+        return x[r, i], y[r, i], zero, vx[r, i], vy[r, i], zero
+    return x[r, i], y[r, i], z[r, i], vx[r, i], vy[r, i], vz[r, i]
+
+
+@njit(**_JIT)
+def _nonlinear_law(dx, dy, dz, dvx, dvy, dvz, parameters, dashpot):
+    """Force (fx, fy, fz) on the first end of a spring with d = r_second - r_first and
+    dv = v_second - v_first: k (|d| - L) d / |d|, plus the dashpot's c (dv . d) d / |d|^2; and the
+    power the dashpot dissipates (W).  A spring shorter than the smallest length has no force."""
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    squared = max(dx * dx + dy * dy + dz * dz, parameters.smallest_squared_length)
+    inverse_length = _inverse_square_root(squared, parameters.inverse_sqrt_estimate)
+    factor = stiffness - stiffness * rest_length * inverse_length
+    power = 0.0
+    if dashpot is not None:
+        rate = dx * dvx + dy * dvy + dz * dvz
+        damping_factor = dashpot * rate * inverse_length * inverse_length
+        factor += damping_factor
+        power = damping_factor * rate
+    return factor * dx, factor * dy, factor * dz, power
+
+
+@njit(**_JIT)
+def _linear_law(dx, dy, dz, dvx, dvy, dvz, axis, parameters, dashpot):
+    """The linearised law: stiffness k along the spring's rest direction (``axis`` 0: x, 1: y),
+    T/a across it, the dashpot along it; same arguments and results as ``_nonlinear_law``."""
+    stiffness, tension_stiffness = parameters.stiffness, parameters.tension_stiffness
+    spacing = parameters.spacing
+    power = 0.0
+    if axis == 0:
+        fx = stiffness * (dx - spacing)
+        fy = tension_stiffness * dy
+        if dashpot is not None:
+            fx += dashpot * dvx
+            power = dashpot * dvx * dvx
+    else:
+        fx = tension_stiffness * dx
+        fy = stiffness * (dy - spacing)
+        if dashpot is not None:
+            fy += dashpot * dvy
+            power = dashpot * dvy * dvy
+    return fx, fy, tension_stiffness * dz, power
+
+
+@njit(**_JIT)
+def spring_force(first, second, axis, linearised, parameters, dashpot):
+    """Force (fx, fy, fz) in N on the first end of the spring between two ends, and the power its
+    dashpot dissipates (W).  ``axis`` 0 for a horizontal spring, 1 for a vertical one;
+    ``linearised`` None for the nonlinear law, True for the linearised one (compile-time)."""
+    dx = second[0] - first[0]
+    dy = second[1] - first[1]
+    dz = second[2] - first[2]
+    dvx = second[3] - first[3]
+    dvy = second[4] - first[4]
+    dvz = second[5] - first[5]
+    if linearised is None:
+        return _nonlinear_law(dx, dy, dz, dvx, dvy, dvz, parameters, dashpot)
+    return _linear_law(dx, dy, dz, dvx, dvy, dvz, axis, parameters, dashpot)
+
+
+@njit(**_JIT)
+def gravity_vector(gravity, zero):
+    """The (3,) gravity array as a tuple (gx, gy, gz) in m/s^2 for ``particle_acceleration``;
+    (zero, zero, zero) when there is none (``gravity`` None), which compiles to nothing."""
+    if gravity is None:
+        return zero, zero, zero
+    return gravity[0], gravity[1], gravity[2]
+
+
+@njit(**_JIT)
+def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity):
+    """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
+    ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends of its four
+    springs) and of drag on its ``velocity`` (vx, vy, vz), times ``inverse_mass``, plus
+    ``gravity`` (gx, gy, gz) (``gravity_vector``).  ``drag`` None: no drag.  This is the one
+    place where the forces on a particle are summed."""
+    fx = right[0] - left[0] + above[0] - below[0]
+    fy = right[1] - left[1] + above[1] - below[1]
+    fz = right[2] - left[2] + above[2] - below[2]
+    if drag is not None:
+        fx -= drag * velocity[0]
+        fy -= drag * velocity[1]
+        fz -= drag * velocity[2]
+    return (fx * inverse_mass + gravity[0], fy * inverse_mass + gravity[1],
+            fz * inverse_mass + gravity[2])
+
+
+# --- the springs of one row ---------------------------------------------------------------------
+
+
+@njit(**_JIT)
+def _vertical_row(lower, upper, j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+    """Forces of the springs from row j - 1 (stored at index ``lower``) to row j (at ``upper``)
+    into ``out`` (3, nx); ``lower`` None: the bottom wall's anchors instead (j = 0), ``upper``
+    None: the top wall's anchors (j = ny).  Both are compile-time choices.  Returns the power."""
+    zero = type(parameters.spacing)(0.0)
+    power = 0.0
+    for i in range(x.shape[1]):
+        if lower is None:
+            first = site(i, j - 1, parameters)
+        elif z is None:
+            first = (x[lower, i], y[lower, i], zero, vx[lower, i], vy[lower, i], zero)
+        else:
+            first = (x[lower, i], y[lower, i], z[lower, i], vx[lower, i], vy[lower, i],
+                     vz[lower, i])
+        if upper is None:
+            second = site(i, j, parameters)
+        elif z is None:
+            second = (x[upper, i], y[upper, i], zero, vx[upper, i], vy[upper, i], zero)
+        else:
+            second = (x[upper, i], y[upper, i], z[upper, i], vx[upper, i], vy[upper, i],
+                      vz[upper, i])
+        fx, fy, fz, p = spring_force(first, second, 1, linearised, parameters, dashpot)
+        power += p
+        out[0, i] = fx
+        out[1, i] = fy
+        if z is not None:
+            out[2, i] = fz
+    return power
+
+
+@njit(**_JIT)
+def _vertical_springs(j, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+    rows = x.shape[0]
+    if j == 0:
+        return _vertical_row(None, 0, j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out)
+    if j == ny:
+        return _vertical_row((j - 1) % rows, None, j, x, y, z, vx, vy, vz, linearised, parameters,
+                             dashpot, out)
+    return _vertical_row((j - 1) % rows, j % rows, j, x, y, z, vx, vy, vz, linearised,
+                         parameters, dashpot, out)
+
+
+@njit(**_JIT)
+def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, out):
+    """Forces (3, nx) on the lower ends of the springs between row j-1 and row j (j = 0: from
+    the bottom wall anchors; j = ny: from row ny-1 to the top anchors), written into ``out``.
+
+    ``parameters`` is a ``SpringParameters`` record in the precision of the arrays.
+    ``ny`` is the number of rows of the lattice; the arrays may hold fewer rows, as a ring buffer
+    in which row j is stored at index j % rows (a full array is the case rows == ny).
+    Returns the power dissipated by the dashpots of those springs (W).
+    """
+    if linear:
+        return _vertical_springs(j, ny, x, y, z, vx, vy, vz, True, parameters, dashpot, out)
+    return _vertical_springs(j, ny, x, y, z, vx, vy, vz, None, parameters, dashpot, out)
+
+
+@njit(**_JIT)
+def _store(out, i, force, z):
+    out[0, i] = force[0]
+    out[1, i] = force[1]
+    if z is not None:
+        out[2, i] = force[2]
+    return force[3]
+
+
+@njit(**_JIT)
+def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+    """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
+    joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
+    goes to the right one (on a ring both are the closing spring; at free ends both are zero).
+    ``linearised`` None: the nonlinear law, True: the linearised one.  Arrays as for
+    ``vertical_springs``; returns the power dissipated by their dashpots (W)."""
+    T = type(parameters.spacing)
+    zero = T(0.0)
+    r = j % x.shape[0]
+    nx = x.shape[1]
+    still = (zero, zero, zero, zero)
+    if linearised is not None:
+        # the linearised law leaves out each spring's rest tension T = k (a - L), which cancels
+        # on every particle with a spring on both sides; a free end has none outside it, so its
+        # missing spring carries -T relative to that law (the end particle is pulled inward)
+        still = (-parameters.tension_stiffness * parameters.spacing, zero, zero, zero)
+    power = 0.0
+    if parameters.free_ends is not None:  # no spring to the left wall
+        _store(out, 0, still, z)
+    else:
+        if parameters.periodic is not None:  # the ring's closing spring, seen from particle 0
+            last = particle(x, y, z, vx, vy, vz, r, nx - 1)
+            first = (last[0] - T(nx) * parameters.spacing, last[1], last[2], last[3], last[4],
+                     last[5])
+        else:
+            first = site(-1, j, parameters)
+        power += _store(out, 0, spring_force(first, particle(x, y, z, vx, vy, vz, r, 0), 0,
+                                             linearised, parameters, dashpot), z)
+    for i in range(1, nx):
+        if z is None:
+            first = (x[r, i - 1], y[r, i - 1], zero, vx[r, i - 1], vy[r, i - 1], zero)
+            second = (x[r, i], y[r, i], zero, vx[r, i], vy[r, i], zero)
+        else:
+            first = (x[r, i - 1], y[r, i - 1], z[r, i - 1], vx[r, i - 1], vy[r, i - 1],
+                     vz[r, i - 1])
+            second = (x[r, i], y[r, i], z[r, i], vx[r, i], vy[r, i], vz[r, i])
+        fx, fy, fz, p = spring_force(first, second, 0, linearised, parameters, dashpot)
+        power += p
+        out[0, i] = fx
+        out[1, i] = fy
+        if z is not None:
+            out[2, i] = fz
+    if parameters.periodic is not None:  # the right edge is the closing spring again
+        _store(out, nx, (out[0, 0], out[1, 0], out[2, 0], zero), z)
+    elif parameters.free_ends is not None:
+        _store(out, nx, still, z)
+    else:
+        power += _store(out, nx, spring_force(particle(x, y, z, vx, vy, vz, r, nx - 1),
+                                              site(nx, j, parameters), 0, linearised, parameters,
+                                              dashpot), z)
+    return power
+
+
+# --- accelerations ------------------------------------------------------------------------------
+
+
+@njit(**_JIT)
+def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass, linearised,
+                       parameters, dashpot, drag, gravity, below, above, horizontal, out):
+    power = _vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
+                              above)
+    power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
+                                horizontal)
+    zero = type(parameters.spacing)(0.0)
+    pull = gravity_vector(gravity, zero)
+    r = j % x.shape[0]
+    for i in range(x.shape[1]):
+        if uniform_inverse_mass is not None:
+            w = uniform_inverse_mass
+        else:
+            w = inverse_mass[j, i]
+        if z is None:
+            ax, ay, _ = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], zero),
+                (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                (below[0, i], below[1, i], zero), (above[0, i], above[1, i], zero),
+                (vx[r, i], vy[r, i], zero), w, drag, pull,
+            )
+        else:
+            ax, ay, out[2, i] = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                (below[0, i], below[1, i], below[2, i]), (above[0, i], above[1, i], above[2, i]),
+                (vx[r, i], vy[r, i], vz[r, i]), w, drag, pull,
+            )
+        out[0, i] = ax
+        out[1, i] = ay
+    if drag is not None:
+        for i in range(x.shape[1]):
+            speed_squared = vx[r, i] * vx[r, i] + vy[r, i] * vy[r, i]
+            if vz is not None:
+                speed_squared += vz[r, i] * vz[r, i]
+            power += drag * speed_squared
+    return power
+
+
+@njit(**_JIT)
+def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters, dashpot, drag,
+                      gravity, below, above, horizontal, out, uniform_inverse_mass):
+    """Accelerations (3, nx) of the particles of row j, written into ``out``.
+
+    ``below`` must hold ``vertical_springs(j)``; this function fills ``above`` with
+    ``vertical_springs(j + 1)`` (so the caller swaps the two buffers for the next row) and uses
+    ``horizontal`` (3, nx + 1) as scratch.  ``uniform_inverse_mass`` (1/kg), when not None,
+    replaces the (ny, nx) ``inverse_mass`` array for lattices of equal masses (one memory stream
+    less).  Returns the power dissipated in row j by the horizontal springs, the springs above it
+    and drag (W).
+    """
+    if linear:
+        return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                                  True, parameters, dashpot, drag, gravity, below, above,
+                                  horizontal, out)
+    return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                              None, parameters, dashpot, drag, gravity, below, above, horizontal,
+                              out)
+
+
+@njit(**_JIT)
+def _spring_energy(dx, dy, dz, axis, linear, stiffness, rest_length, tension_stiffness, spacing):
+    """Energy (J) of one spring with separation (dx, dy, dz) relative to the rest lattice;
+    ``axis`` 0 for a horizontal spring, 1 for a vertical one (used by the linearised law)."""
+    if linear:
+        if axis == 0:
+            stretch = dx - spacing
+            across = dy * dy + dz * dz
+        else:
+            stretch = dy - spacing
+            across = dx * dx + dz * dz
+        return 0.5 * stiffness * stretch * stretch + 0.5 * tension_stiffness * across
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    rest_stretch = spacing - rest_length
+    return 0.5 * stiffness * ((length - rest_length) ** 2 - rest_stretch * rest_stretch)
+
+
+@njit(**_JIT)
+def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
+    """(kinetic, spring) energy in J of a state, in one pass; (ny, nx) arrays, z/vz None in 2-D.
+
+    The spring energy is measured from the rest lattice.  A NaN or infinity anywhere in the
+    state makes the result non-finite, so this doubles as the blow-up check.
+    """
+    stiffness, rest_length = parameters.stiffness, parameters.rest_length
+    tension_stiffness, spacing = parameters.tension_stiffness, parameters.spacing
+    origin_x, origin_y = parameters.origin_x, parameters.origin_y
+    ny, nx = x.shape
+    kinetic = 0.0
+    spring = 0.0
+    dz = 0.0
+    for j in range(ny):
+        row_y_rest = origin_y + j * spacing
+        for i in range(nx):
+            speed_squared = vx[j, i] * vx[j, i] + vy[j, i] * vy[j, i]
+            if vz is not None:
+                speed_squared += vz[j, i] * vz[j, i]
+            kinetic += 0.5 * masses[j, i] * speed_squared
+            # the spring to the left neighbour (or the left wall anchor, or the ring's closing
+            # spring from the last particle of the row)
+            if i == 0 and parameters.periodic is not None:
+                dx = x[j, 0] - (x[j, nx - 1] - nx * spacing)
+                dy = y[j, 0] - y[j, nx - 1]
+                if z is not None:
+                    dz = z[j, 0] - z[j, nx - 1]
+            elif i == 0:
+                dx = x[j, 0] - (origin_x - spacing)
+                dy = y[j, 0] - row_y_rest
+                if z is not None:
+                    dz = z[j, 0]
+            else:
+                dx = x[j, i] - x[j, i - 1]
+                dy = y[j, i] - y[j, i - 1]
+                if z is not None:
+                    dz = z[j, i] - z[j, i - 1]
+            if i > 0 or parameters.free_ends is None:
+                spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
+                                         tension_stiffness, spacing)
+            if i > 0 and linear and parameters.free_ends is not None:
+                # the rest tension's work T (dx - a), which sums to zero between two walls
+                spring += tension_stiffness * spacing * (dx - spacing)
+            # the spring to the neighbour below (or the bottom wall anchor)
+            if j == 0:
+                dx = x[0, i] - (origin_x + i * spacing)
+                dy = y[0, i] - (origin_y - spacing)
+                if z is not None:
+                    dz = z[0, i]
+            else:
+                dx = x[j, i] - x[j - 1, i]
+                dy = y[j, i] - y[j - 1, i]
+                if z is not None:
+                    dz = z[j, i] - z[j - 1, i]
+            spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
+                                     tension_stiffness, spacing)
+        if parameters.periodic is None and parameters.free_ends is None:
+            # the spring from the last particle of the row to the right wall anchor
+            dx = (origin_x + nx * spacing) - x[j, nx - 1]
+            dy = row_y_rest - y[j, nx - 1]
+            if z is not None:
+                dz = -z[j, nx - 1]
+            spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
+                                     tension_stiffness, spacing)
+    for i in range(nx):  # the springs from the top row to the top wall anchors
+        dx = (origin_x + i * spacing) - x[ny - 1, i]
+        dy = (origin_y + ny * spacing) - y[ny - 1, i]
+        if z is not None:
+            dz = -z[ny - 1, i]
+        spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
+                                 tension_stiffness, spacing)
+    return kinetic, spring
+
+
+@njit(**_JIT)
+def components(out_of_plane, array):
+    """(x, y, z) component fields of a (dim, ny, nx) array; z is None for planar scenes."""
+    if out_of_plane is None:
+        return array[0], array[1], None
+    return array[0], array[1], array[2]

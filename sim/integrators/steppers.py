@@ -1,0 +1,340 @@
+"""The compiled steppers: objects that advance a ``State`` of a ``Model`` with the step loops.
+
+A stepper owns its work arrays (allocated once per model shape, in the simulation's precision)
+and picks the loop shape that fits the model and the thread count: the one-thread sweeps of
+``sim.loops.row_sweep``, the row blocks of ``sim.loops.row_blocks`` or the leapfrog of ``sim.loops.leapfrog``.
+Switching integrator mid-run loses nothing: the state is (x, v, t) and only Verlet caches the
+current acceleration, which it recomputes whenever the state or the model may have changed
+(``invalidate``).  Each stepper class is named by one ``IntegratorDescription`` in
+``sim.integrators.registry``, the registry that the rest of the program reads.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, NamedTuple
+
+import numba
+import numpy as np
+
+from sim.forces import drive_table as instruments
+from sim.forces.springs import SpringParameters
+from sim.loops import host_tuning, leapfrog, row_blocks, wavefront
+from sim.loops import row_sweep as stepping
+from sim.loops.stage_updates import HEUN, RK4
+from sim.model.lattice import Model, read_only
+from sim.model.state import State
+
+
+class KernelArguments(NamedTuple):
+    """The model as the compiled kernels take it, in one precision (None marks an absent term).
+
+    ``inverse_mass`` (ny, nx) 1/kg; ``uniform_inverse_mass`` replaces it for equal masses;
+    ``parameters`` the spring constants; ``gravity`` (3,) m/s^2.
+    """
+
+    linear: bool
+    out_of_plane: object
+    inverse_mass: np.ndarray
+    uniform_inverse_mass: np.floating | None
+    parameters: SpringParameters
+    dashpot: np.floating | None
+    drag: np.floating | None
+    gravity: np.ndarray | None
+
+    @classmethod
+    def from_model(cls, model: Model, dtype: type[np.floating] = np.float64,
+                   loop: str = "sweep") -> KernelArguments:
+        """The arguments in ``dtype``, with the 1/sqrt variant measured fastest in ``loop``
+        (``sim.loops.host_tuning.LOOPS``) in float64."""
+        scalar = np.dtype(dtype).type
+        return cls(
+            linear=model.linear,
+            out_of_plane=None if model.dim == 2 else True,
+            inverse_mass=read_only(np.ascontiguousarray(model.inverse_masses, dtype=dtype)),
+            uniform_inverse_mass=(
+                scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
+            ),
+            parameters=model.kernel_parameters.as_type(
+                dtype, host_tuning.inverse_sqrt_estimate(loop) if scalar is np.float64 else None
+            ),
+            dashpot=scalar(model.damping) if model.damping > 0 else None,
+            drag=scalar(model.drag) if model.drag > 0 else None,
+            gravity=np.array(model.gravity, dtype=dtype) if model.has_gravity else None,
+        )
+
+
+class Integrator:
+    """Base class of the compiled steppers: ``advance(state, n, dt)`` moves the state n steps.
+
+    ``dtype`` is the precision of the state and the arithmetic; ``threads`` the number of row
+    blocks the sweeps run on in parallel.
+    """
+
+    name: ClassVar[str]
+    work_arrays: ClassVar[int] = 1
+    drive: np.ndarray | None = None
+    """The drive table (``sim.forces.drive_table``) the steps apply, when ``in_step`` has "drive"."""
+    sponge: object | None = None
+    """The absorbing layer (``sim.forces.absorbing_layer.MatchedLayer``), when ``in_step`` has "sponge"."""
+    ring_rows: ClassVar[int | None] = None
+    """Rows kept by the work arrays when they are ring buffers (None: the whole lattice)."""
+
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        self.model = model
+        self.dtype = np.dtype(dtype).type
+        self.threads = int(threads)
+        self.kernel = KernelArguments.from_model(model, self.dtype, self.loop_family(model))
+        rows = model.ny if self.ring_rows is None else self.ring_rows
+        shape = (model.dim, rows, model.nx)
+        self.work = [np.zeros(shape, dtype=self.dtype) for _ in range(self.work_arrays)]
+        blocks = min(self.threads, model.ny)
+        self._block_starts = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
+        self._full_work: list[np.ndarray] = []
+
+    @property
+    def parallel(self) -> bool:
+        """Whether the sweeps run as row blocks on numba's threads (threads > 1, ny > 1)."""
+        return self._block_starts.size > 2
+
+    def _start_threads(self) -> None:
+        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
+
+    def _full_arrays(self, count: int) -> list[np.ndarray]:
+        """``count`` full (dim, ny, nx) work arrays for the parallel loops, allocated at first use."""
+        model = self.model
+        while len(self._full_work) < count:
+            self._full_work.append(np.zeros((model.dim, model.ny, model.nx), dtype=self.dtype))
+        return self._full_work[:count]
+
+    @classmethod
+    def loop_family(cls, model: Model) -> str:
+        """The loop family (``sim.loops.host_tuning.LOOPS``) whose 1/sqrt variant the kernels use."""
+        return "sweep"
+
+    def invalidate(self) -> None:
+        """The state was changed from outside (a drag, a reset): drop any cached forces."""
+
+    @property
+    def in_step(self) -> frozenset[str]:
+        """The instruments this stepper applies inside its steps ("drive", "sponge"); the
+        simulation applies the others between steps (``sim.model.forcing``)."""
+        return frozenset()
+
+    def _common(self, state: State) -> tuple:
+        k = self.kernel
+        return (
+            k.linear, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
+            k.uniform_inverse_mass, k.parameters, k.dashpot, k.drag, k.gravity,
+        )
+
+    def _dt(self, dt: float) -> np.floating:
+        return self.dtype(dt)
+
+    def advance(self, state: State, n: int, dt: float) -> None:
+        raise NotImplementedError
+
+
+class Euler(Integrator):
+    name = "euler"
+    work_arrays = 0
+
+    def advance(self, state: State, n: int, dt: float) -> None:
+        if self.parallel:
+            self._start_threads()
+            state.dissipated += row_blocks.euler_steps_parallel(
+                n, self._dt(dt), *self._common(state), *self._full_arrays(1), self._block_starts
+            )
+        else:
+            state.dissipated += stepping.euler_steps(n, self._dt(dt), *self._common(state))
+        state.advance_clock(n, dt)
+
+
+class Verlet(Integrator):
+    name = "verlet"
+    work_arrays = 2
+
+    @classmethod
+    def loop_family(cls, model: Model) -> str:
+        """Undamped nonlinear springs: the steps between the first and the last run as fused
+        leapfrog sweeps over row blocks (one block per thread), the fastest loop shape."""
+        damped = model.damping > 0 or model.drag > 0
+        return "sweep" if damped or model.linear else "leapfrog"
+
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        super().__init__(model, dtype, threads)
+        self._cached_for: tuple[int, float] | None = None
+        self._power = 0.0
+
+        self._leapfrog = self.loop_family(model) == "leapfrog"
+        blocks = self._block_starts.size - 1
+        self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
+        self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
+        self._under = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
+        self._horizontal = np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype)
+        self._drive_power = 0.0
+        self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
+        self._block_totals = np.zeros((blocks, 2))
+        self._saved = np.zeros((1, 3))  # velocities of driven particles (m/s)
+
+    def invalidate(self) -> None:
+        self._cached_for = None
+
+    @property
+    def in_step(self) -> frozenset[str]:
+        if self.parallel and not self._leapfrog:
+            return frozenset()
+        return frozenset(("drive", "sponge"))
+
+    def _accelerations(self, state: State) -> float:
+        """a(x, v) of the state into ``work[0]`` (on the row blocks' threads when parallel);
+        returns the dissipated power (W)."""
+        if self.parallel:
+            return row_blocks.accelerations_parallel(
+                *self._common(state), self.work[0], self._block_starts
+            )
+        return stepping.accelerations(*self._common(state), self.work[0])
+
+    def _driven_accelerations(self, state: State, time: float, lead: float = 0.0) -> None:
+        """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them; the
+        drive's power is taken at the velocities ``lead`` (s) later (half a step for a
+        leapfrog's half-step velocities)."""
+        self._power = self._accelerations(state)
+        if self.drive is not None:
+            self._drive_power = instruments.drive_rows(time, self.drive, -1, self.work[0],
+                                                       state.velocities, lead)
+
+    def advance(self, state: State, n: int, dt: float) -> None:
+        stamp = (state.revision, state.time)
+        if self.parallel:
+            self._start_threads()
+        layer = self.sponge
+        if layer is not None:  # half the layer's action before the steps, half after them
+            layer.act(state, 0.5 * dt)
+            if self.kernel.dashpot is not None or self.kernel.drag is not None:
+                self._cached_for = None  # the forces depend on the velocities it kicked
+        if self._cached_for != stamp:
+            self._driven_accelerations(state, state.time)
+        step = self._dt(dt)
+        drive = self.drive
+        sponge = None
+        if layer is not None:
+            threaded_sweep = self.parallel and self._leapfrog and n >= 2
+            sponge = layer.arguments(0.5 * dt, self.dtype, threaded_sweep)
+        if drive is not None and self._saved.shape[0] < drive.shape[0]:
+            self._saved = np.zeros((drive.shape[0], 3))
+        instrumented = drive is not None or sponge is not None
+        start = state.time
+        # the drive's work is the trapezoid of its power at whole steps on every path: half
+        # steps at the ends here, and F . (v_before + v_after) / 2 = F . v(t) per kick between
+        if self._leapfrog and n >= 2:
+            k = self.kernel
+            acceleration = self.work[0]
+            half = 0.5 * dt
+            state.driven += half * self._drive_power
+            stepping.verlet_open(step, state.positions, state.velocities, acceleration)
+            steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
+            self._block_totals[:] = 0.0
+            steps(
+                n - 1, step, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
+                k.uniform_inverse_mass, k.parameters, k.gravity, self._block_starts,
+                self._boundary, self._below, self._horizontal, self._under, start + dt, drive,
+                self._saved, sponge, self._block_totals,
+            )
+            state.driven += float(self._block_totals[:, 0].sum())
+            state.dissipated += float(self._block_totals[:, 1].sum())
+            self._driven_accelerations(state, start + n * dt, half)
+            stepping.verlet_close(step, state.velocities, acceleration)
+            state.driven += half * self._drive_power
+        elif self.parallel and not instrumented:
+            dissipated, self._power = row_blocks.verlet_steps_parallel(
+                n, step, *self._common(state), self.work[0], self._power, self.work[1],
+                self._block_starts,
+            )
+            state.dissipated += dissipated
+        else:
+            totals = self._totals
+            totals[:] = (0.0, 0.0, self._drive_power)
+            dissipated, self._power = stepping.verlet_steps(
+                n, step, *self._common(state), self.work[0], self._power, self.work[1], start,
+                drive, sponge, totals,
+            )
+            state.dissipated += dissipated + totals[1]
+            state.driven += totals[0]
+            self._drive_power = float(totals[2])
+        if layer is not None:
+            layer.act(state, 0.5 * dt)
+        state.advance_clock(n, dt)
+        self._cached_for = (state.revision, state.time)
+
+
+class _RungeKutta(Integrator):
+    """Heun and RK4: one wavefront per step over the whole lattice on one thread; on several
+    threads one wavefront per row block (blocks of at least 2 (halo + 1) rows, one sweep per
+    step), or on lattices too thin for that one parallel phase per stage."""
+
+    method: ClassVar[int]
+    halo: ClassVar[int]
+
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        super().__init__(model, dtype, threads)
+        blocks = min(self.threads, model.ny // (2 * (self.halo + 1)))
+        self._blocks: np.ndarray | None = None
+        self._block_work: list[np.ndarray] = []
+        if blocks >= 2:
+            self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
+            ring = (blocks, model.dim, wavefront.RK4_RING, model.nx)
+            edges = (blocks, model.dim, 2 * (self.halo + 1), model.nx)
+            self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(4)] + [
+                np.zeros(edges, dtype=self.dtype) for _ in range(2)
+            ]
+
+    @property
+    def in_step(self) -> frozenset[str]:
+        return frozenset(("drive",))
+
+    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
+        raise NotImplementedError
+
+    def advance(self, state: State, n: int, dt: float) -> None:
+        if self.parallel:
+            self._start_threads()
+        work = np.zeros(1)  # the drive's work (J)
+        instruments_arguments = (state.time, self.drive, work)
+        if self.parallel and self._blocks is not None:
+            state.dissipated += row_blocks.runge_kutta_blocks(
+                self.method, n, self._dt(dt), *self._common(state), *self._block_work,
+                self._blocks, *instruments_arguments,
+            )
+        elif self.parallel:
+            state.dissipated += row_blocks.runge_kutta_phases(
+                self.method, n, self._dt(dt), *self._common(state), *self._full_arrays(6),
+                self._block_starts, *instruments_arguments,
+            )
+        else:
+            state.dissipated += self._one_thread(n, self._dt(dt), state, work)
+        state.driven += float(work[0])
+        state.advance_clock(n, dt)
+
+
+class Heun(_RungeKutta):
+    name = "heun"
+    method = HEUN
+    halo = wavefront.HEUN_HALO
+    work_arrays = 3
+    ring_rows = 2
+
+    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
+        return stepping.heun_steps(n, dt, *self._common(state), *self.work, state.time,
+                                   self.drive, work)
+
+
+class RungeKutta4(_RungeKutta):
+    name = "rk4"
+    method = RK4
+    halo = wavefront.RK4_HALO
+    work_arrays = 4
+    ring_rows = 4
+
+    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
+        return stepping.rk4_steps(n, dt, *self._common(state), *self.work, state.time,
+                                  self.drive, work)

@@ -1,0 +1,225 @@
+"""Numba loops of the undamped leapfrog (velocity Verlet between its first and last step), the
+fastest loop shape: each row's forces and its kick and drift fused into one pass over the row.
+
+Undamped nonlinear springs only (``sim.integrators.steppers.Verlet`` picks this loop for them).  The lattice
+is cut into row blocks (``block_starts`` (blocks + 1,) int64: block b is rows block_starts[b] ..
+block_starts[b + 1] - 1); each step first computes the springs across every block boundary (and
+the wall springs at the bottom and top) from the unmoved positions, then sweeps the blocks
+independently, so the result does not depend on how the rows are split into blocks.  Arrays as in
+``sim.loops.row_sweep``.
+"""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+from sim.forces.absorbing_kicks import (
+    GEOMETRY,
+    LINEARISED,
+    NEEDS,
+    NONE,
+    PARAMETERS,
+    SIDE_FORCES,
+    band_act,
+    keep_row,
+    relax_block_edges,
+    rest_tension,
+    sides_act,
+    sides_row,
+    sides_under,
+)
+from sim.forces.drive_table import leapfrog_drive, save_driven, shift_saved
+from sim.forces.springs import (
+    components,
+    gravity_vector,
+    horizontal_springs,
+    particle_acceleration,
+    spring_force,
+    vertical_springs,
+)
+from sim.loops.stage_updates import kick_drift
+
+_JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+@njit(**_JIT)
+def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
+                  parameters, gravity, below, above_last, horizontal, position, velocity, time,
+                  drive, saved, totals, sponge, under, tension):
+    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
+    nonlinear springs, with each row's forces and update fused into one pass over it.
+
+    ``below`` (3, nx) holds the forces of the springs below row j0 on entry (it is reused as the
+    running buffer); ``above_last`` (3, nx) those of the springs above row j1 - 1, computed before
+    the sweep moved anything (the top wall springs, or a block boundary when the lattice is swept
+    as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
+    spring is computed here from positions that have not moved yet.
+
+    The absorbing layer (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``, None
+    compiles it out) kicks from the springs the rows' passes computed (``sim.forces.absorbing_kicks``;
+    ``under`` (3, nx) scratch, ``tension`` the rest tension, N): a band row's y-layer after its
+    pass, the side strips' x-layer once all the rows are swept.  The drive table (``sim.forces.drive_table``,
+    None compiles it out) acts last: the driven particles get their drive at ``time`` (s;
+    velocities kept in ``saved`` (drives, 3) before their row's pass).  ``totals`` (2,) receives
+    the drive's work and the layer's take (J).  ``position``/``velocity`` are the full
+    (dim, ny, nx) arrays of the components.
+    """
+    zero = type(dt)(0.0)
+    pull = gravity_vector(gravity, zero)
+    nx = x.shape[1]
+    if sponge is not None:
+        needs = sponge[NEEDS]
+        geometry = sponge[GEOMETRY]
+        side_forces = sponge[SIDE_FORCES]
+        sides_under(j0, below, side_forces, geometry)
+    for j in range(j0, j1):
+        if drive is not None:
+            save_driven(j, drive, velocity, saved)
+        if sponge is not None:
+            if needs[j] != NONE:
+                keep_row(below, under)
+        horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
+        given = j + 1 == j1
+        for i in range(nx):
+            if uniform_inverse_mass is not None:
+                w = uniform_inverse_mass
+            else:
+                w = inverse_mass[j, i]
+            if z is None:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], zero, 0.0)
+                else:  # no dashpot: the velocities do not enter the force
+                    above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
+                                         None, parameters, None)
+                ax, ay, _ = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], zero),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                    (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
+                )
+            else:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
+                else:
+                    above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
+                                          zero), 1, None, parameters, None)
+                ax, ay, az = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                    (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
+                    pull,
+                )
+                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
+                below[2, i] = above[2]
+            x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
+            y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
+            below[0, i] = above[0]
+            below[1, i] = above[1]
+        if sponge is not None:
+            sides_row(j, j + 1 == j1, horizontal, below, side_forces, geometry, tension)
+            if needs[j] != NONE:
+                if drive is not None:  # the layer's kick counts as given before the sweep's
+                    shift_saved(j, j + 1, drive, velocity, saved, -1.0)
+                totals[1] += band_act(j, j == j0, 0.5 * dt, -0.5 * dt, True, dt, position,
+                                      velocity, horizontal, under, below, sponge, tension)
+                if drive is not None:
+                    shift_saved(j, j + 1, drive, velocity, saved, 1.0)
+    if sponge is not None:  # the side strips of all these rows at once: one call, long loops
+        if drive is not None:
+            shift_saved(j0, j1, drive, velocity, saved, -1.0)
+        totals[1] += sides_act(j0, j1, 0.5 * dt, -0.5 * dt, True, dt, position, velocity, sponge)
+        if drive is not None:
+            shift_saved(j0, j1, drive, velocity, saved, 1.0)
+    if drive is not None:
+        totals[0] += leapfrog_drive(j0, j1, time, dt, drive, position, velocity, saved)
+
+
+@njit(**_JIT)
+def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                   parameters, gravity, block_starts, boundary, below, horizontal, under, time=0.0,
+                   drive=None, saved=None, sponge=None, totals=None):
+    """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
+
+    The springs below each block (and the top wall springs) go into ``boundary``
+    (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below`` and
+    ``under`` (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.
+    This one runs the blocks one after the other on the calling thread;
+    ``leapfrog_steps_parallel`` runs them on numba's threads and computes the same numbers.  The
+    drive as in ``leapfrog_rows`` (the kick of step s at ``time`` + s dt); the absorbing layer
+    (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``) acts over dt / 2 twice between
+    steps (as at the end of one step and the start of the next) at the positions each sweep
+    kicks with, inside the sweep (``leapfrog_rows``); ``totals`` (blocks, 2) receives the
+    drive's work and the layer's take (J).
+    """
+    x, y, z = components(out_of_plane, position)
+    vx, vy, vz = components(out_of_plane, velocity)
+    ny = position.shape[1]
+    blocks = block_starts.size - 1
+    tension = 0.0
+    if sponge is not None:
+        tension = rest_tension(sponge[LINEARISED], sponge[PARAMETERS])
+    for step in range(n):
+        for b in range(blocks + 1):
+            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
+                             boundary[b])
+        for b in range(blocks):
+            below[b, :, :] = boundary[b]
+            leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
+                          inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                          boundary[b + 1], horizontal[b], position, velocity,
+                          time + step * float(dt), drive, saved, totals[b], sponge, under[b],
+                          tension)
+        if sponge is not None:
+            relax_block_edges(block_starts, boundary, sponge, tension)
+
+
+@njit(parallel=True, **_JIT)
+def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mass,
+                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
+                            below, horizontal, under, time=0.0, drive=None, saved=None,
+                            sponge=None, totals=None):
+    """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
+    threads (``prange``; ``numba.set_num_threads`` sets how many), the layer's tuple without its
+    springs' parameters (``MatchedLayer.arguments(threads=True)``: numba's parallel loops do
+    not take them inside a tuple; ``parameters`` are the same).  The loop bodies are
+    functions of their own: numba's parallel transformation of the inlined 3-D body read stale
+    out-of-plane components (runs differed from one thread and blew up)."""
+    blocks = block_starts.size - 1
+    tension = 0.0
+    if sponge is not None:
+        tension = rest_tension(sponge[LINEARISED], parameters)
+    for step in range(n):
+        for b in prange(blocks + 1):
+            _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
+                              boundary)
+        for b in prange(blocks):
+            _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
+                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
+                            below, horizontal, under, time + step * float(dt), drive, saved,
+                            totals, sponge, tension)
+        if sponge is not None:
+            relax_block_edges(block_starts, boundary, sponge, tension)
+
+
+@njit(**_JIT)
+def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts, boundary):
+    """The springs below row block_starts[b] into boundary[b] (a function of its own, so that
+    numba's parallel transformation leaves its body alone)."""
+    x, y, z = components(out_of_plane, position)
+    vx, vy, vz = components(out_of_plane, velocity)
+    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, False, parameters,
+                     None, boundary[b])
+
+
+@njit(**_JIT)
+def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                    parameters, gravity, block_starts, boundary, below, horizontal, under, time,
+                    drive, saved, totals, sponge, tension):
+    """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
+    x, y, z = components(out_of_plane, position)
+    vx, vy, vz = components(out_of_plane, velocity)
+    below[b, :, :] = boundary[b]
+    leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
+                  vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
+                  boundary[b + 1], horizontal[b], position, velocity, time, drive, saved,
+                  totals[b], sponge, under[b], tension)

@@ -1,0 +1,234 @@
+"""Numba step loops on several threads: the lattice cut into row blocks, one block per thread.
+
+Heun and RK4 on lattices thick enough run one wavefront per block with halo rows
+(``runge_kutta_blocks``, see ``sim.loops.wavefront``): one parallel sweep per step.  The other loops
+(Euler, damped or linear Verlet, and Heun and RK4 on lattices too thin for halos) run each force
+evaluation as one phase over all row blocks in parallel (``prange`` over blocks,
+``numba.set_num_threads`` sets how many threads): a phase reads only arrays that no block writes
+during it and writes only its own rows, so the blocks need no synchronisation inside a phase.
+Stage states therefore live in full (dim, ny, nx) arrays.  Per particle the arithmetic is the
+same functions as the one-thread loops (``sim.loops.stage_updates``), so positions and velocities agree
+with one thread to round-off (usually bitwise); the dissipated energy is summed block by block
+and differs in the last bits.  The undamped leapfrog has its own blocks (``sim.loops.leapfrog``).
+
+``block_starts`` (blocks + 1,) int64: block b is rows block_starts[b] .. block_starts[b + 1] - 1.
+Arguments otherwise as in ``sim.loops.row_sweep``.  The ``prange`` bodies only call functions of whole
+arrays: numba's parallel transformation of bodies that use the unpacked (x, y, z) components
+read stale out-of-plane components in 3-D.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from sim.forces.drive_table import drive_row
+from sim.forces.springs import row_accelerations, vertical_springs
+from sim.loops.stage_updates import (
+    components,
+    dissipated_energy,
+    euler_update,
+    force_rows,
+    stage_update,
+    stages,
+    sweep_buffers,
+    verlet_drift,
+)
+from sim.loops.wavefront import stage_time, wavefront, write_deferred
+
+_JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+
+@njit(parallel=True, **_JIT)
+def accelerations_parallel(
+    linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters,
+    dashpot, drag, gravity, acceleration, block_starts,
+):
+    """``accelerations`` with the row blocks on numba's threads; returns the dissipated power (W)."""
+    blocks = block_starts.size - 1
+    powers = np.zeros(blocks)
+    for b in prange(blocks):
+        powers[b] = force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
+                               position, velocity, inverse_mass, uniform_inverse_mass,
+                               parameters, dashpot, drag, gravity, acceleration, None, velocity)
+    return powers.sum()
+
+
+@njit(**_JIT)
+def _euler_rows(j0, j1, dt, position, velocity, acceleration):
+    for j in range(j0, j1):
+        euler_update(j, dt, position, velocity, acceleration, j)
+
+
+@njit(parallel=True, **_JIT)
+def euler_steps_parallel(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, acceleration, block_starts,
+):
+    """``euler_steps`` in two phases per step: accelerations of all row blocks in parallel into
+    ``acceleration`` (dim, ny, nx), then x += dt v; v += dt a over the blocks in parallel."""
+    blocks = block_starts.size - 1
+    powers = np.zeros(blocks)
+    dissipated = 0.0
+    for _ in range(n):
+        for b in prange(blocks):
+            powers[b] = force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
+                                   position, velocity, inverse_mass, uniform_inverse_mass,
+                                   parameters, dashpot, drag, gravity, acceleration, None,
+                                   velocity)
+        for b in prange(blocks):
+            _euler_rows(block_starts[b], block_starts[b + 1], dt, position, velocity, acceleration)
+        dissipated += dt * powers.sum()
+    return dissipated
+
+
+@njit(**_JIT)
+def _verlet_drift_rows(j0, j1, dt, position, velocity, acceleration, predicted_velocity, damped):
+    for j in range(j0, j1):
+        verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, damped)
+
+
+@njit(parallel=True, **_JIT)
+def verlet_steps_parallel(
+    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, acceleration, previous_power, predicted_velocity,
+    block_starts,
+):
+    """Velocity Verlet steps (damped scenes and linearised springs) in two phases per step: half
+    kick and drift of every row (and the predicted velocity v + dt a when damped), then the new
+    accelerations and the second half kick, each phase over the row blocks in parallel.
+    ``acceleration`` holds a(x, v) on entry and on exit, as for ``verlet_steps``.
+    Returns (dissipated, power)."""
+    damped = dashpot is not None or drag is not None
+    force_velocity = predicted_velocity if damped else velocity
+    blocks = block_starts.size - 1
+    powers = np.zeros(blocks)
+    half = type(dt)(0.5) * dt
+    dissipated = 0.0
+    power = previous_power
+    for _ in range(n):
+        for b in prange(blocks):
+            _verlet_drift_rows(block_starts[b], block_starts[b + 1], dt, position, velocity,
+                               acceleration, predicted_velocity, damped)
+        for b in prange(blocks):
+            powers[b] = force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
+                                   position, force_velocity, inverse_mass, uniform_inverse_mass,
+                                   parameters, dashpot, drag, gravity, acceleration, half,
+                                   velocity)
+        new_power = powers.sum()
+        dissipated += half * (power + new_power)
+        power = new_power
+    return dissipated, power
+
+
+@njit(**_JIT)
+def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
+                uniform_inverse_mass, parameters, dashpot, drag, gravity, source_position,
+                source_velocity, target_position, target_velocity, sum_position, sum_velocity,
+                time, drive, drive_power):
+    """One stage of ``method`` on rows j0 .. j1-1: the forces of the stage input (``source_*``,
+    full arrays) and ``stage_update`` with the next input into ``target_*``.  Reads
+    ``position``/``velocity`` of its own rows only, except as the input of stage 0.  Returns the
+    dissipated power (W) as ``force_rows`` counts it; with a drive table the drives act at
+    ``time`` (s) and ``drive_power[0]`` receives their power (W)."""
+    xs, ys, zs = components(out_of_plane, source_position)
+    vxs, vys, vzs = components(out_of_plane, source_velocity)
+    ny = position.shape[1]
+    below, above, horizontal, row = sweep_buffers(position)
+    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot, below)
+    if j0 > 0:
+        power = 0.0
+    for j in range(j0, j1):
+        power += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
+                                   parameters, dashpot, drag, gravity, below, above, horizontal,
+                                   row, uniform_inverse_mass)
+        if drive is not None:
+            drive_power[0] += drive_row(j, time, drive, -1, row, vxs, vys, vzs, j)
+        below, above = above, below
+        stage_update(method, stage, j, j, dt, position, velocity, row, source_velocity,
+                     target_position, target_velocity, sum_position, sum_velocity, position,
+                     velocity, j)
+    return power
+
+
+@njit(parallel=True, **_JIT)
+def runge_kutta_phases(
+    method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, stage_position, stage_velocity, next_position,
+    next_velocity, sum_position, sum_velocity, block_starts, time=0.0, drive=None,
+    drive_work=None,
+):
+    """n steps of ``method`` (``sim.loops.stage_updates.RK4`` or ``HEUN``) with each stage one parallel
+    phase over the row blocks.
+
+    The work arrays are full (dim, ny, nx) arrays: stage inputs alternate between (``stage_*``)
+    and (``next_*``) so that no phase overwrites what another block still reads.  Heun keeps
+    a(x, v) in ``sum_velocity`` and needs neither ``next_*`` nor ``sum_position``."""
+    blocks = block_starts.size - 1
+    count = stages(method)
+    powers = np.zeros((count, blocks))
+    drive_powers = np.zeros((count, blocks, 1))
+    dissipated = 0.0
+    for step in range(n):
+        for stage in range(count):
+            source_p, source_v = stage_position, stage_velocity  # odd stages
+            target_p, target_v = next_position, next_velocity
+            if stage == 0:
+                source_p, source_v = position, velocity
+                target_p, target_v = stage_position, stage_velocity
+            elif stage % 2 == 0:
+                source_p, source_v = next_position, next_velocity
+                target_p, target_v = stage_position, stage_velocity
+            for b in prange(blocks):
+                powers[stage, b] = _stage_rows(
+                    method, stage, block_starts[b], block_starts[b + 1], dt, linear,
+                    out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+                    parameters, dashpot, drag, gravity, source_p, source_v, target_p, target_v,
+                    sum_position, sum_velocity,
+                    time + (step + stage_time(method, stage)) * float(dt), drive,
+                    drive_powers[stage, b],
+                )
+        dissipated += dissipated_energy(method, dt, powers.sum(axis=1))
+        if drive is not None:
+            drive_work[0] += dissipated_energy(method, dt, drive_powers.sum(axis=1)[:, 0])
+            drive_powers[:] = 0.0
+    return dissipated
+
+
+@njit(parallel=True, **_JIT)
+def runge_kutta_blocks(
+    method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
+    sum_velocity, deferred_position, deferred_velocity, block_starts, time=0.0, drive=None,
+    drive_work=None,
+):
+    """n steps of ``method`` with each row block's wavefront (``sim.loops.wavefront``) on one of
+    numba's threads: one parallel sweep per step plus the copy of the deferred edge rows.
+
+    Work arrays per block: ``stage_*``, ``sum_*`` (blocks, dim, RK4_RING, nx), ``deferred_*``
+    (blocks, dim, 2 * stages, nx).  Blocks need at least 2 * stages rows.  Heun keeps a(x, v) in
+    ``sum_velocity`` and does not use ``sum_position``."""
+    blocks = block_starts.size - 1
+    count = stages(method)
+    nx = position.shape[2]
+    vertical = np.empty((blocks, count, 2, 3, nx), position.dtype)
+    horizontal = np.empty((blocks, 3, nx + 1), position.dtype)
+    row = np.empty((blocks, 3, nx), position.dtype)
+    powers = np.zeros((blocks, count))
+    drive_powers = np.zeros((blocks, count))
+    dissipated = 0.0
+    for step in range(n):
+        for b in prange(blocks):
+            wavefront(method, block_starts[b], block_starts[b + 1], dt, linear, out_of_plane,
+                      position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
+                      drag, gravity, stage_position[b], stage_velocity[b], sum_position[b],
+                      sum_velocity[b], deferred_position[b], deferred_velocity[b], vertical[b],
+                      horizontal[b], row[b], powers[b], time + step * float(dt), drive,
+                      drive_powers[b])
+        for b in prange(blocks):
+            write_deferred(block_starts[b], block_starts[b + 1], count - 1, position, velocity,
+                           deferred_position[b], deferred_velocity[b])
+        dissipated += dissipated_energy(method, dt, powers.sum(axis=0))
+        if drive is not None:
+            drive_work[0] += dissipated_energy(method, dt, drive_powers.sum(axis=0))
+    return dissipated

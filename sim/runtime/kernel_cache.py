@@ -1,0 +1,125 @@
+"""numba's on-disk cache of the compiled kernels, keyed on every kernel source of ``sim`` at once.
+
+numba keys a cached function on its own source file alone, but a compiled kernel carries inside it
+the machine code of the functions it calls from other modules (LLVM inlines them): the matched
+layer's pass is inside Verlet's loops, the spring law inside every sweep.  After an edit to
+``sim/forces/springs.py`` alone, ``sim/loops/row_sweep.py``'s cached loops would still run the old spring law.
+This locator stamps each cached kernel of ``sim`` with a hash of all of the package's modules that
+define kernels, so an edit to any of them recompiles every kernel (on a fresh clone nothing is
+cached and nothing changes).  Kernels compiled at another optimisation level than numba's default,
+the package's and any other module's, are kept in a subfolder of their own
+(``optimisation_folder``).
+
+It is registered before any kernel is defined (``sim/__init__.py`` imports this module first);
+``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  If numba's cache internals differ from
+what this expects, numba's default locators stay in place.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent.parent
+"""The ``sim`` package: its rooms' modules that define kernels are stamped together."""
+
+
+@functools.lru_cache(maxsize=1)
+def _kernel_files() -> tuple[Path, ...]:
+    """The package's modules that define numba kernels (read once per process)."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        try:
+            if "njit" in path.read_text(encoding="utf-8"):
+                found.append(path)
+        except OSError:
+            continue
+    return tuple(found)
+
+
+def _kernel_sources() -> tuple[tuple[str, float, int], ...]:
+    """(path, mtime, size) of every module of the package that defines numba kernels."""
+    found = []
+    for path in _kernel_files():
+        try:
+            stat = path.stat()
+        except OSError:
+            continue
+        found.append((str(path), stat.st_mtime, stat.st_size))
+    return tuple(found)
+
+
+@functools.lru_cache(maxsize=8)
+def _stamp(sources: tuple[tuple[str, float, int], ...]) -> str:
+    digest = hashlib.sha256()
+    for path, _, _ in sources:
+        digest.update(path.encode())
+        digest.update(Path(path).read_bytes())
+    return digest.hexdigest()
+
+
+def package_stamp() -> str:
+    """A hash of the package's kernel sources (recomputed when one changes on disk)."""
+    return _stamp(_kernel_sources())
+
+
+def optimisation_folder() -> str:
+    """The cache's subfolder for numba's optimisation level (``NUMBA_OPT``), "" at the default
+    (3): numba's cache key leaves the level out, so kernels compiled at another level (the
+    default test suite's, ``Makefile``) must not be found by a run at the default one."""
+    from numba.core import config
+
+    level = str(getattr(config.OPT, "_raw_value", config.OPT))  # an int, or "max"
+    return "" if level == "3" else f"opt-{level}"
+
+
+def _register() -> None:
+    try:
+        from numba.core import caching
+    except ImportError:  # pragma: no cover - numba is a dependency
+        return
+    base = getattr(caching, "InTreeCacheLocator", None)
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    if base is None or impl is None or not isinstance(getattr(impl, "_locator_classes", None),
+                                                       list):
+        return
+
+    class LevelCacheLocator(base):  # type: ignore[misc, valid-type]
+        """numba's in-tree cache (``__pycache__`` beside the module), in the subfolder of a
+        non-default optimisation level; for kernels outside ``sim`` (e.g. ``app.movie.raster``)
+        only at such a level, numba's own locators answering at the default one."""
+
+        def get_cache_path(self):  # noqa: D102 - numba's interface
+            return os.path.join(super().get_cache_path(), optimisation_folder())
+
+        @classmethod
+        def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
+            if not optimisation_folder() or os.environ.get("NUMBA_CACHE_DIR"):
+                return None
+            return super().from_function(py_func, py_file)
+
+    class PackageCacheLocator(LevelCacheLocator):
+        """The cache of the kernels of ``sim``, at every level, stamped with every kernel source
+        of the package."""
+
+        def get_source_stamp(self):  # noqa: D102 - numba's interface
+            return package_stamp()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
+            try:
+                inside = PACKAGE in Path(py_file).resolve().parents
+            except (OSError, ValueError):
+                return None
+            if not inside or os.environ.get("NUMBA_CACHE_DIR"):
+                return None
+            return super(LevelCacheLocator, cls).from_function(py_func, py_file)  # numba's
+
+    for position, locator in enumerate((PackageCacheLocator, LevelCacheLocator)):
+        if not any(cls.__name__ == locator.__name__ for cls in impl._locator_classes):
+            impl._locator_classes.insert(position, locator)
+
+
+_register()

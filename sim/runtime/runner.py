@@ -1,0 +1,314 @@
+"""The runner owns the simulation loop; viewers and recorders subscribe to its frames.
+
+Nothing here knows about viser or rerun.  Two ways to drive it:
+
+* synchronously: ``runner.advance(steps, every=k)`` runs in the caller's thread and publishes a
+  ``Frame`` every k steps (the ``record`` command, tests, benchmarks);
+* in a background thread: ``runner.start()``; then ``play()`` / ``pause()`` / ``single_step()``;
+  the loop advances ``steps_per_frame`` steps per frame at no more than ``max_fps`` frames per
+  second (the web app).
+
+Anyone may ``post(command)``: a callable taking the ``Simulation``, run by the loop between steps
+(never in the middle of one).  ``post`` returns a ``concurrent.futures.Future`` with the command's
+result or exception.  A blow-up pauses the loop, keeps the state before the bad step and publishes
+a frame whose ``error`` says what happened.
+
+A subscriber that raises is detached: the runner logs it, keeps the message in
+``subscriber_errors``, calls the subscriber's ``on_error(exception)`` (so a recorder can close its
+file cleanly) and carries on stepping.  One failing viewer or recorder never stops the others or
+the simulation.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import dataclasses
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from sim.model.lattice import Model
+from sim.runtime.simulation import BlowUpError, Simulation
+from sim.theory.observables import Energy
+
+LOGGER = logging.getLogger("oscillators.runner")
+SUBSCRIBER_ERRORS_KEPT = 20
+"""How many detached-subscriber messages ``Runner.subscriber_errors`` keeps."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Frame:
+    """A snapshot for subscribers.  Arrays are copies owned by the frame.
+
+    positions: (n_particles, dim) m; velocities: (n_particles, dim) m/s or None if no subscriber
+    asked; strains: (n_springs,) or None if no subscriber asked; energy: the energy account;
+    error: the blow-up message if the run just stopped on one, else None;
+    energy_balance_error: ``Simulation.energy_balance_error()`` of this state (relative, 0 exact).
+    """
+
+    step: int
+    time: float
+    integrator: str
+    dt: float
+    model: Model
+    positions: np.ndarray
+    energy: Energy
+    velocities: np.ndarray | None = None
+    strains: np.ndarray | None = None
+    error: str | None = None
+    playing: bool = False
+    energy_balance_error: float = 0.0
+
+
+@dataclasses.dataclass(eq=False)
+class _Subscriber:
+    callback: Callable[[Frame], Any]
+    strains: bool
+    velocities: bool
+    on_error: Callable[[BaseException], Any] | None = None
+
+
+class Runner:
+    """Owns a ``Simulation`` and its loop; see the module docstring."""
+
+    def __init__(
+        self, simulation: Simulation, steps_per_frame: int = 1, max_fps: float = 60.0
+    ) -> None:
+        self.simulation = simulation
+        self.steps_per_frame = steps_per_frame
+        self.max_fps = max_fps
+        self.error: str | None = None
+        self._subscribers: list[_Subscriber] = []
+        self._commands: queue.Queue[tuple[Callable[[Simulation], Any], concurrent.futures.Future]]
+        self._commands = queue.Queue()
+        self._playing = False
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._running = False
+        self._lock = threading.Lock()
+        self.frames_published = 0
+        self.steps_taken = 0
+        """Steps run by ``guarded_step`` since the runner was made (across scene changes)."""
+        self.before_step: Callable[[Simulation], Any] | None = None
+        """Called before every step and after the last while set (see ``guarded_step``)."""
+        self.subscriber_errors: collections.deque[str] = collections.deque(
+            maxlen=SUBSCRIBER_ERRORS_KEPT
+        )
+        """Messages about subscribers that raised and were detached, oldest first."""
+
+    # --- subscribers -----------------------------------------------------------------------------
+
+    def subscribe(
+        self, callback: Callable[[Frame], Any], *, strains: bool = False, velocities: bool = False,
+        on_error: Callable[[BaseException], Any] | None = None,
+    ) -> Callable[[], None]:
+        """Call ``callback(frame)`` for every published frame; ask for strains / velocities only
+        if you show them.  If ``callback`` raises, it is detached and ``on_error(exception)`` is
+        called once (in the publishing thread).  Returns a function that unsubscribes."""
+        subscriber = _Subscriber(callback, strains, velocities, on_error)
+        with self._lock:
+            self._subscribers.append(subscriber)
+
+        def unsubscribe() -> None:
+            with self._lock:
+                if subscriber in self._subscribers:
+                    self._subscribers.remove(subscriber)
+
+        return unsubscribe
+
+    def make_frame(self, error: str | None = None) -> Frame:
+        """A frame of the current state, with what the current subscribers asked for."""
+        with self._lock:
+            subscribers = list(self._subscribers)
+        simulation = self.simulation
+        return Frame(
+            step=simulation.step_count,
+            time=simulation.time,
+            integrator=simulation.integrator,
+            dt=simulation.dt,
+            model=simulation.model,
+            positions=simulation.state.particle_positions().copy(),
+            energy=simulation.energy(),
+            velocities=(
+                simulation.state.particle_velocities().copy()
+                if any(s.velocities for s in subscribers)
+                else None
+            ),
+            strains=simulation.strains() if any(s.strains for s in subscribers) else None,
+            error=error,
+            playing=self._playing,
+            energy_balance_error=simulation.energy_balance_error(),
+        )
+
+    def publish(self, error: str | None = None) -> Frame:
+        """Build a frame now and hand it to every subscriber; returns it."""
+        frame = self.make_frame(error)
+        with self._lock:
+            subscribers = list(self._subscribers)
+        for subscriber in subscribers:
+            try:
+                subscriber.callback(frame)
+            except Exception as error:  # contained: detach this one, keep the others running
+                self._detach(subscriber, error)
+        self.frames_published += 1
+        return frame
+
+    def _detach(self, subscriber: _Subscriber, error: Exception) -> None:
+        with self._lock:
+            if subscriber in self._subscribers:
+                self._subscribers.remove(subscriber)
+        target = getattr(subscriber.callback, "func", subscriber.callback)  # functools.partial
+        name = getattr(target, "__qualname__", None) or type(target).__name__
+        message = f"{name} stopped receiving frames: {error}"
+        self.subscriber_errors.append(message)
+        LOGGER.error("subscriber detached: %s", message, exc_info=error)
+        if subscriber.on_error is not None:
+            try:
+                subscriber.on_error(error)
+            except Exception as second:  # the error handler itself failed: log and go on
+                LOGGER.error("the error handler of %s failed: %r", name, second)
+
+    # --- commands --------------------------------------------------------------------------------
+
+    def post(self, command: Callable[[Simulation], Any]) -> concurrent.futures.Future:
+        """Queue ``command(simulation)`` to run between steps; returns a Future of its result."""
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._commands.put((command, future))
+        self._wake.set()
+        if self._thread is None:
+            self.apply_commands()
+        return future
+
+    def apply_commands(self) -> int:
+        """Run the queued commands now (the loop does this between steps).  Returns how many."""
+        count = 0
+        while True:
+            try:
+                command, future = self._commands.get_nowait()
+            except queue.Empty:
+                return count
+            count += 1
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(command(self.simulation))
+            except Exception as error:  # a bad command must never stop the loop
+                future.set_exception(error)
+
+    # --- synchronous driving ----------------------------------------------------------------------
+
+    def advance(self, steps: int, every: int = 1, publish_first: bool = False) -> Frame:
+        """Run ``steps`` steps in this thread, publishing a frame every ``every`` steps and after
+        the last.  On a blow-up: publishes a frame with ``error`` and raises the BlowUpError."""
+        if every < 1:
+            raise ValueError("every must be at least 1")
+        frame = self.publish() if publish_first else None
+        done = 0
+        while done < steps:
+            self.apply_commands()
+            chunk = min(every, steps - done)
+            try:
+                self.simulation.step(chunk)
+            except BlowUpError as error:
+                self.error = str(error)
+                self.publish(error=self.error)
+                raise
+            done += chunk
+            frame = self.publish()
+        return frame if frame is not None else self.publish()
+
+    # --- background loop --------------------------------------------------------------------------
+
+    @property
+    def playing(self) -> bool:
+        return self._playing
+
+    def play(self) -> None:
+        self.error = None
+        self._playing = True
+        self._wake.set()
+
+    def pause(self) -> None:
+        self._playing = False
+        self._wake.set()
+
+    def single_step(self) -> concurrent.futures.Future:
+        """Advance exactly one step (while paused) and publish it."""
+        return self.post(lambda simulation: self.guarded_step(1))
+
+    def guarded_step(self, steps: int) -> bool:
+        """Advance ``steps`` steps in the loop's thread; on a blow-up pause, keep the state and
+        publish a frame with the error.  Returns whether the steps ran.
+
+        While ``before_step`` is set, the steps run one at a time and ``before_step(simulation)``
+        is called before each and after the last (the web app holds dragged particles this way);
+        without it they run as one compiled chunk."""
+        hook = self.before_step
+        before = self.simulation.step_count
+        try:
+            if hook is None:
+                self.simulation.step(steps)
+            else:
+                for _ in range(steps):
+                    hook(self.simulation)
+                    self.simulation.step(1)
+                hook(self.simulation)
+        except BlowUpError as error:
+            self._playing = False
+            self.error = str(error)
+            self.publish(error=self.error)
+            return False
+        finally:
+            with self._lock:
+                self.steps_taken += max(0, self.simulation.step_count - before)
+        return True
+
+    def start(self) -> None:
+        """Start the background loop (idempotent)."""
+        if self._thread is not None:
+            return
+        self._running = True
+        self._thread = threading.Thread(target=self._loop, name="simulation-runner", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the background loop and wait for it."""
+        self._running = False
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+            if not self._thread.is_alive():  # still stepping: keep it, commands stay queued
+                self._thread = None
+
+    def _loop(self) -> None:
+        last_frame = 0.0
+        while self._running:
+            changed = self.apply_commands() > 0
+            if self._playing:
+                try:
+                    if self.guarded_step(max(1, int(self.steps_per_frame))):
+                        changed = True
+                except Exception as error:  # not a blow-up: a bug or a bad state; pause, say why
+                    LOGGER.error("simulation step failed", exc_info=error)
+                    self._playing = False
+                    self.error = f"the step failed: {error!r}"
+                    changed = True
+            if changed:
+                now = time.perf_counter()
+                wait = 1.0 / self.max_fps - (now - last_frame)
+                if wait > 0:
+                    time.sleep(wait)
+                last_frame = time.perf_counter()
+                try:
+                    self.publish(error=None if self._playing or self.error is None else self.error)
+                except Exception as error:  # building the frame failed: report, keep looping
+                    LOGGER.error("could not publish a frame: %r", error)
+            if not self._playing:
+                self._wake.wait(0.05)
+                self._wake.clear()

@@ -1,0 +1,1 @@
+"""Storage: the one atomic writer every output file goes through."""
