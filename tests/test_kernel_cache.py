@@ -20,7 +20,7 @@ def test_the_kernels_cache_is_stamped_with_every_kernel_source_of_the_package():
         assert type(locator).__name__ == "PackageCacheLocator"
         assert locator.get_source_stamp() == _kernel_cache.package_stamp()
     sources = [path for path, _, _ in _kernel_cache._kernel_sources()]
-    assert any(path.endswith("matched_layer.py") for path in sources)
+    assert any(path.endswith("absorbing_layer.py") for path in sources)
     assert any(path.endswith("leapfrog.py") for path in sources)
     assert not any(path.endswith("presets.py") for path in sources)  # data, no kernel
 
@@ -43,7 +43,7 @@ def test_the_stamp_changes_when_any_one_source_changes(tmp_path):
 def test_kernels_compiled_at_another_optimisation_level_are_cached_apart():
     """numba's cache key leaves out its optimisation level: a run at the default level must not
     load the kernels the default test suite compiles at level 1."""
-    ask = ("from sim import kernels; from app.movie import raster\n"
+    ask = ("from sim.forces import springs as kernels; from app.movie import raster\n"
            "for kernel in (kernels.spring_force, raster.upscale_nearest):\n"
            "    print(kernel._cache._impl._locator.get_cache_path())")
     paths = {}

@@ -11,7 +11,7 @@ import argparse
 import pytest
 
 import sim
-from app.cli import build_parser, main
+from app.cli import argparse_adapter, build_parser, main
 from sim.integrators import registry as integrators
 from tests.helpers import free_port, wait_for
 from tests.test_precision_threads import SymplecticEuler
@@ -33,8 +33,8 @@ def throwaway():
 
 
 def _choices(parser: argparse.ArgumentParser, command: str, option: str) -> list[str]:
-    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    action = next(a for a in subparsers.choices[command]._actions if option in a.option_strings)
+    sub = argparse_adapter.subcommands(parser)[command]
+    action = next(a for a in argparse_adapter.options(sub) if option in a.option_strings)
     return list(action.choices)
 
 

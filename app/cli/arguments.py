@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import shlex
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from app.cli import argparse_adapter
 from sim.integrators.registry import ALL_INTEGRATORS
+from sim.model import parameters
 from sim.storage.files import check_target
 
 EPILOG = """examples:
@@ -158,8 +161,9 @@ def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | No
     )
     parser.add_argument(
         "--set", dest="overrides", action="append", metavar="KEY=VALUE",
-        help="override a scene parameter: nx, ny, spacing, mass, stiffness, rest_length, damping, "
-        "drag, gravity (g or gx,gy[,gz]), linear, dim; repeatable",
+        help="override a scene parameter: " + ", ".join(
+            row.name + (f" ({row.unit})" if row.bounds else "") for row in parameters.rows())
+        + "; gravity takes g or gx,gy[,gz]; repeatable",
     )
 
 
@@ -204,3 +208,29 @@ def check_output_file(output: Path, force: bool, suffix: str) -> None:
     check_target(output, force)
     if output.is_dir():  # check_target says so too; kept for the suffix in the message
         raise ValueError(f"{output} is a directory; give a file name ending in {suffix}")
+
+
+def command_from_arguments(parser: Any, arguments: Any, program: str = "oscillators") -> str:
+    """The command line that reproduces parsed ``arguments`` of a subcommand's ``parser``: its
+    positionals and every option whose value differs from its default (whatever process parsed
+    them: a shell, a test, the web app)."""
+    words = [program, parser.prog.split()[-1]]
+    options: list[str] = []
+    for action in argparse_adapter.actions(parser):
+        if argparse_adapter.is_help(action) or action.dest in ("help", "handler"):
+            continue
+        value = getattr(arguments, action.dest, None)
+        if not action.option_strings:
+            words.append(str(value))
+            continue
+        if value is None or value == action.default or value is False:
+            continue
+        flag = action.option_strings[-1]
+        if value is True:
+            options.append(flag)
+        elif isinstance(value, list):
+            for item in value:
+                options += [flag, str(item)]
+        else:
+            options += [flag, str(value)]
+    return shlex.join(words + options)

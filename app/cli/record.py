@@ -25,6 +25,7 @@ from app.cli.arguments import (
     add_scene_arguments,
     bounded_int,
     check_output_file,
+    command_from_arguments,
     positive_float,
     positive_int,
     scene_from_arguments,
@@ -32,7 +33,7 @@ from app.cli.arguments import (
 from app.cli.limits import planned_steps
 from app.recording import destination, instruments
 from app.recording.destination import RecordingError
-from app.recording.explain import RunInfo, command_from_arguments
+from app.recording.explain import RunInfo
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.options import DETAIL_LIMIT, RecordingOptions
 from app.recording.recorder import Recorder

@@ -19,27 +19,8 @@ import numpy as np
 
 import app.recording.instruments as instruments
 from app.recording.scales import AXIS_NAMES, UNITS, ColourScales
-from sim.model import boundaries
+from sim.model import boundaries, parameters
 
-PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
-    # parameter: (symbol, unit, meaning)
-    "nx": ("n_x", "particles", "particles per row"),
-    "ny": ("n_y", "particles", "particles per column (rows)"),
-    "dim": ("d", "dimensions", "2: motion in the plane; 3: also out of the plane (z)"),
-    "spacing": ("a", "m", "lattice spacing, also the distance to the wall anchors"),
-    "stiffness": ("k", "N/m", "spring constant of every spring"),
-    "rest_length": ("L", "m", "spring rest length; L < a pre-tensions the lattice"),
-    "damping": ("c", "N s/m", "dashpot beside every spring (relative velocity along it)"),
-    "drag": ("b", "N s/m", "drag on every particle's absolute velocity"),
-    "gravity": ("g", "m/s²", "acceleration of gravity (x, y, z)"),
-    "linear": ("-", "true/false (no unit)", "springs linearised about the rest lattice"),
-    "driver": ("-", "see its fields (m, Hz)", "sinusoidal drive on one particle, or none"),
-    "boundary": ("-", f"{'/'.join(boundaries.names())} (no unit)", "walls: fixed anchors, or a sponge layer "
-                 "inside them that absorbs waves"),
-    "sponge_width": ("w", "particles", "depth of the sponge layer (absorbing walls only)"),
-    "sponge_strength": ("-", "ω0 = √(k/m)", "damping rate at the wall (absorbing walls only)"),
-    "sponge_sides": ("-", "walls (no unit)", "walls that have a sponge layer"),
-}
 PROJECT = "coupled-oscillators"
 
 
@@ -64,34 +45,6 @@ def command_line() -> str:
     if program.endswith(("oscillators", "cli.py", "app.cli")) or "app/cli" in program:
         program = "oscillators"
     return shlex.join([program, *arguments])
-
-
-def command_from_arguments(parser: Any, arguments: Any, program: str = "oscillators") -> str:
-    """The command line that reproduces parsed ``arguments`` of a subcommand's ``parser``: its
-    positionals and every option whose value differs from its default (whatever process parsed
-    them: a shell, a test, the web app)."""
-    import argparse
-
-    words = [program, parser.prog.split()[-1]]
-    options: list[str] = []
-    for action in parser._actions:  # noqa: SLF001 - argparse has no public list of actions
-        if isinstance(action, argparse._HelpAction) or action.dest in ("help", "handler"):  # noqa: SLF001
-            continue
-        value = getattr(arguments, action.dest, None)
-        if not action.option_strings:
-            words.append(str(value))
-            continue
-        if value is None or value == action.default or value is False:
-            continue
-        flag = action.option_strings[-1]
-        if value is True:
-            options.append(flag)
-        elif isinstance(value, list):
-            for item in value:
-                options += [flag, str(item)]
-        else:
-            options += [flag, str(value)]
-    return shlex.join(words + options)
 
 
 def versions() -> dict[str, str]:
@@ -185,17 +138,17 @@ def table_rows(document: str) -> dict[str, list[str]]:
     return rows
 
 
-def scene_document(
-    scene: Any, model: Any, *, integrator: str, dt: float, plan: Any, scales: ColourScales,
-    run: RunInfo, trees: tuple[str | None, ...], exaggeration: float = 1.0,
-) -> str:
-    """The markdown document logged statically at ``/scene``."""
-    a = model.spacing
-    lines = [f"# {scene.name}", "", scene.description, "", f"**{model.describe()}**", ""]
-    lines += ["## Scene parameters (SI units)", "",
-              "| parameter | symbol | value | unit | meaning |", "| --- | --- | --- | --- | --- |"]
-    for key, value in model.parameters().items():
-        symbol, unit, meaning = PARAMETER_UNITS.get(key, ("", "see docs/api.md", ""))
+def parameter_lines(model: Any) -> list[str]:
+    """The read-me's table of the scene's parameters: one line per row of the parameter table
+    (``sim.model.parameters``) that the model has, with its value."""
+    lines = ["## Scene parameters (SI units)", "",
+             "| parameter | symbol | value | unit | meaning |", "| --- | --- | --- | --- | --- |"]
+    values = dict(model.parameters())
+    masses = model.masses
+    values["mass"] = f"{masses.flat[0]:g}" if model.uniform_mass else (
+        f"{masses.min():g} to {masses.max():g} (per particle: `lattice/particles:mass`)")
+    for key, value in values.items():
+        row = parameters.get(key)
         if key == "gravity":
             value = "(" + ", ".join(f"{g + 0.0:g}" for g in value) + ")"
         elif key == "driver":
@@ -204,19 +157,25 @@ def scene_document(
             value = ", ".join(value) if value else "none"
         elif isinstance(value, float):
             value = f"{value:g}"
-        lines.append(f"| {key} | {symbol} | {value} | {unit} | {meaning} |")
-    masses = model.masses
-    mass_text = f"{masses.flat[0]:g}" if model.uniform_mass else (
-        f"{masses.min():g} to {masses.max():g} (per particle: `lattice/particles:mass`)"
-    )
+        lines.append(f"| {key} | {row.symbol} | {value} | {row.unit} | {row.help} |")
+    return lines
+
+
+def scene_document(
+    scene: Any, model: Any, *, integrator: str, dt: float, plan: Any, scales: ColourScales,
+    run: RunInfo, trees: tuple[str | None, ...], exaggeration: float = 1.0,
+) -> str:
+    """The markdown document logged statically at ``/scene``."""
+    a = model.spacing
+    lines = [f"# {scene.name}", "", scene.description, "", f"**{model.describe()}**", ""]
+    lines += parameter_lines(model)
     lines += [
-        f"| mass | m | {mass_text} | kg | mass of each particle |",
         f"| tension | T = k (a - L) | {model.tension:g} | N | spring tension in the rest lattice |",
         f"| particles | | {model.n_particles} | particles | |",
         f"| springs | | {model.n_springs} | springs | incl. {model.n_anchors} to wall anchors |",
     ]
     if model.uniform_mass:
-        speed = a * (model.stiffness / float(masses.flat[0])) ** 0.5
+        speed = a * (model.stiffness / float(model.masses.flat[0])) ** 0.5
         lines.append(f"| wave speed | a √(k/m) | {speed:.4g} | m/s | long waves along the springs |")
     lines += ["", "## Initial condition", "", *describe_initial(scene), ""]
     lines += describe_forcing(model)

@@ -19,6 +19,8 @@ import numbers
 from collections.abc import Sequence
 from typing import Any
 
+from sim.model import parameters
+
 MAX_DEPTH = 16
 """Deepest nesting of tables and arrays a scene document may have (a scene needs 4)."""
 
@@ -27,18 +29,9 @@ class Refused(ValueError):
     """A value from outside was refused (the message says which and why, in one line)."""
 
 
-BOUNDS: dict[str, tuple[float, float]] = {
-    "spacing": (1e-6, 1e6),
-    "rest_length": (1e-6, 1e6),
-    "stiffness": (1e-9, 1e9),
-    "mass": (1e-9, 1e9),
-    "damping": (0.0, 1e9),
-    "drag": (0.0, 1e9),
-    "gravity": (-1e6, 1e6),
-}
-"""(smallest, largest) of each lattice parameter (SI units: m, N/m, kg, N s/m, m/s^2).  With
-these, the largest energy scale, stiffness x (spacing x particles)^2 ~ 1e9 x 1e22, stays far below
-float64's 1e308."""
+BOUNDS: dict[str, tuple[float, float]] = parameters.bounds()
+"""(smallest, largest) of each number parameter (SI units), read from the parameter table
+(``sim.model.parameters``)."""
 
 
 def _is_number(value: Any) -> bool:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from sim.integrators.registry import check_integrator_name, check_precision
+from sim.model import parameters
 from sim.model.lattice import Model, ModelError
 from sim.model.schema import printable
 from sim.scenes.presets import MASS_PATTERNS, PRESETS
@@ -93,12 +94,9 @@ def _checked_array(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
 
 
 
-OVERRIDES = (
-    "nx", "ny", "spacing", "mass", "stiffness", "rest_length", "damping", "drag", "gravity",
-    "linear", "dim", "driver", "sources", "barriers", "boundary", "sponge_width", "sponge_strength",
-    "sponge_sides",
-)
-"""Keywords accepted by ``build`` (plus ``integrator``, ``dt`` and ``precision``)."""
+OVERRIDES = parameters.names()
+"""Keywords accepted by ``build`` (plus ``integrator``, ``dt`` and ``precision``): the rows of
+the parameter table (``sim.model.parameters``)."""
 
 
 def names() -> list[str]:

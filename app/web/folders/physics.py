@@ -18,6 +18,7 @@ from app.web.control import MASS_PATTERNS
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, choice, from_user
 from app.web.widgets import Limits, say
+from sim.model import parameters
 
 MAX_STIFFNESS = 100.0
 """The stiffness slider's maximum (N/m); the paper's default 35 N/m is 35 % of it."""
@@ -49,7 +50,7 @@ class PhysicsFolder(Folder):
         gui = host.server.gui
         with gui.add_folder("Physics"):
             self.stiffness = gui.add_slider(
-                "Stiffness k (N/m)", 1.0, MAX_STIFFNESS, 1.0, 35.0,
+                parameters.get("stiffness").caption(), 1.0, MAX_STIFFNESS, 1.0, 35.0,
                 hint="35 N/m is the paper's 35 % of maximum",
             )
             self.rest_ratio = gui.add_slider(
@@ -57,9 +58,9 @@ class PhysicsFolder(Folder):
                 hint="below 1 the springs are pre-tensioned (transverse waves spread)",
             )
             self.damping_on = gui.add_checkbox("Damping", False)
-            self.damping = gui.add_slider("Dashpot c (N s/m)", 0.0, 10.0, 0.1, 0.5)
+            self.damping = gui.add_slider(parameters.get("damping").caption(), 0.0, 10.0, 0.1, 0.5)
             self.gravity_on = gui.add_checkbox("Gravity", False)
-            self.gravity = gui.add_slider("g (m/s²)", 0.0, 30.0, 0.01, 9.81)
+            self.gravity = gui.add_slider(parameters.get("gravity").caption(), 0.0, 30.0, 0.01, 9.81)
             self.linear = gui.add_checkbox("Linearised springs", False,
                                            hint="springs linearised about the rest lattice")
             self.mass_pattern = gui.add_dropdown(

@@ -1,0 +1,48 @@
+"""The parameter table is the one place a scene parameter's facts live: every parameter of a model
+has a row, the checks refuse a number outside the row's bounds, and the recording's read-me and
+the page's controls show the row's symbol and unit."""
+
+from __future__ import annotations
+
+import pytest
+
+import sim
+from app.recording.explain import parameter_lines
+from sim.model import parameters, schema
+
+
+def test_every_parameter_of_a_model_has_a_row():
+    for name in ("grid", "catenary", "double-slit", "resonance"):
+        model = sim.scenes.build(name).model
+        missing = set(model.parameters()) - set(parameters.names())
+        assert not missing, f"{name}: {missing}"
+
+
+@pytest.mark.parametrize("row", [row for row in parameters.rows() if row.bounds],
+                         ids=lambda row: row.name)
+def test_the_checks_hold_each_rows_bounds(row):
+    low, high = row.bounds
+    assert schema.parameter(high, row.name) == high
+    with pytest.raises(schema.Refused, match=row.name):
+        schema.parameter(high * 10 + 1, row.name)
+    with pytest.raises(schema.Refused, match=row.name):
+        schema.parameter(low - 1 - abs(low), row.name)
+
+
+def test_a_scene_override_outside_the_bounds_is_refused():
+    with pytest.raises(ValueError, match="stiffness"):
+        sim.scenes.build("grid", stiffness=1e12)
+
+
+def test_the_read_me_shows_each_rows_symbol_and_unit():
+    scene = sim.scenes.build("grid")
+    text = "\n".join(parameter_lines(scene.model))
+    for name in [*scene.model.parameters(), "mass"]:
+        row = parameters.get(name)
+        assert f"| {name} | {row.symbol} |" in text
+        assert row.help in text
+
+
+def test_a_control_caption_carries_symbol_and_unit():
+    assert parameters.get("stiffness").caption() == "Stiffness k (N/m)"
+    assert parameters.get("damping").caption() == "Dashpot c (N s/m)"
