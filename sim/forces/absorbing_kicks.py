@@ -20,10 +20,12 @@ measure from the velocity the previous one left, so their takes add up exactly.
 Arrays: the state's (dim, ny, nx) positions (m) and velocities (m/s); ``horizontal``
 (3, nx + 1) the forces of a row's x-springs (spring i joins particle i - 1, or the left anchor,
 to particle i), ``below`` / ``above`` (3, nx) those of the y-springs under and over the row (N);
-``layer`` the tuple ``MatchedLayer.arguments``, read by the positions named here.
+``layer`` the record ``LayerArguments`` (``MatchedLayer.arguments``).
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -35,12 +37,41 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 NONE, BAND = 0, 1
 """Whether the y-layer acts on a row."""
 
-# the layer's tuple (``MatchedLayer.arguments``), by position
-MASSES, HELD_Y, RELAXED_Y, SPRING_Y, NODE_Y, NEEDS = 0, 1, 2, 3, 4, 5
-OUT_OF_PLANE, LINEARISED, PARAMETERS, GRAVITY, BUFFERS = 6, 7, 8, 9, 10
-GEOMETRY, HELD_LEFT, HELD_RIGHT, RELAXED_X, SIDE_FACTORS, SIDE_INVERSE_MASS = 11, 12, 13, 14, 15, 16
-SIDE_FORCES, SIDE_KICKS, SIDE_MASS, INVERSE_MASSES = 17, 18, 19, 20
-"""``GEOMETRY`` (4,) int64: the left strip's width, the right one's, its first column, ny."""
+class LayerArguments(NamedTuple):
+    """What the layer's kernels read, as one named record (``MatchedLayer.arguments``).
+
+    ``masses``, ``inverse_masses`` (ny, nx) of the band rows' particles; ``held_y``, ``relaxed_y``,
+    ``spring_y``, ``node_y`` the y-layer's held forces, relaxed fields and factors per row;
+    ``needs`` which rows the y-layer acts on (``NONE`` or ``BAND``); ``out_of_plane``,
+    ``linearised`` compile-time flags (None or True); ``parameters`` the springs'
+    ``SpringParameters`` (None on threads, where the sweep passes its own); ``gravity`` (3,) or
+    None; ``buffers`` scratch; ``geometry`` (4,) int64: the left strip's width, the right one's,
+    its first column, ny; the side strips' fields laid flat: ``held_left``, ``held_right``,
+    ``relaxed_x``, ``side_factors``, ``side_inverse_mass``, ``side_forces``, ``side_kicks``,
+    ``side_mass``.
+    """
+
+    masses: object
+    held_y: object
+    relaxed_y: object
+    spring_y: object
+    node_y: object
+    needs: object
+    out_of_plane: object
+    linearised: object
+    parameters: object
+    gravity: object
+    buffers: object
+    geometry: object
+    held_left: object
+    held_right: object
+    relaxed_x: object
+    side_factors: object
+    side_inverse_mass: object
+    side_forces: object
+    side_kicks: object
+    side_mass: object
+    inverse_masses: object
 
 
 @njit(**_JIT)
@@ -160,16 +191,16 @@ def side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry):
 def sides_act(j0, j1, tau, lead, second_half, drift, position, velocity, layer):
     """The x-layer's action on rows j0 .. j1 - 1 from the forces in the layer's side buffer.
     Returns the kinetic energy taken out (J)."""
-    geometry = layer[GEOMETRY]
-    kicks = layer[SIDE_KICKS]
-    mass = layer[SIDE_MASS]
-    pull = gravity_vector(layer[GRAVITY], 0.0)
+    geometry = layer.geometry
+    kicks = layer.side_kicks
+    mass = layer.side_mass
+    pull = gravity_vector(layer.gravity, 0.0)
     taken = 0.0
     for s in range(2):
         width, first_slot, _ = strip(s, geometry)
-        taken += side_kick(tau, lead, second_half, pull, layer[SIDE_FORCES], layer[HELD_LEFT],
-                           layer[HELD_RIGHT], layer[RELAXED_X], layer[SIDE_FACTORS],
-                           layer[SIDE_INVERSE_MASS], mass, kicks, first_slot + j0 * width,
+        taken += side_kick(tau, lead, second_half, pull, layer.side_forces, layer.held_left,
+                           layer.held_right, layer.relaxed_x, layer.side_factors,
+                           layer.side_inverse_mass, mass, kicks, first_slot + j0 * width,
                            first_slot + j1 * width)
     return taken + side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry)
 
@@ -287,14 +318,14 @@ def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizo
     unless ``first`` and j > 0 (row j opens a row block swept in parallel with the one below,
     which still reads them: ``relax_block_edges``).  Returns the kinetic energy taken out (J)."""
     ny = velocity.shape[1]
-    spring_y = layer[SPRING_Y]
-    held_y = layer[HELD_Y]
-    pull = gravity_vector(layer[GRAVITY], 0.0)
+    spring_y = layer.spring_y
+    held_y = layer.held_y
+    pull = gravity_vector(layer.gravity, 0.0)
     taken = 0.0
     for c in range(velocity.shape[0]):
-        taken += band_kick(c, j, tau, lead, second_half, pull[c], velocity, layer[MASSES],
-                           layer[INVERSE_MASSES], horizontal, below, above, held_y,
-                           layer[RELAXED_Y], spring_y[j], spring_y[j + 1], layer[NODE_Y][j],
+        taken += band_kick(c, j, tau, lead, second_half, pull[c], velocity, layer.masses,
+                           layer.inverse_masses, horizontal, below, above, held_y,
+                           layer.relaxed_y, spring_y[j], spring_y[j + 1], layer.node_y[j],
                            tension if c == 1 else 0.0, drift, position)
     if spring_y[j] < 1.0 and not (first and j > 0):  # the springs under j served both rows
         relax_row(held_y, j, below, spring_y[j], second_half, tension)
@@ -308,8 +339,8 @@ def relax_block_edges(block_starts, boundary, layer, tension):
     """The held forces of the y-springs under each row block but the first relaxed, after both
     their rows were swept (``band_act``); ``boundary`` (blocks + 1, 3, nx) holds those springs'
     whole forces before the sweep (``sim.loops.leapfrog``)."""
-    spring_y = layer[SPRING_Y]
-    held_y = layer[HELD_Y]
+    spring_y = layer.spring_y
+    held_y = layer.held_y
     for b in range(1, block_starts.size - 1):
         j = block_starts[b]
         if spring_y[j] < 1.0:

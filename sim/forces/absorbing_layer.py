@@ -47,14 +47,8 @@ from numba import njit
 
 from sim.forces.absorbing_kicks import (
     BAND,
-    BUFFERS,
-    GEOMETRY,
-    LINEARISED,
-    NEEDS,
     NONE,
-    OUT_OF_PLANE,
-    PARAMETERS,
-    SIDE_FORCES,
+    LayerArguments,
     band_act,
     rest_tension,
     sides_act,
@@ -150,9 +144,9 @@ def _side_forces(x, y, z, linearised, parameters, tension, layer):
     (``sim.forces.absorbing_kicks``): each particle's two x-springs beyond the rest ``tension`` (N) and the
     net force of its y-springs, stored a row at a time as the leapfrog sweep stores them
     (``sides_under``, ``sides_row``)."""
-    geometry = layer[GEOMETRY]
-    forces = layer[SIDE_FORCES]
-    buffers = layer[BUFFERS]
+    geometry = layer.geometry
+    forces = layer.side_forces
+    buffers = layer.buffers
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
     ny = x.shape[0]
     for s in range(2):
@@ -183,17 +177,17 @@ def act_on(tau, lead, second_half, position, velocity, layer):
     on the velocities ``lead`` seconds later under the lattice's forces (dt / 2 for a
     leapfrog's half-step velocities, else 0)."""
     ny, nx = position.shape[1], position.shape[2]
-    x, y, z = components(layer[OUT_OF_PLANE], position)
-    linearised, parameters = layer[LINEARISED], layer[PARAMETERS]
+    x, y, z = components(layer.out_of_plane, position)
+    linearised, parameters = layer.linearised, layer.parameters
     tension = rest_tension(linearised, parameters)
     taken = 0.0
-    geometry = layer[GEOMETRY]
+    geometry = layer.geometry
     if geometry[0] + geometry[1] > 0:
         _side_forces(x, y, z, linearised, parameters, tension, layer)
         taken += sides_act(0, ny, tau, lead, second_half, None, position, velocity, layer)
-    buffers = layer[BUFFERS]
+    buffers = layer.buffers
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
-    needs = layer[NEEDS]
+    needs = layer.needs
     fresh = True  # whether ``below`` must be computed (the row below was not a band row)
     for j in range(ny):
         if needs[j] == NONE:
@@ -289,20 +283,24 @@ class MatchedLayer:
             self._factors[span] = factors
         return factors
 
-    def arguments(self, span: float, dtype: type = np.float64, threads: bool = False) -> tuple:
-        """The layer's tuple for spans of ``span`` on a state in ``dtype``, as ``act_on`` and
+    def arguments(self, span: float, dtype: type = np.float64, threads: bool = False) -> LayerArguments:
+        """The layer's record for spans of ``span`` on a state in ``dtype``, as ``act_on`` and
         the leapfrog sweep take it (positions in ``sim.forces.absorbing_kicks``); for the sweep on threads
         without the springs' parameters (None in their place)."""
         model = self._model
         gravity = np.array(model.gravity, dtype=dtype) if model.has_gravity else None
         held_left, held_right, relaxed_x, held_y, relaxed_y = self.fields
         spring_y, node_y, side_factors = self.factors(span)
-        return (self.masses, held_y, relaxed_y, spring_y, node_y, self.needs,
-                True if model.dim == 3 else None, True if model.linear else None,
-                None if threads else model.kernel_parameters.as_type(dtype), gravity,
-                self._buffers, self.geometry,
-                held_left, held_right, relaxed_x, side_factors, self._side_inverse_mass,
-                self._side_forces, self._side_kicks, self._side_mass, self._inverse_masses)
+        return LayerArguments(
+            masses=self.masses, held_y=held_y, relaxed_y=relaxed_y, spring_y=spring_y,
+            node_y=node_y, needs=self.needs, out_of_plane=True if model.dim == 3 else None,
+            linearised=True if model.linear else None,
+            parameters=None if threads else model.kernel_parameters.as_type(dtype),
+            gravity=gravity, buffers=self._buffers, geometry=self.geometry, held_left=held_left,
+            held_right=held_right, relaxed_x=relaxed_x, side_factors=side_factors,
+            side_inverse_mass=self._side_inverse_mass, side_forces=self._side_forces,
+            side_kicks=self._side_kicks, side_mass=self._side_mass,
+            inverse_masses=self._inverse_masses)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""

@@ -14,12 +14,7 @@ from __future__ import annotations
 from numba import njit, prange
 
 from sim.forces.absorbing_kicks import (
-    GEOMETRY,
-    LINEARISED,
-    NEEDS,
     NONE,
-    PARAMETERS,
-    SIDE_FORCES,
     band_act,
     keep_row,
     relax_block_edges,
@@ -67,9 +62,9 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     pull = gravity_vector(gravity, zero)
     nx = x.shape[1]
     if sponge is not None:
-        needs = sponge[NEEDS]
-        geometry = sponge[GEOMETRY]
-        side_forces = sponge[SIDE_FORCES]
+        needs = sponge.needs
+        geometry = sponge.geometry
+        side_forces = sponge.side_forces
         sides_under(j0, below, side_forces, geometry)
     for j in range(j0, j1):
         if drive is not None:
@@ -157,7 +152,7 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
     blocks = block_starts.size - 1
     tension = 0.0
     if sponge is not None:
-        tension = rest_tension(sponge[LINEARISED], sponge[PARAMETERS])
+        tension = rest_tension(sponge.linearised, sponge.parameters)
     for step in range(n):
         for b in range(blocks + 1):
             vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
@@ -187,7 +182,7 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
     blocks = block_starts.size - 1
     tension = 0.0
     if sponge is not None:
-        tension = rest_tension(sponge[LINEARISED], parameters)
+        tension = rest_tension(sponge.linearised, parameters)
     for step in range(n):
         for b in prange(blocks + 1):
             _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
