@@ -263,3 +263,64 @@ def test_a_stalled_upload_is_dropped_with_what_it_holds(web_app):
 
     run(scenario())
     assert web_app.gate.refused >= 1
+
+
+def test_a_share_request_and_types_the_app_does_not_take_are_dropped_unread(web_app, capfd):
+    """viser's page can ask the server for a public share tunnel (a process that reaches the
+    network); the app takes no such request, nor any message type it does not handle."""
+    shared: list[str] = []
+    web_app.server.request_share_url = lambda *_, **__: shared.append("share")
+    web_app.server.disconnect_share_url = lambda *_, **__: shared.append("disconnect")
+
+    async def scenario() -> None:
+        async with Page(web_app.server.get_port()) as page:
+            await page.camera()
+            await page.listen(2.0)
+            await page.send(type="ShareUrlRequest")
+            await page.send(type="ShareUrlDisconnect")
+            await page.send(type="CommandTriggerMessage", uuid="anything")
+            await page.send(type="GuiFormSubmitMessage", uuid=page.uuid("Stiffness k (N/m)"))
+            await page.set("Stiffness k (N/m)", {"value": 50.0})  # the page still works
+            await page.listen(1.5)
+
+    async def nonsense() -> None:
+        async with Page(web_app.server.get_port()) as page:
+            await page.camera()
+            await page.send(type="NoSuchMessage", payload=1)
+            await page.connection.send("a text frame")
+            await page.listen(1.0)
+
+    run(scenario())
+    assert shared == []
+    assert "Share URL" not in capfd.readouterr().out
+    assert web_app.runner.simulation.model.stiffness == pytest.approx(50.0)
+    run(nonsense())
+    dropped = web_app.gate.dropped
+    for kind in ("ShareUrlRequest", "ShareUrlDisconnect", "CommandTriggerMessage",
+                 "GuiFormSubmitMessage", "NoSuchMessage", "not a viser message"):
+        assert dropped.get(kind) == 1, (kind, dropped)
+    assert web_app.runner.simulation.model.stiffness == pytest.approx(50.0)
+
+
+def test_a_page_over_the_message_rate_is_throttled_then_disconnected(web_app):
+    gate = web_app.gate
+    gate.flood_seconds = 1.0
+
+    async def scenario() -> bool:
+        async with Page(web_app.server.get_port()) as flood:
+            await flood.camera()
+            await flood.listen(1.0)
+            end = time.monotonic() + 3.0
+            try:
+                while time.monotonic() < end:
+                    for _ in range(50):
+                        await flood.camera()
+                    await asyncio.sleep(0.01)
+                await flood.listen(1.0)
+            except websockets.ConnectionClosed:
+                return True
+            return flood.connection.close_code is not None
+
+    assert run(scenario())
+    assert gate.dropped.get("over the rate", 0) > 1000
+    assert gate.disconnected == 1

@@ -19,11 +19,19 @@ viser gives the ``websockets`` server (the documented way to accept or refuse a 
 replaces ``websockets.asyncio.server.serve`` only while the ``ViserServer`` is being built (viser
 starts listening inside its constructor), under a lock, and puts it back at once.
 
-Once connected, what a page may send is closed by ``PageGate``: only value updates for controls
-the server created, of the control's own type and range, from a connected client, pass
-``PageGate.accept_page_value``, the one place where page values are accepted (anything else is
-dropped, logged, and the control shown again with the value in use on every page); uploads are
-capped in size and time while they arrive.
+Once connected, what a page may send is closed by ``PageGate`` in two layers:
+
+* every websocket message is looked at as it is read, before viser decodes it: only the
+  message types in ``PAGE_MESSAGES`` (those the app handles) pass, and at most
+  ``MESSAGE_RATE`` a second from one page (a burst of ``MESSAGE_BURST``).  Anything else (a
+  request for viser's public share tunnel, a form, a command, a text frame) and anything over
+  the rate is counted and dropped there, at the cost of reading its type; a page that keeps
+  sending over the rate for ``FLOOD_SECONDS`` is disconnected.  So no message a page sends
+  starts anything that reaches the network;
+* only value updates for controls the server created, of the control's own type and range,
+  from a connected client, pass ``PageGate.accept_page_value``, the one place where page values
+  are accepted (anything else is dropped, logged, and the control shown again with the value in
+  use on every page); uploads are capped in size and time while they arrive.
 """
 
 from __future__ import annotations
@@ -44,6 +52,7 @@ from urllib.parse import urlsplit
 import viser
 import websockets.asyncio.server
 
+from app.web.page_messages import FLOOD_SECONDS, MESSAGE_RATE, PAGE_MESSAGES, MessageBudget, message_type
 from sim.scenes.scene_files import MAX_UPLOAD_BYTES as MAX_SCENE_UPLOAD_BYTES
 
 _SERVE_PATCH_LOCK = threading.Lock()
@@ -218,6 +227,8 @@ class PageGate:
     """Closes viser's protocol around the app: installed on a ``viser.ViserServer`` before any
     page connects.
 
+    * a message whose type the app does not handle (``PAGE_MESSAGES``), or one over the page's
+      rate, is dropped as it is read, before viser decodes it (``dropped`` counts them by type);
     * a ``GuiUpdateMessage`` passes only ``accept_page_value``; a refused one is dropped, logged,
       and the control is sent again with the value in use to every page;
     * a client counts as connected from its websocket handshake (viser registers a client, and
@@ -235,6 +246,12 @@ class PageGate:
         self.refused = 0
         """How many messages were dropped (for tests and the log)."""
         self._refused_by_client: dict[int, int] = {}
+        self.dropped: dict[str, int] = {}
+        """Messages dropped as they were read, by type (``"over the rate"`` for a flood)."""
+        self.disconnected = 0
+        """Pages disconnected for sending over the rate."""
+        self.message_rate = MESSAGE_RATE
+        self.flood_seconds = FLOOD_SECONDS
         self._upload_started: dict[str, tuple[int, float]] = {}
         self.upload_seconds = MAX_UPLOAD_SECONDS
 
@@ -254,6 +271,9 @@ class PageGate:
             "start": self.gui._handle_file_transfer_start,
             "part": self.gui._handle_file_transfer_part,
         }
+        # and no handler for viser's share tunnel either, should a message reach dispatch
+        for message_class in (_messages.ShareUrlRequest, _messages.ShareUrlDisconnect):
+            self.websockets.unregister_handler(message_class)
         self.websockets.on_client_connect(self._connected)
         self.websockets.on_client_disconnect(self._disconnected)
         self.server.get_event_loop().call_soon_threadsafe(self._sweep)
@@ -361,12 +381,46 @@ class PageGate:
         from viser._messages import ViewerCameraMessage
 
         self.connected.add(connection.client_id)
+        websocket = self.websockets._live_connections.get(connection.client_id)
+        if websocket is not None:
+            self._read_through_gate(connection.client_id, websocket)
         # viser registers a client (and runs the app's checks for it) at its first camera
         # message: give it one now, the page's own follows
         await connection._handle_incoming_message(connection.client_id, ViewerCameraMessage(
             wxyz=(1.0, 0.0, 0.0, 0.0), position=(0.0, 0.0, -5.0), fov=0.9, near=0.01,
             far=1000.0, image_height=720, image_width=1280, look_at=(0.0, 0.0, 0.0),
             up_direction=(0.0, 0.0, 1.0)))
+
+    def _read_through_gate(self, client_id: int, websocket: Any) -> None:
+        """Make viser's reads of this page's websocket pass ``PAGE_MESSAGES`` and the rate first
+        (viser's reader awaits ``websocket.recv()`` for each message, then decodes it)."""
+        receive = websocket.recv
+        budget = MessageBudget(rate=self.message_rate, burst=2.0 * self.message_rate,
+                               tokens=2.0 * self.message_rate, last=time.monotonic())
+
+        async def gated_receive(*args: Any, **kwargs: Any) -> Any:
+            while True:
+                raw = await receive(*args, **kwargs)
+                now = time.monotonic()
+                if not budget.take(now):
+                    self._drop(client_id, "over the rate")
+                    if budget.flooding(now, self.flood_seconds):
+                        self.disconnected += 1
+                        _LOG.warning("client %s: disconnected: more than %g messages a second "
+                                     "for %g s", client_id, budget.rate, self.flood_seconds)
+                        await websocket.close(1008, "too many messages")
+                    continue
+                kind = message_type(raw)
+                if kind in PAGE_MESSAGES:
+                    return raw
+                self._drop(client_id, kind if kind is not None else "not a viser message")
+
+        websocket.recv = gated_receive
+
+    def _drop(self, client_id: int, kind: str) -> None:
+        self.dropped[kind] = self.dropped.get(kind, 0) + 1
+        self._refuse(client_id, f"{kind:.60} (a message the app does not take)"
+                     if kind != "over the rate" else "message over the rate")
 
     async def _disconnected(self, connection: Any) -> None:
         self.connected.discard(connection.client_id)
