@@ -22,6 +22,7 @@ from app.cli.study_output import (
 )
 from app.study.accuracy_reference import REFINEMENT
 from sim.integrators.registry import INTEGRATORS, most_accurate
+from sim.runtime.errors import MEASURES
 
 LARGE_LATTICE = 20_000
 """Above this many particles the sweep runs in float64 only unless --precisions says otherwise."""
@@ -47,8 +48,10 @@ Without --dts, the smallest default steps are left out on a large lattice to kee
 estimated cost within 30 s.
 
 The recommendation is the answer of `oscillators choose SCENE --tolerance TOL` (the same code):
-the cheapest integrator and dt whose error over the scene's whole duration meets the tolerance
-(field error where a reference is affordable, else energy), verified by running it.
+the cheapest integrator and dt whose errors over the scene's whole duration meet the tolerance,
+verified by running it: both the field error (the largest distance from a reference over the
+run's sample times, relative to the largest reference field) and the energy error (the largest
+energy-balance error over the same times), or the one --error names (the other still shown).
 """
 
 EPILOG = """\
@@ -86,6 +89,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="tolerance of the recommendation (as for `oscillators choose`) and the sweep's "
         "target relative position error (default 1e-3)",
     )
+    parser.add_argument("--error", choices=MEASURES, default=None,
+                        help="the recommendation checks this error alone (as for `oscillators "
+                        "choose`; default: both)")
     parser.add_argument("--no-refine", action="store_true",
                         help="do not run the dt predicted to just meet the tolerance")
     parser.add_argument(
@@ -139,12 +145,12 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
             )
             bar.total = bar.n
         choice = recommendation(scene, arguments.tolerance, integrators, executor,
-                                arguments.quiet)
+                                arguments.quiet, arguments.error)
     data = study.as_dict()
     data["recommendation"] = choice.as_dict()
     answer = choice.answer
     verified = (f"recommended, verified over the scene's {choice.duration:g} s: "
-                f"{answer.describe()}, {choice.measure} error <= {choice.tolerance:g}"
+                f"{answer.describe()}; {choice.measure} error <= {choice.tolerance:g}"
                 if answer is not None else
                 f"nothing met {choice.tolerance:g} ({choice.measure} error) over the scene's "
                 f"{choice.duration:g} s")
@@ -157,7 +163,8 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
     return 0
 
 
-def recommendation(scene, tolerance: float, integrators: list[str], executor, quiet: bool):
+def recommendation(scene, tolerance: float, integrators: list[str], executor, quiet: bool,
+                   measure: str | None = None):
     """``app.study.choose.choose`` on the scene (the compiled integrators among ``integrators``),
     its runs through the sweep's executor, with the bar of `oscillators choose`."""
     from app.cli.choose import Bar
@@ -167,7 +174,7 @@ def recommendation(scene, tolerance: float, integrators: list[str], executor, qu
     compiled = [name for name in integrators if describe(name).kernel] or None
     bar = Bar(quiet)
     try:
-        return choose(scene, tolerance, integrators=compiled, progress=bar,
+        return choose(scene, tolerance, measure=measure, integrators=compiled, progress=bar,
                       map_runs=lambda function, tasks: executor.map(function, tasks))
     finally:
         bar.close()

@@ -40,6 +40,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="record the displacement of the particle in column I, row J (from 0) and print the "
         "dominant frequencies of its motion with the nearest normal modes; repeatable",
     )
+    parser.add_argument(
+        "--fields", metavar="PATH.npz",
+        help="also save the displacement field of every particle at the run's sample times "
+        "(those of `oscillators choose`'s errors: SAMPLES evenly spaced times, the last at the "
+        "end) with the energy-balance error at each, as arrays times (s), fields (samples, dim, "
+        "ny, nx) m and energy_balance_errors in a NumPy .npz file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_run)
 
@@ -51,6 +57,7 @@ def command_run(arguments: argparse.Namespace) -> int:
 
     simulation = simulation_from_arguments(arguments)
     steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
+    fields = _Fields(arguments.fields, simulation, steps) if arguments.fields else None
     limit = simulation.stability()
     talk = sys.stderr if arguments.json else sys.stdout  # --json: stdout is the document alone
     print(f"{simulation.scene.summary()}", file=talk)
@@ -81,12 +88,14 @@ def command_run(arguments: argparse.Namespace) -> int:
         done = 0
         try:
             while done < steps:
-                n = min(chunk, steps - done)
+                n = min(chunk, steps - done, fields.next_step - done if fields else steps)
                 simulation.step(n)
                 done += n
                 bar.update(n)
                 if probes is not None:
                     probes.add(simulation.time, simulation.state.particle_positions())
+                if fields is not None and done == fields.next_step:
+                    fields.add(simulation, done)
         except BlowUpError as error:
             bar.close()
             stopped = str(error)
@@ -104,6 +113,8 @@ def command_run(arguments: argparse.Namespace) -> int:
     }
     if probes is not None:
         summary["probes"] = _probe_report(probes)
+    if fields is not None:
+        summary["fields"] = fields.save()
     if arguments.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -162,3 +173,52 @@ def _probe_report(probes: Any) -> list[dict[str, Any]]:
         report.append({"particle": particle, "column": column, "row": row,
                        "component": POLARISATION_NAMES[component], "peaks": peaks})
     return report
+
+
+class _Fields:
+    """The displacement field and energy-balance error at the sample times of
+    ``sim.runtime.errors.sample_steps``, saved to the ``--fields`` file (atomically) at the end."""
+
+    def __init__(self, path: str, simulation: Any, steps: int) -> None:
+        from pathlib import Path
+
+        from sim.runtime.errors import sample_steps
+
+        self.path = Path(path)
+        if self.path.suffix != ".npz":
+            raise ValueError(f"--fields {path}: give a file name ending in .npz")
+        if not self.path.parent.is_dir():
+            raise ValueError(f"--fields {path}: the directory {self.path.parent} does not exist")
+        if self.path.is_dir() or self.path.is_symlink():
+            raise ValueError(f"--fields {path}: give a plain file name")
+        self.model = simulation.model
+        self.steps = sample_steps(steps)
+        self.next_step = self.steps[0]
+        self.times: list[float] = []
+        self.fields: list[np.ndarray] = []
+        self.errors: list[float] = []
+
+    def add(self, simulation: Any, done: int) -> None:
+        from sim.runtime.errors import displacement
+
+        self.times.append(simulation.time)
+        self.fields.append(displacement(self.model, simulation.state.positions))
+        self.errors.append(simulation.energy_balance_error())
+        later = [step for step in self.steps if step > done]
+        self.next_step = later[0] if later else -1
+
+    def save(self) -> str:
+        import os
+        import tempfile
+
+        handle, temporary = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".npz",
+                                             dir=self.path.parent)
+        try:
+            with os.fdopen(handle, "wb") as stream:
+                np.savez(stream, times=np.array(self.times), energy_balance_errors=np.array(
+                    self.errors), fields=np.array(self.fields))
+            os.replace(temporary, self.path)
+        except BaseException:
+            os.unlink(temporary)
+            raise
+        return str(self.path.resolve())

@@ -1,12 +1,16 @@
 """``choose``: the cheapest (integrator, dt) that meets an error tolerance over a scene's whole
 duration, verified by running exactly that setting before it is offered.
 
-The error is one of the two measures of ``sim.runtime.errors``: the field error (relative L2 distance of
-the final displacement field from a reference, which carries phase; the default where a
-reference is affordable) or the energy error (the energy balance).  The field reference is the
-exact normal-mode solution of a linear scene, else RK4 halved until halving changes the field by
-less than a tenth of the tolerance (both runs made and compared; the first step predicted from
-the modes); it is the default only when planned to cost under ``REFERENCE_BUDGET_SECONDS``.
+Both errors of ``sim.runtime.errors`` are measured over the whole run (at
+``sim.runtime.errors.SAMPLES`` evenly spaced times): the field error (the largest distance of the
+displacement field from a reference, relative to the largest reference field; it carries phase) and
+the energy error (the largest energy-balance error).  By default a setting meets the tolerance only
+when both do (measure ``BOTH``); ``measure="field"`` or ``"energy"`` checks that one alone, the
+other still measured and shown.  The field reference is the exact normal-mode solution of a linear
+scene, else RK4 halved until halving changes the sampled field by less than a tenth of the tolerance
+(both runs made and compared; the first step predicted from the modes); without ``measure="field"``
+it is made only when planned to cost under ``REFERENCE_BUDGET_SECONDS``, and when it would cost more
+the energy error alone is used and the note says so.
 
 Few runs, planned before any is made (``choose_plan``): each integrator's step is predicted from
 the normal modes of the scene's initial state (the exact numerical run of the linearised
@@ -31,23 +35,33 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
-from typing import Any, Protocol
+from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import numpy as np
 
 import sim
-from app.study.accuracy_runs import jsonable
 from app.study.choose_plan import AIM, predicted_dt, predictor_or_none, step_seconds
-from app.study.choose_runs import MapRuns, RunOutcome, RunTask, run_setting, serial_map, steps_for
+from app.study.choose_result import BOTH, Choice, Measured, Reference
+from app.study.choose_runs import (
+    ChoiceCancelled,
+    MapRuns,
+    RunOutcome,
+    RunTask,
+    run_setting,
+    serial_map,
+    steps_for,
+)
 from sim.integrators.registry import describe, most_accurate
 from sim.runtime.errors import (
     CONVERGED_FRACTION,
     MEASURES,
-    exact_final_displacement,
+    SAMPLES,
+    exact_displacements,
     exact_reference_reason,
-    field_error,
     halving_converged,
+    run_field_error,
+    sample_times,
 )
 from sim.theory.observables import highest_frequency
 
@@ -67,8 +81,8 @@ step (it shows the best that integrator reaches)."""
 REFERENCE_BUDGET_SECONDS = 120.0
 """Largest planned cost (s) of a numerical reference for the field error to be the default
 (``--error field`` insists whatever it costs)."""
-MAX_HALVINGS = 5
-"""Most halvings of the reference step before the reference counts as not affordable."""
+MAX_HALVINGS = 8
+"""Most pairs of reference runs before the reference counts as not affordable."""
 
 
 class Progress(Protocol):
@@ -88,94 +102,27 @@ class _Silent:
         pass
 
 
-@dataclasses.dataclass(frozen=True)
-class Measured:
-    """One setting run over the whole duration: its ``error`` in the chosen measure, the
-    ``energy_error`` and ``field_error`` (None without a reference), ``wall_seconds``,
-    ``blew_up`` (the message or None) and whether it ``meets`` the tolerance."""
+class _Stoppable:
+    """A ``Progress`` that raises ``ChoiceCancelled`` at every report once ``stop()`` is true."""
 
-    integrator: str
-    dt: float
-    steps: int
-    duration: float
-    error: float
-    energy_error: float
-    field_error: float | None
-    wall_seconds: float
-    blew_up: str | None
-    meets: bool
-    role: str
-    abandoned: bool = False
+    def __init__(self, progress: Progress, stop: Callable[[], bool] | None) -> None:
+        self.progress = progress
+        self.stop = stop
 
-    def as_dict(self) -> dict[str, Any]:
-        return jsonable(dataclasses.asdict(self))
+    def check(self) -> None:
+        if self.stop is not None and self.stop():
+            raise ChoiceCancelled("the choice was cancelled")
 
-    def describe(self) -> str:
-        label = describe(self.integrator).short_label
-        if self.blew_up:
-            return f"{label} at dt = {self.dt:.5g} s blew up"
-        if self.abandoned:
-            return f"{label} at dt = {self.dt:.5g} s stopped after {self.wall_seconds:.3g} s"
-        return (f"{label} at dt = {self.dt:.5g} s: error {self.error:.3g} in "
-                f"{self.wall_seconds:.3g} s ({self.steps} steps)")
+    def planned(self, seconds: float) -> None:
+        self.check()
+        self.progress.planned(seconds)
+
+    def finished(self, seconds: float, label: str) -> None:
+        self.progress.finished(seconds, label)
+        self.check()
 
 
-@dataclasses.dataclass(frozen=True)
-class Reference:
-    """The field reference: ``kind`` ("exact normal modes" or "RK4 converged"), its ``dt``
-    (None when exact), ``change`` (field change when its step was halved), ``wall_seconds``."""
-
-    kind: str
-    dt: float | None
-    change: float
-    wall_seconds: float
-
-    def describe(self) -> str:
-        if self.dt is None:
-            return "the exact normal-mode solution"
-        return (f"{self.kind} at dt = {self.dt:.4g} s (halving the step changed the field by "
-                f"{self.change:.2g})")
-
-
-@dataclasses.dataclass(frozen=True)
-class Choice:
-    """The answer of ``choose`` (``answer`` None when nothing met the tolerance), with every run
-    made, the runner-ups, the reference, the stability ``limits`` and the ``skipped``
-    integrators with the reason."""
-
-    scene: str
-    duration: float
-    tolerance: float
-    measure: str
-    answer: Measured | None
-    runner_ups: list[Measured]
-    runs: list[Measured]
-    reference: Reference | None
-    limits: dict[str, float | None]
-    skipped: dict[str, str]
-    note: str = ""
-
-    @property
-    def best_reached(self) -> Measured | None:
-        usable = [run for run in self.runs if run.blew_up is None and not run.abandoned]
-        return min(usable, key=lambda run: run.error, default=None)
-
-    def as_dict(self) -> dict[str, Any]:
-        answer = self.answer
-        return jsonable(dict(
-            scene=self.scene, duration=self.duration, tolerance=self.tolerance,
-            measure=self.measure, met=answer is not None,
-            integrator=answer.integrator if answer else None, dt=answer.dt if answer else None,
-            steps=answer.steps if answer else None, error=answer.error if answer else None,
-            energy_error=answer.energy_error if answer else None,
-            field_error=answer.field_error if answer else None,
-            wall_seconds=answer.wall_seconds if answer else None,
-            best_reached=self.best_reached.as_dict() if self.best_reached else None,
-            runner_ups=[run.as_dict() for run in self.runner_ups],
-            runs=[run.as_dict() for run in self.runs],
-            reference=dataclasses.asdict(self.reference) if self.reference else None,
-            limits=self.limits, skipped=self.skipped, note=self.note,
-        ))
+__all__ = ["BOTH", "Choice", "ChoiceCancelled", "Measured", "Reference", "choose"]
 
 
 def estimated_seconds(task: RunTask, costs: dict[str, float] | None = None) -> float:
@@ -197,15 +144,19 @@ class _Runner:
     """Runs batches of tasks through ``map_runs`` and reports progress."""
 
     def __init__(self, map_runs: MapRuns, progress: Progress,
-                 costs: dict[str, float] | None = None) -> None:
+                 costs: dict[str, float] | None = None,
+                 stop: Callable[[], bool] | None = None) -> None:
         self.map_runs = map_runs
         self.progress = progress
         self.costs = costs
+        self.stop = stop
 
     def __call__(self, tasks: Sequence[RunTask], planned: bool = False) -> list[RunOutcome]:
         """Run the tasks; ``planned``: their cost was already announced to the progress."""
         if not tasks:
             return []
+        if self.stop is not None:
+            tasks = [dataclasses.replace(task, stop=self.stop) for task in tasks]
         if not planned:
             self.progress.planned(sum(estimated_seconds(task, self.costs) for task in tasks))
         outcomes = []
@@ -225,21 +176,26 @@ class _Runner:
         return outcomes
 
 
-def reference_field(
+def reference_fields(
     scene: sim.Scene, duration: float, tolerance: float, run: _Runner, threads: int = 1,
     budget: float | None = REFERENCE_BUDGET_SECONDS, predictor: object | None = None,
     step_cost: float | None = None,
-) -> tuple[np.ndarray, Reference, list[RunOutcome]] | None:
-    """The field reference at ``duration`` (see the module docstring) and the numerical runs it
-    took (RK4 settings whose error is then known for free); None when a converged numerical
-    reference is predicted to cost more than ``budget`` seconds (None: no budget).
+) -> tuple[np.ndarray, Reference, list[RunOutcome]] | str:
+    """The field reference at the sample times of a run over ``duration`` ((samples, dim, ny,
+    nx); see the module docstring) and the numerical runs it took (RK4 settings whose error is
+    then known for free); else why there is none (a sentence): a converged numerical reference
+    is predicted to cost more than ``budget`` seconds (None: no budget), or the field does not
+    converge (a pair at a step at least ``4`` times smaller changed it by more than half the
+    change of an earlier pair: the motion is sensitive to differences far below the
+    tolerance, so no step gives a field to compare with).
 
     The first pair (h, h/2) is planned from the normal-mode prediction when there is one (h
     predicted to give a field error of half the allowed change), else from a quarter of the
     stability limit; after a pair whose change is too large the next step is predicted from
     the order p (change ~ h^p, aiming at half the allowed change) instead of halving blindly."""
     if exact_reference_reason(scene.model) is None:
-        return (exact_final_displacement(scene, duration),
+        times = sample_times(duration, SAMPLES)
+        return (exact_displacements(scene, times),
                 Reference("exact normal modes", None, 0.0, 0.0), [])
     name = most_accurate(scene.model)
     order = describe(name).order or 1
@@ -251,86 +207,119 @@ def reference_field(
         start = predicted_dt(predictor, name, wanted / AIM, duration, "field", limit, omega)[0]
     steps, dt = steps_for(duration, start)
     per_step = step_cost or describe(name).seconds_per_step(scene.model.n_particles)
+    too_costly = (f"a converged field reference is predicted to take over {budget or 0:g} s "
+                  "of computing here")
     if budget is not None and 3 * steps * per_step > budget:
-        return None
+        return too_costly
     coarse = run([RunTask(scene, name, dt, steps, "reference", threads)])[0]
     outcomes = [coarse]
+    seen: tuple[float, float] | None = None  # (dt, change) of the last pair compared
+    pairs: list[tuple[float, float]] = []  # every (dt, change) compared
     for _ in range(MAX_HALVINGS):
         task = RunTask(scene, name, dt / 2, 2 * steps, "reference", threads)
         if budget is not None and task.steps * per_step > budget:
-            return None
+            return too_costly
         fine = run([task])[0]
         outcomes.append(fine)
-        if coarse.field is None or fine.field is None:
+        if coarse.fields is None or fine.fields is None:
             coarse, dt, steps = fine, dt / 2, 2 * steps
             continue
-        converged, change = halving_converged(coarse.field, fine.field, tolerance)
+        converged, change = halving_converged(coarse.fields, fine.fields, tolerance)
         if converged:
             spent = sum(outcome.wall_seconds for outcome in outcomes)
-            return fine.field, Reference(f"{describe(name).short_label} converged", dt / 2,
-                                         change, spent), outcomes[:-1]
-        predicted = dt * (wanted / change) ** (1.0 / order)
+            return fine.fields, Reference(f"{describe(name).short_label} converged", dt / 2,
+                                          change, spent), outcomes[:-1]
+        earlier = [(c, h) for h, c in pairs if h >= 4 * dt and change > c / 2]
+        if earlier:
+            least, at = min(earlier)
+            label = describe(name).short_label
+            return (f"the field does not converge: halving {label}'s step from {at:.3g} s "
+                    f"changed the field over the run by {least:.2g}, from {dt:.3g} s by "
+                    f"{change:.2g}; this motion is sensitive to differences far below the "
+                    "tolerance, so no step gives a reference")
+        pairs.append((dt, change))
+        # the order seen between the last two pairs (a transient with close encounters of
+        # particles converges more slowly than the method's order until dt resolves them)
+        seen_order = order
+        if seen is not None and seen[1] > change > 0 and seen[0] > dt:
+            seen_order = min(order, max(0.5, math.log(seen[1] / change) / math.log(seen[0] / dt)))
+        seen = (dt, change)
+        predicted = dt * (wanted / change) ** (1.0 / seen_order)
         if predicted < dt / 5:  # far off: jump to the predicted pair, skipping halvings
             steps, dt = steps_for(duration, predicted)
+            if budget is not None and 3 * steps * per_step > budget:
+                return too_costly
             coarse = run([RunTask(scene, name, dt, steps, "reference", threads)])[0]
             outcomes.append(coarse)
         else:
             coarse, dt, steps = fine, dt / 2, 2 * steps
-    return None
+    return f"halving the reference step {MAX_HALVINGS} times did not converge the field"
+
+
+def _planned_dt(predictor: object, name: str, tolerance: float, duration: float, measure: str,
+                limit: float | None, omega: float) -> tuple[float, bool]:
+    """``predicted_dt`` in the chosen measure; for ``BOTH`` the smaller of the two steps."""
+    if measure != BOTH:
+        return predicted_dt(predictor, name, tolerance, duration, measure, limit, omega)
+    field = predicted_dt(predictor, name, tolerance, duration, "field", limit, omega)
+    energy = predicted_dt(predictor, name, tolerance, duration, "energy", limit, omega)
+    return min(field[0], energy[0]), field[1] and energy[1]
 
 
 def choose(
     scene: sim.Scene, tolerance: float, measure: str | None = None,
     integrators: Sequence[str] | None = None, duration: float | None = None,
     map_runs: MapRuns = serial_map, progress: Progress | None = None, threads: int = 1,
+    stop: Callable[[], bool] | None = None,
 ) -> Choice:
     """The cheapest verified setting meeting ``tolerance`` (see the module docstring).
 
-    ``measure`` "field" or "energy" (None: field where a reference is affordable, else energy);
-    ``duration`` (s) defaults to the scene's; ``map_runs`` carries out each batch of runs;
-    ``threads`` the threads each run's compiled sweeps use."""
+    ``measure`` "field" or "energy" checks that error alone (None: both, the field error where a
+    reference is affordable); ``duration`` (s) defaults to the scene's; ``map_runs`` carries out
+    each batch of runs; ``threads`` the threads each run's compiled sweeps use; ``stop`` is
+    looked at between runs and within each run (about ten times a second): once it returns
+    True, ``ChoiceCancelled`` is raised."""
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"the tolerance must be a positive number, got {tolerance!r}")
     if measure is not None and measure not in MEASURES:
         raise ValueError(f"unknown error measure {measure!r}; choose one of: {', '.join(MEASURES)}")
     duration = float(duration if duration is not None else scene.duration)
     names = candidate_integrators(scene, integrators)
-    progress = progress or _Silent()
+    progress = _Stoppable(progress or _Silent(), stop)
     progress.finished(0.0, "planning: the normal modes")
     predictor = predictor_or_none(scene)
     costs = {}
     for name in dict.fromkeys([*names, most_accurate(scene.model)]):
         progress.finished(0.0, f"planning: timing {name}")
         costs[name] = step_seconds(scene, name, threads)
-    run = _Runner(map_runs, progress, costs)
+    run = _Runner(map_runs, progress, costs, stop if map_runs is serial_map else None)
     note = ""
     reference = None
-    reference_field_now = None
+    reference_now = None
     reference_runs: list[RunOutcome] = []
-    if measure in (None, "field"):
-        found = reference_field(scene, duration, tolerance, run, threads,
-                                REFERENCE_BUDGET_SECONDS if measure is None else None,
-                                predictor, costs[most_accurate(scene.model)])
-        if found is None:
-            if measure == "field":
-                raise ValueError("no converged reference is affordable for the field error on "
-                                 "this scene; use --error energy")
-            note = (f"the energy error is used: a converged field reference is predicted to "
-                    f"take over {REFERENCE_BUDGET_SECONDS:g} s here (--error field insists)")
-            measure = "energy"
-        else:
-            reference_field_now, reference, reference_runs = found
-            measure = "field"
+    found = reference_fields(scene, duration, tolerance, run, threads,
+                             None if measure == "field" else REFERENCE_BUDGET_SECONDS,
+                             predictor, costs[most_accurate(scene.model)])
+    if isinstance(found, str):
+        if measure == "field":
+            raise ValueError(f"no field error on this scene: {found}; use --error energy")
+        note = f"the energy error alone is used, the field error is not measured: {found}"
+        measure = "energy"
+    else:
+        reference_now, reference, reference_runs = found
+        measure = measure or BOTH
     probe = sim.Simulation(scene)
     limits = {name: probe.stable_dt(name) for name in names}
     omega = highest_frequency(scene.model) or 1.0
 
     def measured(outcome: RunOutcome) -> Measured:
         task = outcome.task
-        field = (field_error(outcome.field, reference_field_now)
-                 if outcome.field is not None and reference_field_now is not None else None)
+        field = (run_field_error(outcome.fields, reference_now)
+                 if outcome.fields is not None and reference_now is not None else None)
         if outcome.blew_up or outcome.abandoned:
             error = math.inf
+        elif measure == BOTH:
+            error = max(field if field is not None else math.inf, outcome.energy_error)
         else:
             error = field if measure == "field" else outcome.energy_error
         return Measured(task.integrator, task.dt, task.steps, task.duration, error,
@@ -339,7 +328,8 @@ def choose(
 
     def task_at(name: str, dt: float, role: str, time_limit: float | None = None) -> RunTask:
         steps, dt = steps_for(duration, min(dt, duration))
-        return RunTask(scene, name, dt, steps, role, threads, time_limit)
+        return RunTask(scene, name, dt, steps, role, threads, time_limit,
+                       keep_fields=reference_now is not None)
 
     # the reference's own coarser runs are measured settings of its integrator
     runs: list[Measured] = [measured(o) for o in reference_runs if o.task.integrator in names]
@@ -365,8 +355,8 @@ def choose(
         if predictor is None:
             plans[name] = (0.5 * limits[name] if limits[name] else 0.2 / omega, "probe")
             continue
-        dt, reached = predicted_dt(predictor, name, tolerance, duration, measure, limits[name],
-                                   omega)
+        dt, reached = _planned_dt(predictor, name, tolerance, duration, measure, limits[name],
+                                  omega)
         if not reached:  # run once anyway, to show the best it reaches, at an affordable step
             dt = max(dt, duration * describe(name).seconds_per_step(n) / BEST_REACHED_SECONDS)
         plans[name] = (dt, "predicted" if reached else "predicted best")

@@ -37,7 +37,8 @@ def plot_choice(data: dict[str, Any], path: str) -> None:
     axes.set_xscale("log")
     axes.set_yscale("log")
     axes.set_xlabel("wall time of the whole run (s)")
-    axes.set_ylabel(f"{data['measure']} error at t = {data['duration']:g} s")
+    axes.set_ylabel(f"{data['measure']} error over {data['duration']:g} s"
+                    + (" (the larger)" if " and " in data["measure"] else ""))
     axes.set_title(f"{data['scene']}: every run of `choose` (error against cost)")
     axes.grid(True, which="both", alpha=0.3)
     axes.legend(fontsize=8)

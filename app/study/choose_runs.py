@@ -3,9 +3,12 @@ one seam through which every batch of runs goes (``MapRuns``).
 
 ``run_setting(task)`` runs ``task.scene`` from its initial state for ``task.steps`` steps of
 ``task.dt`` s with ``task.integrator`` and returns a ``RunOutcome``: the displacement field at
-the end ((dim, ny, nx) m, float64), the energy error (``sim.runtime.errors.energy_error``), the wall
-seconds of the stepping alone (the kernels are compiled by a one-step warm-up first) and the
-blow-up message, if any.  A task with a ``time_limit`` is abandoned (``RunOutcome.abandoned``)
+each of the run's sample times (``sim.runtime.errors.sample_steps``; (samples, dim, ny, nx) m, float64;
+kept only when ``task.keep_fields``), the largest energy error over those times
+(``sim.runtime.errors.energy_error``), the wall seconds of the stepping alone (the kernels are compiled
+by a one-step warm-up first) and the blow-up message, if any.  ``steps_for`` makes the number of
+steps a multiple of ``sim.runtime.errors.SAMPLES``, so runs at different steps are sampled at the same
+times.  A task with a ``time_limit`` is abandoned (``RunOutcome.abandoned``)
 once its stepping has taken longer than that: ``choose`` gives it the wall time of the best
 verified setting, which a slower run cannot beat.  Tasks and outcomes are plain data, so
 ``map_runs`` may be the serial ``serial_map`` (the default), a process pool or a cluster's
@@ -22,7 +25,7 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 
 import sim
-from sim.runtime.errors import displacement, energy_error
+from sim.runtime.errors import SAMPLES, displacement, energy_error, sample_steps
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,6 +41,11 @@ class RunTask:
     threads: int = 1
     time_limit: float | None = None
     """Wall seconds after which the run is abandoned (None: never)."""
+    keep_fields: bool = True
+    """Keep the displacement field at every sample time (False: the energy error alone)."""
+    stop: Callable[[], bool] | None = dataclasses.field(default=None, compare=False, repr=False)
+    """Looked at about ``1 / STOP_INTERVAL`` times a second: once True the run raises
+    ``ChoiceCancelled`` (for runs in this process: a page's Cancel; None for other processes)."""
 
     @property
     def duration(self) -> float:
@@ -46,20 +54,26 @@ class RunTask:
 
 @dataclasses.dataclass(frozen=True)
 class RunOutcome:
-    """What one ``RunTask`` gave: ``field`` the final displacement (None if it blew up),
-    ``energy_error`` (inf if it blew up), ``wall_seconds``, ``blew_up`` the message or None,
-    ``abandoned`` whether it was stopped at its time limit (then no field, energy error inf)."""
+    """What one ``RunTask`` gave: ``fields`` the displacement at every sample time (None if it
+    blew up or was not kept), ``energy_error`` the largest over the sample times (inf if it blew
+    up), ``final_energy_error`` at the end alone, ``wall_seconds``, ``blew_up`` the message or
+    None, ``abandoned`` whether it was stopped at its time limit (then no fields, errors inf)."""
 
     task: RunTask
-    field: np.ndarray | None
+    fields: np.ndarray | None
     energy_error: float
     wall_seconds: float
     blew_up: str | None = None
     abandoned: bool = False
+    final_energy_error: float = math.inf
 
 
-SLICES = 50
-"""A run with a time limit checks the clock this many times."""
+STOP_INTERVAL = 0.1
+"""Seconds of stepping between two looks at a task's ``stop``."""
+
+
+class ChoiceCancelled(RuntimeError):
+    """A run (and so the choice) was stopped by its ``stop``."""
 
 
 MapRuns = Callable[[Callable[[RunTask], RunOutcome], Sequence[RunTask]], Iterable[RunOutcome]]
@@ -74,13 +88,15 @@ def serial_map(function: Callable[[RunTask], RunOutcome], tasks: Sequence[RunTas
 
 
 def steps_for(duration: float, dt: float) -> tuple[int, float]:
-    """(whole number of steps, the dt that lands exactly on ``duration``) nearest to ``dt``."""
-    steps = max(1, round(duration / dt))
+    """(whole number of steps, a multiple of ``SAMPLES``, and the dt that lands exactly on
+    ``duration``) nearest to ``dt``."""
+    steps = SAMPLES * max(1, round(duration / dt / SAMPLES))
     return steps, duration / steps
 
 
 def run_setting(task: RunTask) -> RunOutcome:
-    """Run one task (see the module docstring); top level, so it can be sent to other processes."""
+    """Run one task (see the module docstring); top level, so it can be sent to other processes.
+    The clock (``time_limit``) is looked at after every sample."""
     scene = task.scene
     warm = sim.Simulation(scene, integrator=task.integrator, dt=task.dt, threads=task.threads)
     try:
@@ -90,19 +106,42 @@ def run_setting(task: RunTask) -> RunOutcome:
     simulation = sim.Simulation(scene, integrator=task.integrator, dt=task.dt,
                                 threads=task.threads)
     simulation.chunk_steps = max(64, min(task.steps, 4096))
-    piece = task.steps if task.time_limit is None else max(1, task.steps // SLICES)
+    fields: list[np.ndarray] = []
+    largest = 0.0
     started = time.perf_counter()
     done = 0
     try:
-        while done < task.steps:
-            count = min(piece, task.steps - done)
-            simulation.step(count)
-            done += count
+        for sample in sample_steps(task.steps):
+            _step_to(simulation, sample - done, task.stop)
+            done = sample
+            largest = max(largest, energy_error(simulation))
+            if task.keep_fields:
+                fields.append(displacement(scene.model, simulation.state.positions))
             wall = time.perf_counter() - started
             if task.time_limit is not None and done < task.steps and wall > task.time_limit:
                 return RunOutcome(task, None, math.inf, wall, None, abandoned=True)
     except sim.BlowUpError as error:
         return RunOutcome(task, None, math.inf, time.perf_counter() - started, str(error))
     wall = time.perf_counter() - started
-    field = displacement(scene.model, simulation.state.positions)
-    return RunOutcome(task, field, energy_error(simulation), wall)
+    if not math.isfinite(largest):
+        largest = math.inf
+    return RunOutcome(task, np.stack(fields) if fields else None, largest, wall,
+                      final_energy_error=energy_error(simulation))
+
+
+def _step_to(simulation: sim.Simulation, steps: int, stop: Callable[[], bool] | None) -> None:
+    """``simulation.step(steps)``; with ``stop``, in pieces of about ``STOP_INTERVAL`` seconds
+    (sized from the pieces before), raising ``ChoiceCancelled`` once ``stop()`` is True."""
+    if stop is None:
+        simulation.step(steps)
+        return
+    piece, left = 1, steps
+    while left > 0:
+        if stop():
+            raise ChoiceCancelled("the choice was cancelled")
+        count = min(piece, left)
+        started = time.perf_counter()
+        simulation.step(count)
+        spent = time.perf_counter() - started
+        left -= count
+        piece = max(1, min(4 * count, int(count * STOP_INTERVAL / max(spent, 1e-9))))
