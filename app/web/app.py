@@ -45,6 +45,7 @@ from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import NARROW, PHONE_PANEL_SHARE, LatticeView, camera_fit, laptop_fit
 from sim.runner import Frame
+from sim.warming import KernelPreparer, shared_preparer
 
 DEFAULT_SCENES_DIR = Path("scenes")
 """Where ``serve`` looks for scene files the page may open (by name)."""
@@ -99,16 +100,20 @@ class WebApp:
     scenes_dir: the directory whose ``.toml`` files the page may open by name;
     recordings_dir: where the page's recordings go;
     allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app;
-    class_mode: one teacher page drives, the other pages watch (``app.web.roles``).
+    class_mode: one teacher page drives, the other pages watch (``app.web.roles``);
+    preparer: compiles the kernels a scene needs before the runner steps it, while the page says
+    so (``sim.warming``; default: the process's own).
     """
 
     def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
                  verbose: bool = False, play: bool = False,
                  scenes_dir: str | Path = DEFAULT_SCENES_DIR,
                  recordings_dir: str | Path = DEFAULT_RECORDINGS_DIR,
-                 allow_origins: Sequence[str] = (), class_mode: bool = False) -> None:
+                 allow_origins: Sequence[str] = (), class_mode: bool = False,
+                 preparer: KernelPreparer | None = None) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
-        self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
+        self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps,
+                                    preparer=preparer or shared_preparer())
         self.control = SimulationControl(self.runner)
         self.scene_files = SceneDirectory(scenes_dir)
         self.recordings = WebRecordings(self.runner, recordings_dir)

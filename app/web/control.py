@@ -26,6 +26,7 @@ import numpy as np
 import sim
 from sim.forcing import Driver
 from sim.runner import Runner
+from sim.warming import KernelPreparer
 
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
@@ -45,8 +46,9 @@ class LatticeRunner(Runner):
     """
 
     def __init__(self, simulation: sim.Simulation, steps_per_frame: int = 1,
-                 max_fps: float = 60.0) -> None:
-        super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps)
+                 max_fps: float = 60.0, preparer: KernelPreparer | None = None) -> None:
+        super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps,
+                         preparer=preparer)
         self.pins: dict[Hashable, dict[int, np.ndarray]] = {}
 
     def pinned_particles(self) -> dict[int, np.ndarray]:
