@@ -106,6 +106,7 @@ class _CompileWatch:
     def __init__(self) -> None:
         self.threads: dict[int, int] = {}
         self.seen: set[int] = set()
+        self.started = 0
         self._lock = threading.Lock()
         self.installed = False
 
@@ -124,6 +125,7 @@ class _CompileWatch:
                 with watch._lock:
                     watch.threads[ident] = watch.threads.get(ident, 0) + 1
                     watch.seen.add(ident)
+                    watch.started += 1
 
             def on_end(self, _: Any) -> None:
                 ident = threading.get_ident()
@@ -144,6 +146,20 @@ class _CompileWatch:
 
 
 _WATCH = _CompileWatch()
+
+
+def compiled_in_thread(ident: int) -> bool:
+    """Whether the thread ``ident`` (``threading.get_ident()``) started a numba compile since
+    the process began watching (a thread whose kernels were prepared starts none)."""
+    _WATCH.install()
+    return _WATCH.compiled_in(ident)
+
+
+def compiles_started() -> int:
+    """How many numba compiles (not cache reads) started in this process since it began
+    watching (the first call, or the first ``KernelPreparer``)."""
+    _WATCH.install()
+    return _WATCH.started
 
 
 @dataclasses.dataclass

@@ -7,8 +7,12 @@ from __future__ import annotations
 
 import threading
 
+import pytest
+
 import sim
-from app.web.app import WebApp
+from app import cli
+from app.web.app import WebApp, runner_pacing
+from app.web.control import LatticeRunner
 from sim import warming
 from tests.helpers import free_port, wait_for
 from tests.test_web_safety import press, settle
@@ -71,3 +75,47 @@ def test_the_page_says_it_is_preparing_and_the_controls_answer_meanwhile(tmp_pat
     finally:
         app.stop()
         release.set()
+
+
+def test_a_prepared_runner_compiles_nothing_in_its_own_thread():
+    """The rehearsal compiles exactly what the run calls: once it is done, stepping, pinned
+    steps, a single step and the frames compile nothing more in the runner's thread."""
+    runner = LatticeRunner(sim.Simulation(sim.scenes.build("grid", nx=9, ny=6)),
+                           steps_per_frame=2, preparer=warming.KernelPreparer())
+    frames = []
+    runner.subscribe(frames.append)
+    runner.start()
+    try:
+        runner.play()
+        assert wait_for(lambda: runner.simulation.step_count > 20, 300)
+        runner.pause()
+        assert runner.single_step().result(timeout=300) is True
+        assert any(frame.preparing is not None for frame in frames)
+        assert frames[-1].preparing is None
+        assert not warming.compiled_in_thread(runner._thread.ident)
+    finally:
+        runner.stop()
+
+
+def test_warm_help_names_what_it_does(capsys):
+    with pytest.raises(SystemExit) as stopped:
+        cli.main(["warm", "--help"])
+    assert stopped.value.code == 0
+    text = capsys.readouterr().out
+    assert "progress bar" in text and "--toggles" in text and "make run" in text
+
+
+def test_warm_compiles_what_the_page_then_runs(capsys):
+    assert cli.main(["warm", "single"]) == 0
+    assert "1 kernel combinations for 1 preset(s)" in capsys.readouterr().out
+    simulation = sim.Simulation(sim.scenes.build("single"))
+    before = warming.compiles_started()
+    simulation.energy()
+    simulation.step(runner_pacing(simulation)[0])
+    simulation.energy_balance_error()
+    assert warming.compiles_started() == before
+
+
+def test_warm_refuses_an_unknown_preset(capsys):
+    assert cli.main(["warm", "no-such-scene"]) == 2
+    assert "unknown preset 'no-such-scene'" in capsys.readouterr().err

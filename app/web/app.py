@@ -45,7 +45,7 @@ from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import NARROW, PHONE_PANEL_SHARE, LatticeView, camera_fit, laptop_fit
 from sim.runner import Frame
-from sim.warming import KernelPreparer, shared_preparer
+from sim.warming import KernelPreparer
 
 DEFAULT_SCENES_DIR = Path("scenes")
 """Where ``serve`` looks for scene files the page may open (by name)."""
@@ -113,7 +113,7 @@ class WebApp:
                  preparer: KernelPreparer | None = None) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
         self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps,
-                                    preparer=preparer or shared_preparer())
+                                    preparer=preparer)
         self.control = SimulationControl(self.runner)
         self.scene_files = SceneDirectory(scenes_dir)
         self.recordings = WebRecordings(self.runner, recordings_dir)
@@ -126,6 +126,7 @@ class WebApp:
         self.play_on_start = play
         self.hold_while_dragging = True
         self._latest: Frame | None = None
+        self._drawn: Frame | None = None
         self._frame_ready = threading.Event()
         self._pumping = False
         self._pump: threading.Thread | None = None
@@ -227,6 +228,7 @@ class WebApp:
     def refresh(self) -> None:
         """Redraw everything from a fresh frame (after a view setting changed)."""
         self.view.invalidate()
+        self._drawn = None
         self._resubscribe()
         self.runner.post(lambda simulation: None)
 
@@ -255,7 +257,10 @@ class WebApp:
             self._camera_layout = layout
             self.set_selection(np.zeros(0, dtype=np.int64))
             self._resubscribe()
-        self.view.draw(frame)
+        drawn, self._drawn = self._drawn, frame
+        if not (frame.preparing is not None and drawn is not None and drawn.model is frame.model
+                and np.array_equal(drawn.positions, frame.positions)):
+            self.view.draw(frame)  # a frame that says "preparing" of an unmoved state: no need
         self.frames_delivered += 1
         if frame.error:
             self.last_error = frame.error
