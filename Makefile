@@ -14,7 +14,11 @@ $(BIN)/oscillators: pyproject.toml
 
 install: $(BIN)/oscillators
 
+# warm: the served scene's kernels and its Gravity/Damping toggles are compiled before the page
+# opens (once per machine, then read from numba's cache); the server compiles the other presets'
+# in the background (docs/web.md, "Kernels compiled ahead").
 run: install  ## install, then serve the web app on the default scene
+	$(BIN)/oscillators warm $(SCENE) --toggles
 	$(BIN)/oscillators serve $(SCENE)
 
 # --dist loadfile: a test module's tests run in one worker, so the kernels a module compiles on a

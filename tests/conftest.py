@@ -11,6 +11,8 @@ import pytest
 # both variants of two loops on a fresh machine; tests/test_host_tuning.py checks that the
 # variants agree and that the measurement answers.
 os.environ.setdefault("OSCILLATORS_INVERSE_SQRT", "divide")
+# The servers the tests start warm no other presets' kernels in the background (app.cli.warm).
+os.environ.setdefault("OSCILLATORS_NO_WARM", "1")
 
 import sim
 from app.web.app import WebApp

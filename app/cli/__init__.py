@@ -12,6 +12,7 @@
     oscillators movie SCENE -o FILE         an MP4, WebM or GIF movie of a run or a recording
     oscillators continuum [string|membrane] one body at several N against the wave equation
     oscillators slits [SCENE]               a slit scene's intensity screen against theory
+    oscillators warm [PRESET ...]           compile the presets' kernels ahead, with progress
 
 Parameters of any scene can be overridden with ``--set key=value`` (repeatable), e.g.
 ``--set nx=40 --set gravity=9.81 --set damping=0.5``; a driver with
@@ -44,11 +45,12 @@ from app.cli import (
     serve,
     slits,
     stability,
+    warm,
 )
 from app.cli.arguments import EPILOG, OneLineErrorParser
 
 COMMANDS = (scenes, run, bench, serve, record, choose, accuracy, stability, dispersion,
-            continuum, response, reflection, slits, movie)
+            continuum, response, reflection, slits, movie, warm)
 """The command modules, in the order ``oscillators --help`` lists them."""
 
 

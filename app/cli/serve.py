@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from app.cli.arguments import add_scene_arguments, simulation_from_arguments
+from sim.scenes.presets import PRESETS
 
 EPILOG = """examples:
   oscillators serve                          # the 12x8 grid on http://127.0.0.1:8080
@@ -71,6 +72,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--class", dest="class_mode", action="store_true",
                         help="teach a class: the first page (or the teacher link printed) drives "
                         "the run, every other page only watches")
+    parser.add_argument("--no-warm", action="store_true",
+                        help="do not compile the other presets' kernels in the background "
+                        "(by default a low-priority process does, this scene's Gravity/Damping "
+                        "toggles first, so the page seldom waits for a compile)")
     parser.set_defaults(handler=command_serve)
 
 
@@ -145,8 +150,17 @@ def command_serve(arguments: argparse.Namespace) -> int:
 
     # installed before anything is printed, so a SIGTERM right after the first line stops cleanly
     previous = signal.signal(signal.SIGTERM, terminate)
+    warming = None
     try:
         app.start()
+        if not arguments.no_warm:
+            from app.cli.warm import start_background
+
+            preset = simulation.scene.name if simulation.scene.name in PRESETS else None
+            warming = start_background(preset)
+            if warming is not None:
+                print("compiling the presets' kernels in the background at low priority "
+                      "(--no-warm: not)", flush=True)
         print(f"{simulation.scene.summary()}")
         print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
         print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
@@ -171,6 +185,10 @@ def command_serve(arguments: argparse.Namespace) -> int:
         print("stopping", flush=True)
         _exit_if_stuck(SHUTDOWN_SECONDS)
     finally:
+        if warming is not None:
+            from app.cli.warm import stop_background
+
+            stop_background(warming)
         app.stop()  # closes a running recording so that its file verifies
         signal.signal(signal.SIGTERM, previous)
     # everything is closed: skip the interpreter's own teardown, where the libraries' threads

@@ -45,6 +45,7 @@ from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import NARROW, PHONE_PANEL_SHARE, LatticeView, camera_fit, laptop_fit
 from sim.runtime.runner import Frame
+from sim.runtime.warming import KernelPreparer
 
 DEFAULT_SCENES_DIR = Path("scenes")
 """Where ``serve`` looks for scene files the page may open (by name)."""
@@ -99,16 +100,20 @@ class WebApp:
     scenes_dir: the directory whose ``.toml`` files the page may open by name;
     recordings_dir: where the page's recordings go;
     allow_origins: other origins (``http://name:port``, or ``*``) whose pages may drive the app;
-    class_mode: one teacher page drives, the other pages watch (``app.web.roles``).
+    class_mode: one teacher page drives, the other pages watch (``app.web.roles``);
+    preparer: compiles the kernels a scene needs before the runner steps it, while the page says
+    so (``sim.runtime.warming``; default: the process's own).
     """
 
     def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
                  verbose: bool = False, play: bool = False,
                  scenes_dir: str | Path = DEFAULT_SCENES_DIR,
                  recordings_dir: str | Path = DEFAULT_RECORDINGS_DIR,
-                 allow_origins: Sequence[str] = (), class_mode: bool = False) -> None:
+                 allow_origins: Sequence[str] = (), class_mode: bool = False,
+                 preparer: KernelPreparer | None = None) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
-        self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
+        self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps,
+                                    preparer=preparer)
         self.control = SimulationControl(self.runner)
         self.scene_files = SceneDirectory(scenes_dir)
         self.recordings = WebRecordings(self.runner, recordings_dir)
@@ -121,6 +126,7 @@ class WebApp:
         self.play_on_start = play
         self.hold_while_dragging = True
         self._latest: Frame | None = None
+        self._drawn: Frame | None = None
         self._frame_ready = threading.Event()
         self._pumping = False
         self._pump: threading.Thread | None = None
@@ -222,6 +228,7 @@ class WebApp:
     def refresh(self) -> None:
         """Redraw everything from a fresh frame (after a view setting changed)."""
         self.view.invalidate()
+        self._drawn = None
         self._resubscribe()
         self.runner.post(lambda simulation: None)
 
@@ -250,7 +257,10 @@ class WebApp:
             self._camera_layout = layout
             self.set_selection(np.zeros(0, dtype=np.int64))
             self._resubscribe()
-        self.view.draw(frame)
+        drawn, self._drawn = self._drawn, frame
+        if not (frame.preparing is not None and drawn is not None and drawn.model is frame.model
+                and np.array_equal(drawn.positions, frame.positions)):
+            self.view.draw(frame)  # a frame that says "preparing" of an unmoved state: no need
         self.frames_delivered += 1
         if frame.error:
             self.last_error = frame.error

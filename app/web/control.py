@@ -26,6 +26,7 @@ import numpy as np
 import sim
 from sim.model.forcing import Driver
 from sim.runtime.runner import Runner
+from sim.runtime.warming import KernelPreparer, shared_preparer
 
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
@@ -42,11 +43,15 @@ class LatticeRunner(Runner):
     pin exists the runner's public ``before_step`` hook puts pinned particles back (velocity
     zero) before each step and after the last, so a dragged particle follows the pointer exactly;
     without pins the hook is off and the steps run as one compiled chunk.
+
+    Its kernels are prepared before it steps (``preparer``, default the process's own,
+    ``sim.runtime.warming``), so the page's commands answer while a scene's kernels compile.
     """
 
     def __init__(self, simulation: sim.Simulation, steps_per_frame: int = 1,
-                 max_fps: float = 60.0) -> None:
-        super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps)
+                 max_fps: float = 60.0, preparer: KernelPreparer | None = None) -> None:
+        super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps,
+                         preparer=preparer or shared_preparer())
         self.pins: dict[Hashable, dict[int, np.ndarray]] = {}
 
     def pinned_particles(self) -> dict[int, np.ndarray]:

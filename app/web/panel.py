@@ -119,8 +119,18 @@ class ControlPanel:
         self._each("show the scene", lambda folder: folder.show_scene(simulation))
 
     def update(self, frame: Frame) -> None:
-        """Pass a frame that was just drawn to every folder."""
+        """Pass a frame that was just drawn to every folder; a frame of a run that waits for its
+        kernels (``frame.preparing``) only to the Run folder, which says so (the plots and
+        read-outs keep the last true values)."""
         now = time.perf_counter()
+        if frame.preparing is not None:
+            run = self.folders.get("run")
+            try:
+                if run is not None:
+                    run.update(frame, now)
+            except Exception as error:  # a failing folder must not take the page down
+                self._failed("run", "failed to follow the run", error)
+            return
         self._each("follow the run", lambda folder: folder.update(frame, now))
 
     def selection_changed(self, selection: np.ndarray) -> None:

@@ -17,6 +17,12 @@ A subscriber that raises is detached: the runner logs it, keeps the message in
 ``subscriber_errors``, calls the subscriber's ``on_error(exception)`` (so a recorder can close its
 file cleanly) and carries on stepping.  One failing viewer or recorder never stops the others or
 the simulation.
+
+Kernels are prepared before they are used when the runner has a ``KernelPreparer``
+(``sim.runtime.warming``): before the loop steps (or observes) a simulation whose combination of kernels
+was not compiled in this process, it has them compiled in the preparer's thread and meanwhile
+keeps applying commands (Pause, Reset, parameters answer at once) and publishes, four times a
+second, frames of the unchanged state whose ``preparing`` says how long it has been preparing.
 """
 
 from __future__ import annotations
@@ -34,12 +40,16 @@ from typing import Any
 import numpy as np
 
 from sim.model.lattice import Model
+from sim.runtime import warming
 from sim.runtime.simulation import BlowUpError, Simulation
+from sim.theory import observables
 from sim.theory.observables import Energy
 
 LOGGER = logging.getLogger("oscillators.runner")
 SUBSCRIBER_ERRORS_KEPT = 20
 """How many detached-subscriber messages ``Runner.subscriber_errors`` keeps."""
+PREPARING_INTERVAL = 0.25
+"""Seconds between two frames that say the kernels are being prepared."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,7 +59,10 @@ class Frame:
     positions: (n_particles, dim) m; velocities: (n_particles, dim) m/s or None if no subscriber
     asked; strains: (n_springs,) or None if no subscriber asked; energy: the energy account;
     error: the blow-up message if the run just stopped on one, else None;
-    energy_balance_error: ``Simulation.energy_balance_error()`` of this state (relative, 0 exact).
+    energy_balance_error: ``Simulation.energy_balance_error()`` of this state (relative, 0 exact);
+    preparing: while the kernels this run needs are being compiled, how long that has taken
+    (``sim.runtime.warming.Preparing``; the frame's energy is then computed without compiled kernels
+    and its balance error left at 0), else None.
     """
 
     step: int
@@ -64,6 +77,7 @@ class Frame:
     error: str | None = None
     playing: bool = False
     energy_balance_error: float = 0.0
+    preparing: warming.Preparing | None = None
 
 
 @dataclasses.dataclass(eq=False)
@@ -78,7 +92,8 @@ class Runner:
     """Owns a ``Simulation`` and its loop; see the module docstring."""
 
     def __init__(
-        self, simulation: Simulation, steps_per_frame: int = 1, max_fps: float = 60.0
+        self, simulation: Simulation, steps_per_frame: int = 1, max_fps: float = 60.0,
+        preparer: warming.KernelPreparer | None = None,
     ) -> None:
         self.simulation = simulation
         self.steps_per_frame = steps_per_frame
@@ -101,6 +116,10 @@ class Runner:
             maxlen=SUBSCRIBER_ERRORS_KEPT
         )
         """Messages about subscribers that raised and were detached, oldest first."""
+        self.preparer = preparer
+        """Prepares the kernels before the loop needs them (None: they compile when called)."""
+        self._pending_steps: list[concurrent.futures.Future] = []
+        self._plain_energy: tuple | None = None
 
     # --- subscribers -----------------------------------------------------------------------------
 
@@ -122,11 +141,15 @@ class Runner:
 
         return unsubscribe
 
-    def make_frame(self, error: str | None = None) -> Frame:
-        """A frame of the current state, with what the current subscribers asked for."""
+    def make_frame(self, error: str | None = None,
+                   preparing: warming.Preparing | None = None) -> Frame:
+        """A frame of the current state, with what the current subscribers asked for; while
+        ``preparing`` without calling a compiled kernel."""
         with self._lock:
             subscribers = list(self._subscribers)
         simulation = self.simulation
+        if preparing is not None:
+            return self._preparing_frame(simulation, subscribers, error, preparing)
         return Frame(
             step=simulation.step_count,
             time=simulation.time,
@@ -146,9 +169,37 @@ class Runner:
             energy_balance_error=simulation.energy_balance_error(),
         )
 
-    def publish(self, error: str | None = None) -> Frame:
+    def _preparing_frame(self, simulation: Simulation, subscribers: list[_Subscriber],
+                         error: str | None, preparing: warming.Preparing) -> Frame:
+        model = simulation.model
+        state = simulation.state
+        positions = simulation.peek_positions()
+        velocities = state.particle_velocities().copy()
+        seen = (state.step, state.time, state.dissipated, state.driven, id(model))
+        kept = self._plain_energy
+        if (kept is None or kept[0] != seen or not np.array_equal(kept[1], positions)
+                or not np.array_equal(kept[2], velocities)):
+            energy = Energy(  # numpy's terms, no compiled kernel; again only when the state moved
+                kinetic=observables.kinetic_energy(model, state.velocities),
+                spring=observables.spring_energy(model, state.positions),
+                gravity=observables.gravity_energy(model, state.positions),
+                dissipated=state.dissipated, driven=state.driven,
+            )
+            self._plain_energy = kept = (seen, positions, velocities, energy)
+        energy = kept[3]
+        return Frame(
+            step=simulation.step_count, time=simulation.time, integrator=simulation.integrator,
+            dt=simulation.dt, model=model, positions=positions, energy=energy,
+            velocities=velocities if any(s.velocities for s in subscribers) else None,
+            strains=(observables.strains(model, state.positions)
+                     if any(s.strains for s in subscribers) else None),
+            error=error, playing=self._playing, preparing=preparing,
+        )
+
+    def publish(self, error: str | None = None,
+                preparing: warming.Preparing | None = None) -> Frame:
         """Build a frame now and hand it to every subscriber; returns it."""
-        frame = self.make_frame(error)
+        frame = self.make_frame(error, preparing)
         with self._lock:
             subscribers = list(self._subscribers)
         for subscriber in subscribers:
@@ -239,8 +290,45 @@ class Runner:
         self._wake.set()
 
     def single_step(self) -> concurrent.futures.Future:
-        """Advance exactly one step (while paused) and publish it."""
-        return self.post(lambda simulation: self.guarded_step(1))
+        """Advance exactly one step (while paused) and publish it.  The Future holds whether
+        the step ran; with a preparer it waits for the kernels of a single step."""
+        if self.preparer is None or self._thread is None:
+            return self.post(lambda simulation: self.guarded_step(1))
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self.post(lambda simulation: self._pending_steps.append(future))
+        return future
+
+    def _kernels_for(self, steps: int) -> warming.Preparing | None:
+        """None when the kernels to run ``steps`` steps per call are ready (or nothing prepares
+        them); else have them prepared and say how far that is (runs in the loop's thread)."""
+        if self.preparer is None:
+            return None
+        simulation = self.simulation
+        key = warming.kernel_key(simulation, steps)
+        if self.preparer.ready(key):
+            return None
+        return self.preparer.prepare(key, simulation, steps)
+
+    def _preparing(self) -> warming.Preparing | None:
+        """What the loop waits for before it steps or observes: the kernels of the steps it
+        runs per frame (or one at a time while particles are held), and of a single step
+        asked for."""
+        steps = 1 if self.before_step is not None else max(1, int(self.steps_per_frame))
+        waiting = self._kernels_for(steps)
+        if waiting is None and self._pending_steps:
+            waiting = self._kernels_for(1)
+        return waiting
+
+    def _run_pending_steps(self) -> bool:
+        """Run the single steps asked for (their kernels are ready); whether any ran."""
+        pending, self._pending_steps = self._pending_steps, []
+        for future in pending:
+            if future.set_running_or_notify_cancel():
+                try:
+                    future.set_result(self.guarded_step(1))
+                except Exception as error:  # not a blow-up: say it to the one who asked
+                    future.set_exception(error)
+        return bool(pending)
 
     def guarded_step(self, steps: int) -> bool:
         """Advance ``steps`` steps in the loop's thread; on a blow-up pause, keep the state and
@@ -288,8 +376,28 @@ class Runner:
 
     def _loop(self) -> None:
         last_frame = 0.0
+        last_notice = 0.0
+        was_waiting = noticed_playing = False
         while self._running:
             changed = self.apply_commands() > 0
+            waiting = self._preparing()
+            if was_waiting and waiting is None:
+                changed = True  # ready: a true frame replaces the one that said "preparing"
+            was_waiting = waiting is not None
+            if waiting is not None:  # not stepping nor observing until the kernels are ready
+                now = time.perf_counter()
+                if (changed or now - last_notice >= PREPARING_INTERVAL
+                        or self._playing != noticed_playing):
+                    last_notice, noticed_playing = now, self._playing
+                    try:
+                        self.publish(error=self.error, preparing=waiting)
+                    except Exception as error:  # building the frame failed: report, keep looping
+                        LOGGER.error("could not publish a frame: %r", error)
+                self._wake.wait(0.05)
+                self._wake.clear()
+                continue
+            if self._pending_steps and self._run_pending_steps():
+                changed = True
             if self._playing:
                 try:
                     if self.guarded_step(max(1, int(self.steps_per_frame))):

@@ -9,6 +9,9 @@ while the simulation goes on.
 runner's frame rate follows the steps per frame and dt (at most ``MAX_FPS`` frames a second), and
 the status line says when the machine cannot keep up.  Large lattices play as fast as they can
 by default.
+
+*Preparing*: while the kernels a scene needs are being compiled (``sim.runtime.warming``), the status
+line says so with the seconds it has taken; the buttons and every other control answer meanwhile.
 """
 
 from __future__ import annotations
@@ -128,6 +131,9 @@ class RunFolder(Folder):
             self.part_html.visible = True
 
     def update(self, frame: Frame, now: float) -> None:
+        if frame.preparing is not None:
+            self._show_preparing(frame, now)
+            return
         self._stop_at_duration(frame)
         self._update_error(frame)
         self._update_part_failures()
@@ -151,6 +157,17 @@ class RunFolder(Folder):
                 f"rate {rate:.2f} s of simulated time per second ({self.speed.value}{behind})\n"
                 f"{frame.model.describe()}"
             )
+
+    def _show_preparing(self, frame: Frame, now: float) -> None:
+        """Say that the kernels are being prepared, and how long that has taken."""
+        self._show_playing()
+        self._last_status = 0.0  # the next true frame updates the status at once
+        self._status_steps = (now, self.host.runner.steps_taken)
+        first = " (first time on this machine)" if frame.preparing.compiling else ""
+        then = "it runs when ready" if self.host.runner.playing else "paused"
+        self.status.content = amber_html(
+            f"Preparing the kernel for this scene{first}: {frame.preparing.seconds:.0f} s\n"
+            f"t = {frame.time:.3f} s, step {frame.step}, {then}\n{frame.model.describe()}")
 
     def _update_part_failures(self) -> None:
         """Say in the page when a subscriber (a recorder, a plot) failed and was detached."""

@@ -1,0 +1,192 @@
+"""``oscillators warm``: compile the kernels of the preset scenes ahead, so no page waits for them.
+
+numba compiles a kernel variant for each combination of a scene's flags on first use on a machine
+(seconds to a minute each) and keeps it in its on-disk cache.  This command runs every preset
+(or the ones named) for a few steps as the web app runs it (``sim.runtime.warming.rehearse``), with a
+progress bar, and says what it compiled and what was already in the cache.  ``--toggles`` adds the
+Physics folder's Gravity and Damping ticked or unticked; ``serve`` starts this command in the
+background (``--background --served SCENE``) with its scene's toggles first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+EPILOG = """examples:
+  oscillators warm                     # every preset as the web app runs it
+  oscillators warm grid catenary       # only these presets
+  oscillators warm --toggles           # also with the Physics folder's Gravity / Damping flipped
+
+`make run` runs `oscillators warm` before it serves.  Kernels are kept in numba's cache beside
+the sources (or in NUMBA_CACHE_DIR); a later run of this command finds them there in seconds.
+"""
+
+TOGGLED_GRAVITY = 9.81
+"""g (m/s^2) the Physics folder's Gravity box turns on."""
+TOGGLED_DAMPING = 0.5
+"""Dashpot coefficient (N s/m) the Physics folder's Damping box turns on."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``warm`` command to ``oscillators``."""
+    parser = subparsers.add_parser(
+        "warm", help="compile the presets' kernels ahead (so the page never waits for them)",
+        description="Compile the numba kernels every preset scene needs in the web app, with a\n"
+        "progress bar, and say what was compiled and what numba's cache already held.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("names", nargs="*", metavar="PRESET",
+                        help="only these presets (default: every preset)")
+    parser.add_argument("--toggles", action="store_true",
+                        help="also each preset with the Physics folder's Gravity and Damping "
+                        "ticked or unticked")
+    parser.add_argument("--served", metavar="PRESET",
+                        help="the preset a server shows: its Gravity/Damping toggles come first, "
+                        "its own kernels are left to the server")
+    parser.add_argument("--background", action="store_true",
+                        help="lowest CPU priority, no progress bar, stop when the process that "
+                        "started this one ends (how `serve` runs it)")
+    parser.set_defaults(handler=command_warm)
+
+
+@dataclass(frozen=True)
+class Combination:
+    """One scene to rehearse: a preset with some parameters changed, and its label."""
+
+    preset: str
+    changes: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def label(self) -> str:
+        changed = ", ".join(f"{name} {'on' if value else 'off'}" for name, value in self.changes)
+        return f"{self.preset} ({changed})" if changed else self.preset
+
+    def build(self) -> tuple[Any, int]:
+        """The simulation as the web app runs it, and its steps per frame."""
+        from app.web.app import runner_pacing
+        from sim import Simulation
+        from sim.scenes import building as scenes
+
+        simulation = Simulation(scenes.build(self.preset, **dict(self.changes)))
+        return simulation, runner_pacing(simulation)[0]
+
+
+def toggles(preset: str) -> list[Combination]:
+    """``preset`` with Gravity, Damping, and both, flipped from the preset's own."""
+    from sim.scenes import building as scenes
+
+    model = scenes.build(preset).model
+    gravity = ("gravity", 0.0 if model.has_gravity else TOGGLED_GRAVITY)
+    damping = ("damping", 0.0 if model.damping > 0 else TOGGLED_DAMPING)
+    return [Combination(preset, (gravity,)), Combination(preset, (damping,)),
+            Combination(preset, (gravity, damping))]
+
+
+def plan(names: list[str], with_toggles: bool, served: str | None) -> list[Combination]:
+    """The combinations to rehearse, most likely needed first."""
+    combinations: list[Combination] = []
+    if served is not None:
+        combinations += toggles(served)
+    for name in names:
+        if name != served:
+            combinations.append(Combination(name))
+        if with_toggles:
+            combinations += toggles(name)
+    return list(dict.fromkeys(combinations))
+
+
+def _unique(combinations: list[Combination], skip: set) -> Iterator[tuple[Combination, Any, int]]:
+    """Each combination built, once per kernel key (``sim.runtime.warming.kernel_key``)."""
+    from sim.runtime import warming
+
+    seen = set(skip)
+    for combination in combinations:
+        simulation, steps = combination.build()
+        key = warming.kernel_key(simulation, steps)
+        if key not in seen:
+            seen.add(key)
+            yield combination, simulation, steps
+
+
+def command_warm(arguments: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from sim.runtime import warming
+    from sim.scenes import building as scenes
+
+    names = arguments.names or list(scenes.names())
+    for name in [*names, *([arguments.served] if arguments.served else [])]:
+        if name not in scenes.names():
+            raise ValueError(f"unknown preset {name!r}; choose from {', '.join(scenes.names())}")
+    parent = os.getppid()
+    if arguments.background:
+        os.nice(19)
+    combinations = plan(names, arguments.toggles, arguments.served)
+    skip = set()
+    if arguments.served:
+        served, steps = Combination(arguments.served).build()
+        skip.add(warming.kernel_key(served, steps))
+    started = time.perf_counter()
+    compiled: list[tuple[str, float]] = []
+    cached: list[tuple[str, float]] = []
+    bar = tqdm(total=len(combinations), unit="scene", disable=arguments.background,
+               file=sys.stderr, desc="warming kernels")
+    done = 0
+    for combination, simulation, steps in _unique(combinations, skip):
+        if arguments.background and os.getppid() != parent:
+            return 0  # the server that started this ended
+        bar.set_postfix_str(combination.label)
+        before, clock = warming.compiles_started(), time.perf_counter()
+        warming.rehearse_simulation(simulation, steps)
+        seconds = time.perf_counter() - clock
+        (compiled if warming.compiles_started() > before else cached).append(
+            (combination.label, seconds))
+        done += 1
+        bar.update(1)
+    bar.update(len(combinations) - bar.n)
+    bar.close()
+    if not arguments.background:
+        total = time.perf_counter() - started
+        print(f"{done} kernel combinations for {len(names)} preset(s) in {total:.0f} s: "
+              f"{len(compiled)} compiled ({sum(s for _, s in compiled):.0f} s), "
+              f"{len(cached)} already in numba's cache ({sum(s for _, s in cached):.1f} s)")
+        for label, seconds in compiled:
+            print(f"  compiled  {label:<34} {seconds:6.1f} s")
+    return 0
+
+
+NO_WARM_VARIABLE = "OSCILLATORS_NO_WARM"
+"""When this environment variable is set (to anything but "" or "0"), ``serve`` warms nothing in
+the background (the test suite sets it: its servers come and go in seconds)."""
+
+
+def start_background(served: str | None) -> Any:
+    """Start ``oscillators warm --background`` (every preset, ``served``'s toggles first) as a
+    child process at the lowest CPU priority; returns its ``subprocess.Popen``, or None when
+    ``OSCILLATORS_NO_WARM`` is set.  Stop it with ``stop_background``."""
+    import subprocess
+
+    if os.environ.get(NO_WARM_VARIABLE, "") not in ("", "0"):
+        return None
+    command = [sys.executable, "-m", "app.cli", "warm", "--background"]
+    if served is not None:
+        command += ["--served", served]
+    return subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+
+
+def stop_background(process: Any) -> None:
+    """End a process ``start_background`` started (if it is still warming)."""
+    if process is None or process.poll() is not None:
+        return
+    process.terminate()
+    try:
+        process.wait(2.0)
+    except Exception:  # still compiling after 2 s: end it
+        process.kill()

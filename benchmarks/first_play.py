@@ -1,0 +1,141 @@
+"""Seconds from a click on Play to the first moving frame in a real page, per scene.
+
+For each case it starts ``oscillators serve SCENE`` as a process of its own (as a user does, its
+background warming of the other presets included), opens Debian's headless Chromium at 1366x768
+through Playwright, waits until the server has been up ``--uptime`` seconds, clicks Play and
+times, in the page: until the status line says the kernel is being prepared (if it does), and
+until it shows a step count above 0 (the status line is refreshed every 0.5 s, so this is at most
+0.5 s after the first moving frame).  The case ``grid+gravity+damping`` ticks the Physics
+folder's Gravity and Damping boxes first and clicks Play at once (a combination the served scene
+did not have).
+
+numba's cache is ``--cache DIR`` (NUMBA_CACHE_DIR), by default a new empty folder: a cold cache,
+as on a fresh machine.  Warm: ``oscillators warm`` into a folder, then ``--cache`` that folder.
+
+    .venv/bin/python benchmarks/first_play.py                                  # cold cache
+    NUMBA_CACHE_DIR=/tmp/nc .venv/bin/oscillators warm --toggles
+    .venv/bin/python benchmarks/first_play.py --cache /tmp/nc                  # warm cache
+    .venv/bin/python benchmarks/first_play.py --uptime 0 grid+gravity+damping  # at once
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port  # noqa: E402
+
+CASES = {
+    "grid": ("grid", False),
+    "catenary": ("catenary", False),  # the preset has gravity and dashpots
+    "double-slit": ("double-slit", False),
+    "interference": ("interference", False),
+    "grid+gravity+damping": ("grid", True),
+}
+STATUS = re.compile(r"t = ([0-9.]+) s, step (\d+)")
+PREPARING = "Preparing the kernel"
+
+
+def page_status(page) -> tuple[int | None, bool]:
+    """(the step the status line shows, whether it says the kernel is being prepared)."""
+    text = page.evaluate("document.body.innerText")
+    found = STATUS.search(text)
+    return (int(found.group(2)) if found else None), PREPARING in text
+
+
+def start_server(scene: str, cache: str, port: int, log) -> tuple[subprocess.Popen, float]:
+    environment = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
+    environment.pop("OSCILLATORS_NO_WARM", None)
+    started = time.monotonic()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", scene, "--port", str(port)],
+        cwd=tempfile.mkdtemp(prefix="first-play-"), env=environment, stdout=log, stderr=log)
+    return process, started
+
+
+def measure(browser, case: str, cache: str, uptime: float, timeout: float) -> dict:
+    scene, toggle = CASES[case]
+    port = free_port()
+    with tempfile.TemporaryFile("w+") as log:
+        server, started = start_server(scene, cache, port, log)
+        try:
+            page = browser.new_page(viewport={"width": 1366, "height": 768})
+            deadline = time.monotonic() + timeout
+            while True:
+                try:
+                    page.goto(f"http://127.0.0.1:{port}", timeout=5_000)
+                    break
+                except Exception:
+                    if time.monotonic() > deadline or server.poll() is not None:
+                        log.seek(0)
+                        raise RuntimeError(f"the server did not answer:\n{log.read()}") from None
+                    time.sleep(0.5)
+            page.get_by_text("Connected").wait_for(timeout=timeout * 1000)
+            page.get_by_role("button", name="Play").wait_for(timeout=timeout * 1000)
+            loaded = time.monotonic() - started
+            time.sleep(max(0.0, uptime - (time.monotonic() - started)))
+            before = page_status(page)
+            if toggle:
+                page.get_by_label("Gravity", exact=True).check()
+                page.get_by_label("Damping", exact=True).check()
+            clicked = time.monotonic()
+            page.get_by_role("button", name="Play").click()
+            said = None
+            while time.monotonic() - clicked < timeout:
+                step, preparing = page_status(page)
+                if preparing and said is None:
+                    said = time.monotonic() - clicked
+                if step:
+                    moving = time.monotonic() - clicked
+                    break
+                time.sleep(0.03)
+            else:
+                moving = float("nan")
+            page.close()
+            return dict(case=case, loaded=loaded, up=clicked - started,
+                        preparing_before=before[1], said=said, moving=moving)
+        finally:
+            server.terminate()
+            try:
+                server.wait(10)
+            except subprocess.TimeoutExpired:
+                server.kill()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("cases", nargs="*", default=list(CASES)[:4], choices=list(CASES),
+                        metavar="CASE", help=f"of {', '.join(CASES)} (default: the first four)")
+    parser.add_argument("--cache", help="numba's cache folder (default: a new empty one)")
+    parser.add_argument("--uptime", type=float, default=60.0,
+                        help="seconds the server is up before the click (default 60)")
+    parser.add_argument("--timeout", type=float, default=600.0)
+    arguments = parser.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    print(f"{'case':<22} {'cache':<5} {'page up':>8} {'click at':>9} {'says preparing':>15} "
+          f"{'first moving':>13}")
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        for case in arguments.cases:
+            cache = arguments.cache or tempfile.mkdtemp(prefix="numba-cold-")
+            result = measure(browser, case, cache, arguments.uptime, arguments.timeout)
+            said = ("before the click" if result["preparing_before"] else
+                    "-" if result["said"] is None else f"{result['said']:.2f} s")
+            print(f"{case:<22} {'warm' if arguments.cache else 'cold':<5} "
+                  f"{result['loaded']:7.1f}s {result['up']:8.1f}s {said:>15} "
+                  f"{result['moving']:12.2f}s", flush=True)
+        browser.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,277 @@
+"""Compiling a simulation's kernels before they are needed, away from the thread that waits.
+
+numba compiles a kernel for every new combination of argument types at its first call, and a
+scene's flags change those types: gravity or none, dashpots or none, a driver, an absorbing layer,
+unequal masses, 3-D, float32, several threads.  A new combination costs a compile of seconds to
+tens of seconds on first use on a machine (numba's on-disk cache keeps it for later runs).
+
+* ``kernel_key(simulation, steps)`` names the combination a simulation needs to advance ``steps``
+  steps at a time and to be observed (energy, strains).  It is deliberately finer than numba's
+  own types (a key never stands for two combinations), so a key seen once needs no compile again.
+* ``rehearse(scene, ...)`` builds a copy of a simulation from a snapshot (``sim.scenes.building.
+  scene_from_simulation``) and runs what a run needs: the energy, ``steps`` steps, the energy
+  balance, the strains.  That compiles (or loads from the cache) every kernel the run calls,
+  exactly as it calls them; the running simulation is not touched.
+* ``KernelPreparer`` rehearses in one background thread, the most recently asked combination
+  first, and tells whether a key is ready, or how long its preparation has been running and
+  whether it compiles (rather than only reading numba's cache).  ``shared_preparer()`` is the
+  process's preparer: compiled kernels belong to the process, so one record serves every runner.
+
+The runner (``sim.runtime.runner``) asks the preparer before it steps or observes a simulation, and says
+"preparing" in its frames while it waits; the ``warm`` command rehearses every preset ahead.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+import time
+from collections.abc import Callable, Hashable
+from typing import Any
+
+LOGGER = logging.getLogger("oscillators.warming")
+
+
+def step_shapes(steps: int, chunk: int) -> str:
+    """How ``Simulation.step(steps)`` calls the stepper: "one" step at a time, "many" at a
+    time, or "both" (a chunked run whose last chunk is a single step).  Some loops (Verlet's
+    leapfrog) compile a different kernel for a single step."""
+    steps = max(1, int(steps))
+    chunk = max(1, int(chunk))
+    sizes = {chunk} if steps >= chunk else set()
+    if steps % chunk:
+        sizes.add(steps % chunk)
+    ones = {size == 1 for size in sizes}
+    return "both" if len(ones) == 2 else ("one" if True in ones else "many")
+
+
+def kernel_key(simulation: Any, steps: int = 1) -> tuple:
+    """The combination of kernel variants ``simulation`` needs to run ``steps`` steps per call
+    (see the module docstring).  Values that only change numbers (stiffness, dt, amplitudes)
+    are left out; every flag that may change a type is in."""
+    model = simulation.model
+    driver = model.driver
+    threads = int(simulation.threads)
+    return (
+        simulation.integrator, simulation.precision, threads,
+        min(model.ny, 64) if threads > 1 else 0,
+        model.dim, bool(model.linear), model.uniform_mass, model.damping > 0, model.drag > 0,
+        model.has_gravity, model.boundary, bool(model.sponge_sides),
+        None if driver is None else (driver.kind, str(driver.row) == "all"),
+        tuple(sorted({(source.kind, str(source.row) == "all") for source in model.sources})),
+        bool(model.barriers),
+        step_shapes(steps, getattr(simulation, "chunk_steps", 64)),
+    )
+
+
+def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: int,
+             steps: int) -> None:
+    """Run a copy of a simulation of ``scene`` as a run would: energy, ``steps`` steps, the
+    energy balance and the strains.  A blow-up of the copy is no error here (the kernels were
+    compiled on the way)."""
+    from sim.runtime.simulation import BlowUpError, Simulation
+
+    copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
+    copy.energy()
+    try:
+        copy.step(max(1, int(steps)))
+    except BlowUpError:
+        pass
+    copy.energy_balance_error()
+    copy.strains()
+
+
+def rehearse_simulation(simulation: Any, steps: int) -> None:
+    """``rehearse`` a copy of ``simulation`` as it is now (call it where the simulation is not
+    stepping: the snapshot copies its state)."""
+    from sim.scenes.building import scene_from_simulation
+
+    rehearse(scene_from_simulation(simulation), simulation.integrator, simulation.dt,
+             simulation.precision, simulation.threads, steps)
+
+
+@dataclasses.dataclass(frozen=True)
+class Preparing:
+    """A preparation under way: ``seconds`` since it started, ``compiling`` whether numba is
+    compiling (first time on this machine) rather than only reading its cache."""
+
+    seconds: float
+    compiling: bool
+
+
+class _CompileWatch:
+    """Which threads are inside a numba compile now (numba's "numba:compile" events)."""
+
+    def __init__(self) -> None:
+        self.threads: dict[int, int] = {}
+        self.seen: set[int] = set()
+        self.started = 0
+        self._lock = threading.Lock()
+        self.installed = False
+
+    def install(self) -> None:
+        if self.installed:
+            return
+        try:
+            from numba.core import event
+        except ImportError:  # pragma: no cover - numba is a dependency
+            return
+        watch = self
+
+        class Listener(event.Listener):
+            def on_start(self, _: Any) -> None:
+                ident = threading.get_ident()
+                with watch._lock:
+                    watch.threads[ident] = watch.threads.get(ident, 0) + 1
+                    watch.seen.add(ident)
+                    watch.started += 1
+
+            def on_end(self, _: Any) -> None:
+                ident = threading.get_ident()
+                with watch._lock:
+                    watch.threads[ident] = max(0, watch.threads.get(ident, 0) - 1)
+
+        event.register("numba:compile", Listener())
+        self.installed = True
+
+    def compiled_in(self, ident: int | None) -> bool:
+        """Whether the thread ``ident`` started a compile since ``forget(ident)``."""
+        with self._lock:
+            return ident in self.seen
+
+    def forget(self, ident: int) -> None:
+        with self._lock:
+            self.seen.discard(ident)
+
+
+_WATCH = _CompileWatch()
+
+
+def compiled_in_thread(ident: int) -> bool:
+    """Whether the thread ``ident`` (``threading.get_ident()``) started a numba compile since
+    the process began watching (a thread whose kernels were prepared starts none)."""
+    _WATCH.install()
+    return _WATCH.compiled_in(ident)
+
+
+def compiles_started() -> int:
+    """How many numba compiles (not cache reads) started in this process since it began
+    watching (the first call, or the first ``KernelPreparer``)."""
+    _WATCH.install()
+    return _WATCH.started
+
+
+@dataclasses.dataclass
+class _Job:
+    key: Hashable
+    work: Callable[[], None]
+    asked: float
+    started: float | None = None
+
+
+class KernelPreparer:
+    """Rehearses kernel combinations in one background thread; see the module docstring.
+
+    ``rehearsal(simulation, steps)`` is the work done for a key (``rehearse_simulation`` by
+    default; tests give a slow stand-in).  ``ready(key)`` says whether a key was prepared;
+    ``prepare(key, simulation, steps)`` asks for it (the snapshot is taken at once, in the
+    caller's thread) and returns None when it is ready, else the ``Preparing`` under way.
+    """
+
+    def __init__(self, rehearsal: Callable[[Any, int], None] | None = None) -> None:
+        self._rehearsal = rehearsal
+        self._ready: set[Hashable] = set()
+        self._waiting: dict[Hashable, _Job] = {}
+        self._current: _Job | None = None
+        self._lock = threading.Lock()
+        self._wake = threading.Condition(self._lock)
+        self._thread: threading.Thread | None = None
+        self._worker_ident: int | None = None
+        self.failures: dict[Hashable, str] = {}
+        """Keys whose rehearsal raised, with the message (the run then compiles as it goes)."""
+        _WATCH.install()
+
+    def ready(self, key: Hashable) -> bool:
+        with self._lock:
+            return key in self._ready
+
+    def mark_ready(self, key: Hashable) -> None:
+        """Record ``key`` as prepared (its kernels were compiled by other means)."""
+        with self._lock:
+            self._ready.add(key)
+            self._waiting.pop(key, None)
+
+    def prepare(self, key: Hashable, simulation: Any, steps: int) -> Preparing | None:
+        """None if ``key`` is ready; else make sure it is being prepared and say how far."""
+        with self._lock:
+            if key in self._ready:
+                return None
+            current = self._current
+            if current is not None and current.key == key:
+                return self._progress(current)
+            job = self._waiting.get(key)
+        if job is None:
+            work = self._work(simulation, steps)  # the snapshot, in the caller's thread
+            with self._lock:
+                job = self._waiting.setdefault(key, _Job(key, work, time.perf_counter()))
+                job.asked = time.perf_counter()
+                self._start()
+                self._wake.notify()
+        with self._lock:
+            return self._progress(job)
+
+    def _work(self, simulation: Any, steps: int) -> Callable[[], None]:
+        if self._rehearsal is not None:
+            rehearsal = self._rehearsal
+            return lambda: rehearsal(simulation, steps)
+        from sim.scenes.building import scene_from_simulation
+
+        scene = scene_from_simulation(simulation)
+        settings = (simulation.integrator, simulation.dt, simulation.precision,
+                    simulation.threads, steps)
+        return lambda: rehearse(scene, *settings)
+
+    def _progress(self, job: _Job) -> Preparing:
+        started = job.started if job.started is not None else job.asked
+        compiling = job is self._current and _WATCH.compiled_in(self._worker_ident)
+        return Preparing(max(0.0, time.perf_counter() - started), compiling)
+
+    def _start(self) -> None:
+        if self._thread is None or not self._thread.is_alive():
+            self._thread = threading.Thread(target=self._serve, name="kernel-preparer",
+                                            daemon=True)
+            self._thread.start()
+
+    def _serve(self) -> None:
+        self._worker_ident = threading.get_ident()
+        while True:
+            with self._lock:
+                while not self._waiting:
+                    self._wake.wait()
+                key = max(self._waiting, key=lambda k: self._waiting[k].asked)  # newest first
+                job = self._waiting.pop(key)
+                job.started = time.perf_counter()
+                self._current = job
+                _WATCH.forget(self._worker_ident)
+            try:
+                job.work()
+            except Exception as error:  # the run will compile (or fail) as it goes, and say so
+                LOGGER.warning("preparing the kernels of %s failed: %r", key, error)
+                self.failures[key] = repr(error)
+            with self._lock:
+                self._ready.add(key)
+                self._current = None
+
+
+_SHARED: KernelPreparer | None = None
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_preparer() -> KernelPreparer:
+    """The process's preparer (one record of what is compiled, as numba's kernels are)."""
+    global _SHARED
+    with _SHARED_LOCK:
+        if _SHARED is None:
+            _SHARED = KernelPreparer()
+        return _SHARED

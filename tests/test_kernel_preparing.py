@@ -1,0 +1,121 @@
+"""Kernels prepared before a run needs them: the page says so and keeps answering meanwhile.
+
+A slow compile is stood in for by a rehearsal that waits on an event, so these tests compile
+nothing new."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+import sim
+from app import cli
+from app.web.app import WebApp, runner_pacing
+from app.web.control import LatticeRunner
+from sim.runtime import warming
+from tests.helpers import free_port, wait_for
+from tests.test_web_safety import press, settle
+
+
+def test_step_shapes_name_how_a_run_calls_the_stepper():
+    assert warming.step_shapes(1, 64) == "one"
+    assert warming.step_shapes(2, 64) == "many"
+    assert warming.step_shapes(64, 64) == "many"
+    assert warming.step_shapes(65, 64) == "both"
+    assert warming.step_shapes(130, 64) == "many"
+
+
+def test_kernel_keys_tell_apart_what_changes_a_kernel_and_not_what_only_changes_numbers():
+    grid = sim.Simulation(sim.scenes.build("grid"))
+    stiffer = sim.Simulation(sim.scenes.build("grid", stiffness=50.0, dt=0.005))
+    assert warming.kernel_key(grid, 2) == warming.kernel_key(stiffer, 2)
+    others = [
+        sim.scenes.build("grid", gravity=9.81), sim.scenes.build("grid", damping=0.5),
+        sim.scenes.build("grid", drag=0.1), sim.scenes.build("ionic"),
+        sim.scenes.build("grid", integrator="verlet"), sim.scenes.build("grid", dim=3),
+        sim.scenes.build("grid", precision="float32"),
+    ]
+    keys = {warming.kernel_key(sim.Simulation(scene), 2) for scene in others}
+    assert len(keys) == len(others) and warming.kernel_key(grid, 2) not in keys
+    assert warming.kernel_key(grid, 1) != warming.kernel_key(grid, 2)
+
+
+def test_the_page_says_it_is_preparing_and_the_controls_answer_meanwhile(tmp_path):
+    asked, release = threading.Event(), threading.Event()
+
+    def slow_compile(simulation, steps):  # stands in for numba compiling the scene's kernels
+        asked.set()
+        release.wait(60)
+
+    preparer = warming.KernelPreparer(rehearsal=slow_compile)
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=11, ny=7)), port=free_port(),
+                 scenes_dir=tmp_path / "scenes", recordings_dir=tmp_path / "recordings",
+                 preparer=preparer)
+    app.start()
+    try:
+        assert asked.wait(10)
+        run = app.panel.run
+        assert wait_for(lambda: "Preparing the kernel for this scene" in run.status.content, 10)
+        assert app.view.last_positions is not None  # the lattice is drawn meanwhile
+        press(run.play_button)
+        assert wait_for(lambda: "it runs when ready" in run.status.content, 5)
+        assert run.play_button.label == "Pause"
+        assert wait_for(lambda: "Preparing the kernel for this scene: 1 s" in run.status.content
+                        or "Preparing the kernel for this scene: 2 s" in run.status.content, 5)
+        # every control answers while the compile goes on, and the run waits
+        app.control.set_dt(0.005).result(timeout=2)
+        app.control.set_gravity(True).result(timeout=2)
+        assert app.runner.simulation.dt == 0.005 and app.runner.simulation.model.has_gravity
+        press(run.play_button)
+        settle(app)
+        assert not app.runner.playing and run.play_button.label == "Play"
+        assert wait_for(lambda: "paused" in run.status.content, 5)
+        assert app.runner.simulation.step_count == 0
+    finally:
+        app.stop()
+        release.set()
+
+
+def test_a_prepared_runner_compiles_nothing_in_its_own_thread():
+    """The rehearsal compiles exactly what the run calls: once it is done, stepping, pinned
+    steps, a single step and the frames compile nothing more in the runner's thread."""
+    runner = LatticeRunner(sim.Simulation(sim.scenes.build("grid", nx=9, ny=6)),
+                           steps_per_frame=2, preparer=warming.KernelPreparer())
+    frames = []
+    runner.subscribe(frames.append)
+    runner.start()
+    try:
+        runner.play()
+        assert wait_for(lambda: runner.simulation.step_count > 20, 300)
+        runner.pause()
+        assert runner.single_step().result(timeout=300) is True
+        assert any(frame.preparing is not None for frame in frames)
+        assert frames[-1].preparing is None
+        assert not warming.compiled_in_thread(runner._thread.ident)
+    finally:
+        runner.stop()
+
+
+def test_warm_help_names_what_it_does(capsys):
+    with pytest.raises(SystemExit) as stopped:
+        cli.main(["warm", "--help"])
+    assert stopped.value.code == 0
+    text = capsys.readouterr().out
+    assert "progress bar" in text and "--toggles" in text and "make run" in text
+
+
+def test_warm_compiles_what_the_page_then_runs(capsys):
+    assert cli.main(["warm", "single"]) == 0
+    assert "1 kernel combinations for 1 preset(s)" in capsys.readouterr().out
+    simulation = sim.Simulation(sim.scenes.build("single"))
+    before = warming.compiles_started()
+    simulation.energy()
+    simulation.step(runner_pacing(simulation)[0])
+    simulation.energy_balance_error()
+    assert warming.compiles_started() == before
+
+
+def test_warm_refuses_an_unknown_preset(capsys):
+    assert cli.main(["warm", "no-such-scene"]) == 2
+    assert "unknown preset 'no-such-scene'" in capsys.readouterr().err
