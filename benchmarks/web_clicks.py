@@ -7,10 +7,12 @@ folder's contents show or hide), first on the paused page, then while the run pl
 clicks *Pause* (``--clicks`` / 2 times) and waits until the button reads *Play* again (a
 round trip through the server).  And it counts the page's long tasks (PerformanceObserver ``longtask``:
 main-thread work of 50 ms or more, which is what a click waits behind) in each phase.
-``--trace FILE`` writes a Chrome trace of the playing phase (open it in chrome://tracing or ui.perfetto.dev).
+It counts the pictures the page shows (texture uploads of the picture's size, counted in the
+page) while it plays.  ``--trace FILE`` writes a Chrome trace of the playing phase (open it in
+chrome://tracing or ui.perfetto.dev).
 
     .venv/bin/python benchmarks/web_clicks.py                       # 8 clicks paused, 8 playing
-    .venv/bin/python benchmarks/web_clicks.py --rate 12 --clicks 12 --trace /tmp/trace.json
+    .venv/bin/python benchmarks/web_clicks.py --rate 4 --clicks 12 --trace /tmp/trace.json
 """
 
 from __future__ import annotations
@@ -40,6 +42,29 @@ new PerformanceObserver(list => {
   for (const entry of list.getEntries()) window.__long.push([entry.startTime, entry.duration]);
 }).observe({entryTypes: ["longtask"]});
 """
+PICTURES_SHOWN = """
+window.__pictures = [];
+for (const context of [WebGLRenderingContext, WebGL2RenderingContext]) {
+  for (const name of ["texImage2D", "texSubImage2D"]) {
+    const upload = context.prototype[name];
+    context.prototype[name] = function (...args) {
+      const source = args[args.length - 1];
+      if (source && source.width >= 300 && source.height >= 200)
+        window.__pictures.push(performance.now());
+      return upload.apply(this, args);
+    };
+  }
+}
+"""
+"""Counts the pictures the page shows: each new picture of the lattice is one texture upload
+of the picture's size (a page-side counter; the colour bar is not in the 3-D scene)."""
+
+
+def pictures_per_second(page, since_ms: float) -> float:
+    """Pictures the page uploaded to its 3-D view per second since ``since_ms``."""
+    count, now = page.evaluate(
+        f"[window.__pictures.filter(t => t >= {since_ms}).length, performance.now()]")
+    return count / max(1e-3, (now - since_ms) / 1e3)
 
 
 def pause_click_delays(page, app, clicks: int, pause: float) -> list[float]:
@@ -92,7 +117,7 @@ def main() -> None:
         with sync_playwright() as playwright:
             browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={"width": 1366, "height": 768})
-            page.add_init_script(LONG_TASKS)
+            page.add_init_script(LONG_TASKS + PICTURES_SHOWN)
             page.goto(app.url)
             page.get_by_text("Connected").wait_for(timeout=60_000)
             time.sleep(3.0)
@@ -110,6 +135,7 @@ def main() -> None:
             playing = folder_click_delays(page, arguments.clicks, arguments.pause, 60_000)
             elapsed = time.perf_counter() - started
             playing_busy = busy_share(page, since)
+            shown = pictures_per_second(page, since)
             if arguments.trace:
                 browser.stop_tracing()
             rate = (app.runner.simulation.step_count - steps) / elapsed
@@ -124,6 +150,7 @@ def main() -> None:
     for name, (share, count, longest) in (("paused ", paused_busy), ("playing", playing_busy)):
         print(f"{name}: page thread in long tasks {100 * share:.0f} % of the time, {count} tasks, "
               f"longest {longest:.2f} s")
+    print(f"pictures shown in the page while clicking: {shown:.1f} per second")
     print(f"simulation while clicking: {rate:.0f} steps/s; pictures sent in all: {pictures}; "
           f"load average at end: {os.getloadavg()[0]:.2f}")
 

@@ -1,5 +1,5 @@
 """Large lattices go to the pages as pictures: each particle at its place in the picture, one
-encoding per picture whatever the number of pages, the frame rate within the byte budget, and
+encoding per picture whatever the number of pages, each page paced by its own replies, and
 small lattices still drawn as spheres."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import zstandard
 from PIL import Image
 
 import sim
-from app.web import frames
+from app.web import frames, pacing
 from app.web.app import WebApp
 from tests.helpers import free_port, wait_for
 
@@ -33,12 +33,6 @@ def test_each_particle_is_its_own_pixel_with_row_zero_at_the_bottom():
     assert picture.shape == (3, 5, 3)
     lit = np.argwhere(picture.any(axis=2))
     assert lit.tolist() == [[2, 4]]  # the bottom-right pixel
-
-
-def test_the_frame_rate_keeps_to_the_byte_budget():
-    assert frames.frame_rate(25_000) * 25_000 <= frames.BYTES_PER_SECOND
-    assert frames.frame_rate(1_000) == frames.MAX_FPS
-    assert frames.frame_rate(10**7) == frames.MIN_FPS
 
 
 def test_a_large_lattice_is_one_picture_encoded_once_for_every_page(tmp_path, monkeypatch):
@@ -58,7 +52,9 @@ def test_a_large_lattice_is_one_picture_encoded_once_for_every_page(tmp_path, mo
     app.start()
     url = f"ws://127.0.0.1:{app.server.get_port()}"
 
-    async def page(received: list[bytes], seconds: float) -> None:
+    async def page(received: list[bytes], seconds: float, acknowledge: bool = True) -> None:
+        """A page speaking viser's protocol: it keeps the pictures it is sent and, like viser's
+        page once it has drawn them, replies to the server's requests (unless told not to)."""
         decompressor = zstandard.ZstdDecompressor()
         async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"],
                                       max_size=None) as connection:
@@ -68,55 +64,121 @@ def test_a_large_lattice_is_one_picture_encoded_once_for_every_page(tmp_path, mo
                     raw = await asyncio.wait_for(connection.recv(), ends - time.monotonic())
                 except TimeoutError:
                     return
-                size = int.from_bytes(raw[:8], "little")
-                compressed = int.from_bytes(raw[8:16], "little")
-                payload = decompressor.decompress(raw[16:16 + compressed], max_output_size=size)
-                for message in msgspec.msgpack.decode(payload)["messages"]:
+                for message in decoded(raw, decompressor):
                     if message.get("name") == "/lattice/particles":
-                        data = (message.get("updates") or message.get("props") or {}).get("_data")
+                        # the node is made with a 1x1 placeholder, then given the picture
+                        data = (message.get("updates") or {}).get("_data")
                         if data is not None:
                             received.append(bytes(data))
+                    if acknowledge and message.get("type") == "LocalStorageGetItemRequestMessage":
+                        await connection.send(acknowledgement(message))
 
     async def pages() -> list[list[bytes]]:
-        received: list[list[bytes]] = [[], [], []]
-        await asyncio.gather(*(page(pictures, 8.0) for pictures in received))
+        received: list[list[bytes]] = [[], [], [], []]
+        await asyncio.gather(*(page(pictures, 8.0) for pictures in received[:3]),
+                             page(received[3], 8.0, acknowledge=False))
         return received
 
     try:
         assert wait_for(lambda: app.view._image is not None, timeout=120)
-        assert wait_for(lambda: app.view._image.sent >= 2, timeout=120)
+        assert wait_for(lambda: app.runner.simulation.step_count > 20, timeout=300)
         received = asyncio.run(pages())
         image = app.view._image
         assert app.view._points is None and app.view._spheres is None
     finally:
         app.stop()
-    assert len(encoded) == image.sent - 1  # the first picture is encoded by viser's add_image
-    for pictures in received:
-        assert len(pictures) >= 2
-        later = pictures[1:]  # the first is the one in the scene when the page connected
-        assert set(later) <= set(encoded)
+    assert len(encoded) == image.sent  # every picture sent was encoded once, for every page
+    for pictures in received[:3]:
+        assert len(pictures) >= 4
+        assert set(pictures) <= set(encoded)
     shown = np.asarray(Image.open(io.BytesIO(received[0][-1])))
     assert shown.shape == (200, 260, 3)
+    # a page that never says it has drawn a picture gets one per ACK_TIMEOUT and slows no other
+    silent = len(received[3])
+    assert silent <= 8.0 / pacing.ACK_TIMEOUT + 2
+    assert min(len(pictures) for pictures in received[:3]) > 2 * silent
+
+
+def decoded(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
+    """The messages of one viser websocket window."""
+    size = int.from_bytes(raw[:8], "little")
+    compressed = int.from_bytes(raw[8:16], "little")
+    payload = decompressor.decompress(raw[16:16 + compressed], max_output_size=size)
+    return msgspec.msgpack.decode(payload)["messages"]
+
+
+def acknowledgement(request: dict) -> bytes:
+    """viser's page's reply to a request for a local-storage value."""
+    return msgspec.msgpack.encode({"type": "LocalStorageGetItemResponseMessage", "value": None,
+                                   "error": None, "request_uuid": request["request_uuid"]})
 
 
 def test_a_small_lattice_keeps_its_spheres(web_app):
     assert web_app.view._spheres is not None and web_app.view._image is None
 
 
-def test_pictures_come_no_faster_than_the_page_asks():
-    """Each picture keeps a page drawing for a moment, so by default a large lattice sends about
-    one a second (a page without a graphics card stays answering); the View folder's choice
-    raises it, within the byte budget."""
+def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
+    """The pacer sends a page one picture, then nothing until the page replies; the reply brings
+    the newest picture (not every one published meanwhile); the byte budget and the View
+    folder's limit hold a fast page back."""
     model = sim.scenes.build("interference", nx=260, ny=200).model
-    server = viser.ViserServer(port=free_port(), verbose=False)
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    url = f"ws://127.0.0.1:{server.get_port()}"
+    sent: list[bytes] = []
+
+    class Node:
+        def __init__(self, data: bytes) -> None:
+            sent.append(data)
+
+        def __setattr__(self, name: str, value: object) -> None:
+            if name == "_data":
+                sent.append(value)
+
+        def remove(self) -> None:
+            pass
+
+    pacer = pacing.PicturePacer(server, lambda client, data: Node(data))
+
+    async def scenario() -> list[str]:
+        requests: list[str] = []
+        decompressor = zstandard.ZstdDecompressor()
+        async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"],
+                                      max_size=None) as connection:
+            await connection.send(msgspec.msgpack.encode(dict(  # viser counts a page from its camera
+                type="ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0), position=(0.0, 0.0, -5.0),
+                fov=0.9, near=0.01, far=100.0, image_height=600, image_width=800,
+                look_at=(0.0, 0.0, 0.0), up_direction=(0.0, 1.0, 0.0))))
+            assert await asyncio.to_thread(wait_for, lambda: server.get_clients(), 10)
+
+            async def next_request() -> dict:
+                while True:
+                    raw = await asyncio.wait_for(connection.recv(), 10)
+                    for message in decoded(raw, decompressor):
+                        if message.get("type") == "LocalStorageGetItemRequestMessage":
+                            return message
+
+            pacer.publish(b"first")  # the page's node is made with it, and a request follows
+            first = await next_request()
+            pacer.publish(b"second")
+            pacer.publish(b"third")  # no reply yet: nothing more is sent
+            assert sent == [b"first"] and not pacer.wanted()
+            await connection.send(acknowledgement(first))
+            second = await next_request()  # the reply brought the newest picture
+            assert sent == [b"first", b"third"]
+            requests += [first["request_uuid"], second["request_uuid"]]
+            pacer.budget = 1.0  # one byte a second: the next picture waits for the budget
+            await connection.send(acknowledgement(second))
+            await asyncio.to_thread(wait_for, lambda: pacer.pages[next(iter(pacer.pages))]
+                                    .acknowledged == 2, 10)
+            pacer.publish(b"fourth")
+            await asyncio.sleep(0.5)
+            assert sent == [b"first", b"third"]
+        return requests
+
     try:
-        image = frames.FieldImage(server, model, np.zeros((model.n_particles, 3), np.uint8))
-        image.last_bytes = 1_000  # small pictures: the byte budget alone would allow MAX_FPS
-        assert image.fps == frames.DEFAULT_FPS == 1.0
-        image.show(np.zeros((model.n_particles, 3), np.uint8), force=True)
-        assert not image.due_now()
-        image.max_fps = frames.MAX_FPS
-        image.last_bytes = 1_000
-        assert image.fps == frames.MAX_FPS
+        requests = asyncio.run(scenario())
     finally:
+        pacer.remove()
         server.stop()
+    assert len(set(requests)) == 2
+    assert model.n_particles >= frames.IMAGE_LIMIT

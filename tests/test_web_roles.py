@@ -1,6 +1,8 @@
-"""A class (``WebApp(class_mode=True)``): what a student page sends straight over the websocket
-never changes the shared run, the same messages from the teacher do, a student's click selects a
-particle for that page only; and a page that stops reading is disconnected."""
+"""A class (``WebApp(class_mode=True)``): roles by the teacher link (or this machine), never by
+the order pages come in, kept when a page reconnects; what a student page sends straight over the
+websocket never changes the shared run, the same messages from the teacher do, a student's page
+shows the shared controls disabled, a student's click selects a particle for that page only; and a
+page that stops reading is disconnected."""
 
 from __future__ import annotations
 
@@ -12,9 +14,11 @@ import numpy as np
 import pytest
 import viser
 import websockets
+import zstandard
 
 import sim
 from app.web.app import WebApp
+from app.web.roles import STUDENT_PATH, TEACHER_PATH, role_for
 from tests.helpers import free_port, wait_for
 
 PROTOCOL = [f"viser-v{viser.__version__}"]
@@ -69,17 +73,20 @@ async def send_all(url: str, messages: list[dict], connections: list) -> None:
 
 
 def run_pages(app: WebApp, teacher: list[dict], student: list[dict]) -> None:
-    """A teacher page (the first to connect) and then a student page send their messages."""
+    """A teacher page (by the teacher link) and then a student page (by the student link: the
+    test's pages all come from this machine, whose plain pages are teachers) send their
+    messages."""
     url = f"ws://127.0.0.1:{app.server.get_port()}"
 
     async def both() -> None:
         connections: list = []
-        teacher_task = asyncio.create_task(send_all(url, teacher, connections))
+        teacher_task = asyncio.create_task(
+            send_all(f"{url}{TEACHER_PATH}{app.roles.token}", teacher, connections))
         while not connections:
             await asyncio.sleep(0.01)
         while not app.roles.teachers:
             await asyncio.sleep(0.01)
-        await send_all(url, student, [])
+        await send_all(f"{url}{STUDENT_PATH}", student, [])
         await teacher_task
 
     asyncio.run(both())
@@ -113,13 +120,87 @@ def test_student_changes_are_refused_and_teacher_changes_are_not(class_app):
     assert app.panel.integrator.dt.value == before["dt"]  # the shared control kept its value
 
     # the same messages from the teacher page do change the run (they are well formed)
-    app.roles.teachers.clear()
-    app.roles._first_taken = False
     run_pages(app, teacher=page_changes(app, 40, target), student=[])
     simulation = app.runner.simulation
     assert wait_for(lambda: simulation.dt == 0.004 and simulation.integrator == "rk4")
     assert wait_for(lambda: app.runner.simulation.model.has_gravity)
     assert app.runner.playing or app.runner.steps_taken > 0
+
+
+def test_roles_follow_the_link_and_the_address_never_the_order():
+    token = "k3y-0f-the-teacher-link"
+    remote = ("192.168.1.23", 50123)
+    assert role_for(f"{TEACHER_PATH}{token}", remote, token) == "teacher"
+    assert role_for(f"{TEACHER_PATH}{token}x", remote, token) == "student"
+    assert role_for(f"{TEACHER_PATH}", remote, token) == "student"
+    assert role_for("/", remote, token) == "student"  # whether it is the first page or not
+    assert role_for("/", ("127.0.0.1", 40000), token) == "teacher"  # the server's own machine
+    assert role_for("/", ("::1", 40000, 0, 0), token) == "teacher"
+    assert role_for("/", ("::ffff:127.0.0.1", 40000, 0, 0), token) == "teacher"
+    assert role_for("/", ("::ffff:10.0.0.7", 40000, 0, 0), token) == "student"
+    assert role_for(STUDENT_PATH, ("127.0.0.1", 40000), token) == "student"
+    assert role_for("/", None, token) == "student"
+
+
+def test_a_student_first_stays_a_student_and_a_reconnect_keeps_its_role(class_app):
+    """A student page connects before any teacher and is a student; it sees the shared
+    controls disabled (the teacher's page does not); pages that go and come back (viser's pages
+    reconnect by themselves) come back with the same role."""
+    app = class_app
+    url = f"ws://127.0.0.1:{app.server.get_port()}"
+    teacher_url = f"{url}{TEACHER_PATH}{app.roles.token}"
+    play = app.panel.run.play_button._impl.uuid
+
+    async def visit(address: str) -> tuple[str, list[dict]]:
+        """Connect, say the camera, listen for a moment; the role given and what was
+        received."""
+        received: list[dict] = []
+        decompressor = zstandard.ZstdDecompressor()
+        async with websockets.connect(address, subprotocols=PROTOCOL, max_size=None) as page:
+            await page.send(msgspec.msgpack.encode(CAMERA))
+            client_id = None
+            ends = asyncio.get_running_loop().time() + 2.0
+            while (left := ends - asyncio.get_running_loop().time()) > 0:
+                try:
+                    raw = await asyncio.wait_for(page.recv(), left)
+                except TimeoutError:
+                    break
+                received += decoded(raw, decompressor)
+                if client_id is None:
+                    client_id = max(app.server._websock_server._live_connections, default=None)
+                    role = "teacher" if client_id in app.roles.teachers else "student"
+        return role, received
+
+    def disabled_play(received: list[dict]) -> bool:
+        return any(m.get("type") == "GuiUpdateMessage" and m.get("uuid") == play
+                   and (m.get("updates") or {}).get("disabled") is True for m in received)
+
+    async def scenario() -> list[tuple[str, list[dict]]]:
+        return [await visit(f"{url}{STUDENT_PATH}"), await visit(teacher_url),
+                await visit(f"{url}{STUDENT_PATH}"), await visit(teacher_url)]
+
+    visits = asyncio.run(scenario())
+    assert [role for role, _ in visits] == ["student", "teacher", "student", "teacher"]
+    assert [disabled_play(received) for _, received in visits] == [True, False, True, False]
+    assert wait_for(lambda: not app.roles.teachers and not app.roles.students)  # all left
+
+
+def test_the_teacher_link_can_be_kept_across_restarts(tmp_path):
+    token = "same-link-after-a-restart"
+    for _ in range(2):
+        app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=4, ny=3)), port=free_port(),
+                     scenes_dir=tmp_path / "s", recordings_dir=tmp_path / "r", class_mode=True,
+                     teacher_token=token)
+        assert app.roles.token == token
+        assert app.roles.teacher_link(app.url).endswith(f"{TEACHER_PATH}{token}")
+        app.server.stop()
+
+
+def decoded(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
+    size = int.from_bytes(raw[:8], "little")
+    compressed = int.from_bytes(raw[8:16], "little")
+    payload = decompressor.decompress(raw[16:16 + compressed], max_output_size=size)
+    return msgspec.msgpack.decode(payload)["messages"]
 
 
 def test_student_click_selects_a_particle_for_that_page_only(class_app):

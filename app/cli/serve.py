@@ -34,10 +34,11 @@ files: the page never names a file on this machine.  "Download this scene" saves
 browser, "Open a scene file" uploads one from it, and the scene files in --scenes-dir are
 offered by name.  Recordings started in the page go to --recordings-dir.
 
-a class (--class): the first page that opens, and any page opened with the teacher link printed
-at start, is the teacher and drives the run; every other page is a student: it watches the run,
-the plots and read-outs, moves its own camera and follows a particle of its own (click one), and
-the server refuses anything else it sends.
+a class (--class): a page opened on this machine, or with the teacher link printed at start, is
+the teacher and drives the run; every other page is a student (whenever it connects, and again
+when it reconnects): it watches the run, the plots and read-outs with the shared controls greyed
+out, moves its own camera and follows a particle of its own (click one), and the server refuses
+anything else it sends.  --teacher-token keeps the teacher link the same across restarts.
 
 security: only pages served by this server drive it (the websocket checks the Origin and Host
 headers); --allow-origin admits another page (e.g. behind a proxy).  Binding stays on this
@@ -70,8 +71,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="also let pages from ORIGIN (http://name:port) drive the app, or "
                         "'*' for any page (repeatable; default: only this server's own page)")
     parser.add_argument("--class", dest="class_mode", action="store_true",
-                        help="teach a class: the first page (or the teacher link printed) drives "
-                        "the run, every other page only watches")
+                        help="teach a class: pages on this machine and the teacher link printed "
+                        "drive the run, every other page only watches")
+    parser.add_argument("--teacher-token", default=None, metavar="TOKEN",
+                        help="with --class: the teacher link's token (letters, digits, - and _, "
+                        "at least 16), so the link stays the same when the server restarts "
+                        "(default: a new random one each start)")
     parser.add_argument("--no-warm", action="store_true",
                         help="do not compile the other presets' kernels in the background "
                         "(by default a low-priority process does, this scene's Gravity/Damping "
@@ -103,6 +108,15 @@ def check_host(host: str) -> None:
             raise ValueError(
                 f"cannot listen on --host {host!r}: {error.strerror or error}"
             ) from None
+
+
+def _teacher_token(text: str | None) -> str | None:
+    """A ``--teacher-token``: at least 16 letters, digits, ``-`` or ``_`` (it goes in a URL)."""
+    if text is None:
+        return None
+    if len(text) < 16 or not all(c.isascii() and (c.isalnum() or c in "-_") for c in text):
+        raise ValueError("--teacher-token wants at least 16 letters, digits, '-' or '_'")
+    return text
 
 
 def _loopback(host: str) -> bool:
@@ -143,7 +157,8 @@ def command_serve(arguments: argparse.Namespace) -> int:
     simulation = simulation_from_arguments(arguments)
     app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play,
                  scenes_dir=scenes_dir, recordings_dir=arguments.recordings_dir,
-                 allow_origins=arguments.allow_origin, class_mode=arguments.class_mode)
+                 allow_origins=arguments.allow_origin, class_mode=arguments.class_mode,
+                 teacher_token=_teacher_token(arguments.teacher_token))
 
     def terminate(number: int, frame: object) -> None:  # SIGTERM: stop as Ctrl+C does
         raise KeyboardInterrupt
@@ -176,9 +191,10 @@ def command_serve(arguments: argparse.Namespace) -> int:
             print("others open http://<this machine's address>:"
                   f"{app.server.get_port()}", flush=True)
         if app.roles is not None:
-            print(f"class: the first page to open drives the run, and so does the teacher link "
+            print(f"class: pages on this machine drive the run, and so does the teacher link "
                   f"{app.roles.teacher_link(app.url)}  (keep it to yourself); every other page "
-                  "only watches", flush=True)
+                  f"only watches (see it as a student: {app.roles.student_link(app.url)})",
+                  flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:

@@ -103,6 +103,7 @@ class WebApp:
     class_mode: one teacher page drives, the other pages watch (``app.web.roles``);
     preparer: compiles the kernels a scene needs before the runner steps it, while the page says
     so (``sim.runtime.warming``; default: the process's own).
+    teacher_token: the teacher link's token (default: a new random one).
     """
 
     def __init__(self, simulation: sim.Simulation, host: str = "127.0.0.1", port: int = 8080,
@@ -110,7 +111,8 @@ class WebApp:
                  scenes_dir: str | Path = DEFAULT_SCENES_DIR,
                  recordings_dir: str | Path = DEFAULT_RECORDINGS_DIR,
                  allow_origins: Sequence[str] = (), class_mode: bool = False,
-                 preparer: KernelPreparer | None = None) -> None:
+                 preparer: KernelPreparer | None = None,
+                 teacher_token: str | None = None) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
         self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps,
                                     preparer=preparer)
@@ -121,6 +123,9 @@ class WebApp:
         self.server = checked_server(self.access, host=host, port=port, verbose=verbose)
         self.gate = PageGate(self.server).install()
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
+        # nothing in the lattice's scene casts or receives a shadow, yet viser's default light
+        # renders three shadow maps at every frame (a large share of a software-rendered frame)
+        self.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.view = LatticeView(self.server)
         self.clients = ClientWatch(self.server)
         self.play_on_start = play
@@ -144,7 +149,8 @@ class WebApp:
 
         self.panel = ControlPanel(self)
         self._install_interaction()
-        self.roles = ClassRoles(self.server, self.pick).install() if class_mode else None
+        self.roles = (ClassRoles(self.server, self.pick, token=teacher_token).install()
+                      if class_mode else None)
 
     # --- life cycle ------------------------------------------------------------------------------
 
@@ -325,6 +331,7 @@ class WebApp:
         @self.server.on_client_connect
         def _(client: viser.ClientHandle) -> None:
             self.fit_client(client)
+            self._frame_ready.set()  # draw the latest frame again: the new page's picture
             fitted: dict[str, Any] = {"size": (0, 0), "since": time.monotonic(), "again": 5}
 
             @client.camera.on_update

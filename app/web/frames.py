@@ -4,27 +4,22 @@ A point cloud of the 682x383 interference lattice costs 0.8 MB per frame (3 byte
 particle), sent to every browser separately: 20 MB/s per page at 25 frames/s.  Above
 ``IMAGE_LIMIT`` particles the points never move (``app.web.view.MOVE_POINTS_LIMIT``: they sit at
 their rest sites and only their colours change), so a picture with one pixel per particle shows
-exactly the same thing.  ``FieldImage`` puts that picture in the scene (``viser``'s image node, in
-the lattice plane z = 0, one lattice spacing per pixel) and replaces its bytes each frame:
+exactly the same thing.  ``FieldImage`` puts that picture in each page's scene (``viser``'s image
+node, in the lattice plane z = 0, one lattice spacing per pixel) and replaces its bytes:
 
-* the picture is encoded once per frame (``encode``), whatever the number of pages, and sent as
-  one update message in viser's shared (broadcast) buffer; every page's sender reads the same
-  bytes;
+* the picture is encoded once (``encode``), whatever the number of pages; every page is sent
+  the same bytes (viser appends them to its message without copying or compressing them);
 * ``FORMAT`` and ``QUALITY`` were chosen by ``benchmarks/frame_formats.py`` (bytes against
   peak signal-to-noise ratio on a running interference field);
-* the server chooses the frame rate: at most ``MAX_FPS`` pictures per second and no more than
-  ``BYTES_PER_SECOND`` per page (a 25 kB picture goes out at 10 frames/s, a 50 kB one at 5), so
-  a class of 30 on one Wi-Fi network shares tens of Mbit/s, not Gbit/s;
-* and no more than the page's "Pictures per second" (``FieldImage.max_fps``, by default
-  ``DEFAULT_FPS``): viser draws the 3-D view on demand, and every scene update makes the page draw
-  frames for a quarter of a second; a browser without graphics acceleration spends about 0.2 s of
-  its only page thread on each such frame (read back for software compositing), so above about
-  one picture a second it draws all the time and clicks wait seconds.  Pictures are dropped, the
-  clicks are not; a student with a graphics card picks more pictures per second.
+* each page gets the newest picture as soon as it has drawn the previous one, at most
+  ``MAX_FPS`` a second and ``BYTES_PER_SECOND`` per page (``app.web.pacing``): a page without
+  graphics acceleration, which spends 0.1-0.2 s of its only thread on each drawn frame, gets a
+  picture per frame it draws and stays answering; a slow page gets fewer pictures and never
+  slows the others; the View folder's "Pictures per second" can lower the most for every page;
+* a picture is encoded only when some page is ready for one.
 
 Small lattices keep their spheres and springs (``app.web.view``); ``uses_image`` is the switch.
-Backpressure (a slow page gets fewer frames, a page that stops reading is dropped) lives in
-``app.web.clients``.
+A page that stops reading altogether is dropped by ``app.web.clients``.
 """
 
 from __future__ import annotations
@@ -36,6 +31,7 @@ import numpy as np
 import viser
 from PIL import Image
 
+from app.web.pacing import BYTES_PER_SECOND, MAX_FPS, PicturePacer  # noqa: F401 (re-exported)
 from sim.model.lattice import Model
 
 IMAGE_LIMIT = 50_000
@@ -47,16 +43,10 @@ WebP, whose halved colour resolution blurs one-particle-wide wave crests, and en
 milliseconds where WebP takes 50-100 ms)."""
 QUALITY = 75
 """JPEG quality of the pictures (see ``benchmarks/frame_formats.py``)."""
-MAX_FPS = 12.0
-"""Most pictures per second sent to the pages."""
-MIN_FPS = 2.0
-"""Fewest pictures per second sent while the field changes (even if a picture is large)."""
-DEFAULT_FPS = 1.0
-"""Pictures per second by default (a page without graphics acceleration stays answering)."""
+DEFAULT_FPS = MAX_FPS
+"""Pictures per second by default: as many as each page draws, up to ``MAX_FPS``."""
 PICTURE_RATES = (1.0, 2.0, 4.0, MAX_FPS)
-"""The pictures per second a page may choose."""
-BYTES_PER_SECOND = 250_000
-"""Bytes per second of pictures aimed at for each page (2 Mbit/s: a class of 30 shares 60 Mbit/s)."""
+"""The most pictures per second the View folder may choose for every page."""
 
 
 def uses_image(model: Model, points_move: bool) -> bool:
@@ -86,14 +76,6 @@ def encode(picture: np.ndarray, image_format: str = FORMAT, quality: int = QUALI
     return buffer.getvalue()
 
 
-def frame_rate(frame_bytes: int, budget: float = BYTES_PER_SECOND) -> float:
-    """Pictures per second for pictures of ``frame_bytes``: the budget's worth, between
-    ``MIN_FPS`` and ``MAX_FPS``."""
-    if frame_bytes <= 0:
-        return MAX_FPS
-    return float(np.clip(budget / frame_bytes, MIN_FPS, MAX_FPS))
-
-
 def image_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
     """(centre (m), width (m), height (m)) of the picture: one spacing per particle, centred on
     the rest sites."""
@@ -104,49 +86,58 @@ def image_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
 
 
 class FieldImage:
-    """The picture node of one lattice in the scene; ``show`` sends a new picture when the
-    server's frame rate allows (``force`` sends it now, e.g. the first frame after a pause)."""
+    """The picture of one lattice, a node in each page's own scene; ``show`` encodes a new
+    picture when some page is ready for one (``force``: now, e.g. a frame while paused) and
+    hands it to the pacer."""
 
     def __init__(self, server: viser.ViserServer, model: Model, colours: np.ndarray,
                  name: str = "/lattice/particles") -> None:
         self.model = model
-        centre, width, height = image_pose(model)
-        picture = field_picture(model, colours)
-        self.handle = server.scene.add_image(
-            name, picture, render_width=width, render_height=height, format="jpeg",
-            jpeg_quality=QUALITY, position=centre, cast_shadow=False, receive_shadow=False,
-        )
-        self.last_bytes = len(self.handle._data)
-        self.sent = 1
-        self.bytes_sent = self.last_bytes
-        self.encode_seconds = 0.0
+        self.name = name
         self.max_fps = DEFAULT_FPS
-        """The page's choice of pictures per second (the most; the byte budget may send fewer)."""
-        self._last_sent = time.perf_counter()
+        """The View folder's choice of pictures per second (the most, for every page)."""
+        self.pacer = PicturePacer(server, self._make_node, max_fps=lambda: self.max_fps)
+        self.sent = 0
+        self.bytes_sent = 0
+        self.last_bytes = 0
+        self.encode_seconds = 0.0
+        self._last_encoded = -1e9
+        self.frame: object = None
+        """The frame the newest picture shows (set by the view)."""
+        self.show(colours, force=True)
 
-    @property
-    def fps(self) -> float:
-        """The frame rate the server chose for pictures of the current size."""
-        return min(frame_rate(self.last_bytes), self.max_fps)
+    def _make_node(self, client: viser.ClientHandle, data: bytes) -> viser.ImageHandle:
+        centre, width, height = image_pose(self.model)
+        handle = client.scene.add_image(
+            self.name, np.zeros((1, 1, 3), np.uint8), render_width=width, render_height=height,
+            format="jpeg", jpeg_quality=QUALITY, position=centre, cast_shadow=False,
+            receive_shadow=False,
+        )
+        handle._data = data
+        return handle
 
     def due_now(self) -> bool:
-        """Whether the server's frame rate allows a picture now."""
-        return time.perf_counter() - self._last_sent >= 1.0 / self.fps
+        """Whether a new picture would go to some page now (at most ``MAX_FPS`` encodings a
+        second)."""
+        if time.perf_counter() - self._last_encoded < 1.0 / MAX_FPS:
+            return False
+        return self.pacer.wanted()
 
     def show(self, colours: np.ndarray, force: bool = False) -> bool:
-        """Encode and send ``colours`` (n, 3) uint8 if a picture is due; returns whether it was
-        sent."""
+        """Give each page that came its picture node; encode ``colours`` (n, 3) uint8 and send
+        it if a picture is due (or ``force``); returns whether it was encoded."""
+        self.pacer.sync_pages()
         now = time.perf_counter()
         if not force and not self.due_now():
             return False
         data = encode(field_picture(self.model, colours))
         self.encode_seconds += time.perf_counter() - now
-        self.handle._data = data
-        self._last_sent = now
+        self._last_encoded = now
         self.last_bytes = len(data)
         self.sent += 1
         self.bytes_sent += len(data)
+        self.pacer.publish(data)
         return True
 
     def remove(self) -> None:
-        self.handle.remove()
+        self.pacer.remove()

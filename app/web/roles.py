@@ -1,17 +1,26 @@
 """A class: one teacher drives the shared run, every other page watches (``serve --class``).
 
-Roles are given when a page connects:
+A page's role follows from how it connected, never from when:
 
-* the **teacher** is the first page that connects, and every page opened with the teacher link
-  that ``serve --class`` prints: ``http://HOST:PORT/?websocket=ws://HOST:PORT/teacher/TOKEN``.
-  viser's page opens its websocket at the page's address without the query string, except that
-  a ``websocket=`` parameter names that address; so the link makes the page connect to the path
-  ``/teacher/TOKEN`` and the server reads the token from the websocket handshake.  ``TOKEN`` is
-  random (``secrets``, 96 bits) and new for every server;
-* every other page is a **student**.  It sees the run, the colour bar, the plots and the
-  read-outs and moves its own camera.  A click on the lattice selects a particle for that page
-  only: a red marker in its own scene and a read-out of the particle's displacement in its own
-  panel.  Nothing else a student page sends reaches the app.
+* the **teacher** is a page opened with the teacher link that ``serve --class`` prints,
+  ``http://HOST:PORT/?websocket=ws://HOST:PORT/teacher/TOKEN``, or a page opened on the server's
+  own machine (its websocket comes from a loopback address).  viser's page opens its websocket at
+  the page's address without the query string, except that a ``websocket=`` parameter names that
+  address; so the link makes the page connect to the path ``/teacher/TOKEN`` and the server reads
+  the token from the websocket handshake.  ``TOKEN`` is random (``secrets``, 96 bits) and new for
+  every server unless given (``serve --teacher-token``, so that a teacher's page keeps its role
+  when the server is restarted);
+* every other page is a **student**, and so is a page opened with the student link
+  (``.../?websocket=ws://HOST:PORT/student``: the teacher's own machine showing what students
+  see).  A student page sees the run, the colour bar, the plots and the read-outs and moves its
+  own camera; its copy of every shared control is shown disabled (``disable_controls``).  A click
+  on the lattice selects a particle for that page only: a red marker in its own scene and a
+  read-out of the particle's displacement in its own panel.  Nothing else it sends reaches the
+  app.
+
+A viser page reconnects by itself when its connection drops or the server restarts; it comes
+back at the same address, by the same link, so it gets the same role: a student's page that
+reconnects first cannot take the run.
 
 ``ClassRoles.gate`` is the one check: it sits in front of viser's dispatch of every message a
 page sends (``install``), so whatever a student page sends (a button, a slider, a dropdown, a
@@ -23,6 +32,7 @@ camera, replies to the server's own requests).  Without ``--class`` there are no
 
 from __future__ import annotations
 
+import ipaddress
 import secrets
 import sys
 import threading
@@ -40,6 +50,10 @@ from sim.runtime.runner import Frame
 
 TEACHER_PATH = "/teacher/"
 """Websocket path prefix of the teacher link (followed by the token)."""
+STUDENT_PATH = "/student"
+"""Websocket path of the student link (a student page, even on the server's own machine)."""
+CONTROLS_CHECK = 1.0
+"""Seconds between two checks that each student page shows the shared controls disabled."""
 STUDENT_MESSAGES = (
     _messages.ViewerCameraMessage,
     _messages.GetRenderResponseMessage,
@@ -48,8 +62,31 @@ STUDENT_MESSAGES = (
 """What a student page may send: its own camera, and replies to the server's requests."""
 PROBE_INTERVAL = 0.5
 """Seconds between two updates of a student's own read-out."""
-STUDENT_NOTE = ("Student view: the teacher runs this lattice. Move the camera as you like; "
-                "click a particle to follow it yourself.")
+STUDENT_NOTE = ("Student view: the teacher runs this lattice (the shared controls are greyed "
+                "out). Move the camera as you like; click a particle to follow it yourself.")
+
+
+def is_loopback(address: object) -> bool:
+    """Whether a peer address (``(host, port, ...)`` or a host) is this machine's loopback."""
+    host = address[0] if isinstance(address, (tuple, list)) and address else address
+    try:
+        ip = ipaddress.ip_address(str(host).split("%")[0])
+    except ValueError:
+        return False
+    mapped = getattr(ip, "ipv4_mapped", None)
+    return (mapped or ip).is_loopback
+
+
+def role_for(path: str, remote: object, token: str) -> str:
+    """The role of a page whose websocket asked for ``path`` from the peer address ``remote``:
+    ``teacher`` by the teacher link (its token) or from this machine, ``student`` by the
+    student link or from anywhere else."""
+    if path.startswith(TEACHER_PATH) and secrets.compare_digest(
+            path[len(TEACHER_PATH):].split("?")[0].encode(), token.encode()):
+        return "teacher"
+    if path.startswith(STUDENT_PATH):
+        return "student"
+    return "teacher" if is_loopback(remote) else "student"
 
 
 class ClassRoles:
@@ -65,47 +102,74 @@ class ClassRoles:
         self.students: set[int] = set()
         self.refused: list[tuple[int, str]] = []
         """(client id, message type) of every message refused."""
-        self._first_taken = False
         self._lock = threading.Lock()
         self._probes: dict[int, dict[str, Any]] = {}
         self._last_probe_update = 0.0
+        self._disabled: dict[int, dict[str, object]] = {}
+        """student client id -> {control uuid: its shared ``disabled`` when sent disabled}."""
+        self._last_controls_check = 0.0
 
     # --- roles -----------------------------------------------------------------------------------
 
     def teacher_link(self, page_url: str) -> str:
         """The teacher link for a page address ``http://host:port``."""
+        return self._link(page_url, f"{TEACHER_PATH}{self.token}")
+
+    def student_link(self, page_url: str) -> str:
+        """The student link for a page address ``http://host:port``."""
+        return self._link(page_url, STUDENT_PATH)
+
+    @staticmethod
+    def _link(page_url: str, path: str) -> str:
         parts = urlsplit(page_url)
         scheme = "wss" if parts.scheme == "https" else "ws"
-        return f"{page_url}/?websocket={scheme}://{parts.netloc}{TEACHER_PATH}{self.token}"
+        return f"{page_url}/?websocket={scheme}://{parts.netloc}{path}"
 
     def is_teacher(self, client_id: int) -> bool:
         return client_id in self.teachers
 
     def arrived(self, client_id: int) -> str:
         """Give a page whose websocket just opened its role (``teacher`` or ``student``), before
-        anything it sends is read."""
+        anything it sends is read: by its link or its address, whoever came first."""
         connection = self.server._websock_server._live_connections.get(client_id)
         path = getattr(getattr(connection, "request", None), "path", "") or ""
+        role = role_for(path, getattr(connection, "remote_address", None), self.token)
         with self._lock:
-            by_link = path.startswith(TEACHER_PATH) and secrets.compare_digest(
-                path[len(TEACHER_PATH):].encode(), self.token.encode())
-            if by_link or not self._first_taken:
-                self._first_taken = True
-                self.teachers.add(client_id)
-                return "teacher"
-            self.students.add(client_id)
-            return "student"
+            (self.teachers if role == "teacher" else self.students).add(client_id)
+        return role
 
     def greet(self, client: viser.ClientHandle) -> None:
-        """Tell a student page, in its own panel, what it may do."""
+        """Tell a student page, in its own panel, what it may do, and grey out its shared
+        controls."""
         if client.client_id in self.students:
             client.gui.add_html(as_html(STUDENT_NOTE, color="#1f5eea", bold=True), order=-2.0)
+            self.disable_controls(client)
+
+    def disable_controls(self, client: viser.ClientHandle) -> int:
+        """Show every shared control disabled on a student's page (that page alone): each one
+        not yet sent, and each one whose shared state the server changed since (a change sent to
+        every page would enable it there).  Returns how many were sent."""
+        connection = client._websock_connection
+        count = 0
+        with self._lock:
+            if client.client_id not in self.students:
+                return 0
+            shown = self._disabled.setdefault(client.client_id, {})
+            for uuid, handle in list(self.server.gui._gui_input_handle_from_uuid.items()):
+                shared = getattr(handle._impl.props, "disabled", None)
+                if shown.get(uuid, "unsent") == shared:
+                    continue
+                connection.queue_message(_messages.GuiUpdateMessage(uuid, {"disabled": True}))
+                shown[uuid] = shared
+                count += 1
+        return count
 
     def left(self, client_id: int) -> None:
         with self._lock:
             self.teachers.discard(client_id)
             self.students.discard(client_id)
             self._probes.pop(client_id, None)
+            self._disabled.pop(client_id, None)
 
     # --- the gate --------------------------------------------------------------------------------
 
@@ -179,6 +243,12 @@ class ClassRoles:
         """Follow a frame: move each student's marker and refresh its read-out (at most every
         ``PROBE_INTERVAL`` seconds)."""
         now = time.perf_counter()
+        if now - self._last_controls_check >= CONTROLS_CHECK:
+            self._last_controls_check = now
+            clients = self.server.get_clients()
+            for client_id in list(self.students):
+                if client_id in clients:
+                    self.disable_controls(clients[client_id])
         if not self._probes or now - self._last_probe_update < PROBE_INTERVAL:
             return
         self._last_probe_update = now

@@ -6,8 +6,8 @@ Two ways to draw particles, chosen by lattice size:
   the cube root of the mass;
 * large lattices: one float32 point cloud coloured by the displacement field (or speed), so wave
   fronts show up; on very large lattices the points stay at their rest sites by default, and
-  then the field is one picture (``app.web.frames``: encoded once per frame, shared by every
-  page, at a frame rate the server chooses).
+  then the field is one picture (``app.web.frames``: encoded once, sent to each page as soon
+  as it has drawn the previous one, ``app.web.pacing``).
 
 Colours come from the quantity's scheme in ``app.colours`` (the same language as movies and
 recordings): the signed displacement along the scene's axis (the component it is displaced
@@ -198,6 +198,7 @@ class LatticeView:
         else:
             if uses_image(model, self.settings.points_move(model)):
                 self._image = FieldImage(self.server, model, self._particle_colors(frame))
+                self._image.frame = frame
             else:
                 shown = xyz if self.settings.points_move(model) else to_xyz(model.rest_positions)
                 self._points = scene.add_point_cloud(
@@ -232,8 +233,14 @@ class LatticeView:
             self._points.colors = self._particle_colors(frame)
         if self._image is not None:
             self._image.max_fps = self.settings.picture_rate
-        if self._image is not None and (self._image.due_now() or not frame.playing):
-            self._image.show(self._particle_colors(frame), force=True)
+        if self._image is not None:
+            # a paused lattice gets one picture of each new state, not one per redraw
+            new_state = frame is not self._image.frame
+            if (new_state and self._image.due_now()) or (not frame.playing and new_state):
+                self._image.show(self._particle_colors(frame), force=True)
+                self._image.frame = frame
+            else:
+                self._image.pacer.sync_pages()  # a page that just came gets its picture now
         if self._selection_points is not None:
             self._selection_points.points = xyz[self.selection[self.selection < len(xyz)]]
         if self._springs is not None:

@@ -22,7 +22,7 @@ from app.web.widgets import say
 
 def rate_label(rate: float) -> str:
     """How the page names a picture rate (per second)."""
-    return f"up to {rate:g}" if rate == MAX_FPS else f"{rate:g}"
+    return f"as the page draws (up to {rate:g})" if rate == MAX_FPS else f"at most {rate:g}"
 
 
 class ViewSettingsFolder(Folder):
@@ -50,9 +50,8 @@ class ViewSettingsFolder(Folder):
             self.picture_rate = gui.add_dropdown(
                 "Pictures per second", [rate_label(r) for r in PICTURE_RATES],
                 initial_value=rate_label(settings.picture_rate),
-                hint="large lattices are sent as pictures; each one keeps the page drawing for "
-                "a moment: on a computer without a graphics card more pictures make the "
-                "controls slow to answer")
+                hint="large lattices are sent as pictures: each page gets the next one when it "
+                "has drawn the last; a lower limit here holds every page to it")
             self.message = gui.add_html("")
 
         def setting(handle: viser.GuiInputHandle, apply: Callable[[object], None]) -> None:
