@@ -96,7 +96,7 @@ class AccuracyFolder(Folder):
                 aspect=2.2)
             self.predicted = gui.add_html("")
             self.tolerance = gui.add_number(
-                "Tolerance (%)", DEFAULT_TOLERANCE * 100, min=1e-6, max=100.0, step=0.1,
+                "Tolerance (%)", DEFAULT_TOLERANCE * 100, step=0.1,
                 hint="error allowed over the scene's duration (the live energy-balance error is "
                 "compared with it; Choose for me uses the field error where it can)",
             )
