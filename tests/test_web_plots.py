@@ -42,11 +42,11 @@ def test_a_reset_empties_the_probe_and_energy_plots_at_once(web_app):
     web_app.set_selection(np.array([3]))
     press(probes.probe_button)
     web_app.runner.play()
-    assert wait_for(lambda: probes.time_plot.data[0].size > 8, timeout=60)
+    assert wait_for(lambda: probes.time_plot.handle.data[0].size > 8, timeout=60)
     assert wait_for(lambda: web_app.panel.energy.plot.data[0].size > 8, timeout=60)
     web_app.runner.pause()
     settle(web_app)
     press(web_app.panel.run.reset_button)
-    assert wait_for(lambda: probes.time_plot.data[0].size == 0, timeout=10)
-    assert probes.spectrum_plot.data[0].size == 0  # cleared with (just before) the time plot
+    assert wait_for(lambda: probes.time_plot.handle.data[0].size == 0, timeout=10)
+    assert probes.spectrum_plot.handle.data[0].size == 0  # cleared with (just before) the time plot
     assert wait_for(lambda: web_app.panel.energy.plot.data[0].size <= 1, timeout=10)

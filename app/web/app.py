@@ -43,7 +43,7 @@ from app.web.recording import WebRecordings
 from app.web.roles import ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
-from app.web.view import NARROW, PHONE_PANEL_SHARE, LatticeView, camera_fit, laptop_fit
+from app.web.view import NARROW, PHONE_PANEL_SHARE, VIEW_FOV, LatticeView, camera_fit, laptop_fit
 from sim.runtime.runner import Frame
 from sim.runtime.warming import KernelPreparer
 
@@ -283,7 +283,8 @@ class WebApp:
 
     def _frame_camera(self, model: sim.Model) -> None:
         camera = self.server.initial_camera
-        position, look_at, up = laptop_fit(model, camera.fov, 1366, 768)
+        camera.fov = VIEW_FOV
+        position, look_at, up = laptop_fit(model, VIEW_FOV, 1366, 768)
         camera.position, camera.look_at, camera.up = position, look_at, up
         camera.far = far_plane(position, look_at)
         for client in self.server.get_clients().values():
@@ -298,10 +299,11 @@ class WebApp:
         model = model or self.runner.simulation.model
         camera = client.camera
         try:
-            width, height, fov = camera.image_width, camera.image_height, camera.fov
+            width, height = camera.image_width, camera.image_height
         except AssertionError:  # the browser has not reported its view yet
-            width, height, fov = 0, 0, self.server.initial_camera.fov
-        width, height = width or 1366, height or 768
+            width, height = 0, 0
+        width, height, fov = width or 1366, height or 768, VIEW_FOV
+        camera.fov = fov
         self.view.colour_bar.set_narrow(client, width < NARROW)
         if width < NARROW:
             position, look_at, up = camera_fit(model, fov, width / height,

@@ -22,6 +22,7 @@ import threading
 import numpy as np
 import viser
 
+from app.web.equilibrium import sag
 from sim.model.lattice import Model
 
 BAR_FRACTION = 0.6
@@ -40,11 +41,12 @@ OVERLAY_MARGIN = 12
 
 def bar_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
     """(centre (m), width (m), height (m)) of a phone's in-scene bar: centred under the
-    lattice, 1.5 spacings below its lowest row."""
+    lattice, 1.5 spacings below its lowest row (at its sagged equilibrium under gravity)."""
     width = BAR_FRACTION * (model.nx + 1) * model.spacing
     height = width * BAR_ASPECT
+    down = sag(model)[2]
     centre = (model.origin[0] + (model.nx - 1) * model.spacing / 2,
-              model.origin[1] - 1.5 * model.spacing - height / 2, 0.0)
+              model.origin[1] - down - 1.5 * model.spacing - height / 2, 0.0)
     return centre, width, height
 
 

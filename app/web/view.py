@@ -34,6 +34,7 @@ import viser
 
 from app import colours
 from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, ColourBar
+from app.web.equilibrium import sag
 from app.web.frames import DEFAULT_FPS, FieldImage, uses_image
 from sim.model.lattice import Model
 from sim.runtime.runner import Frame
@@ -353,6 +354,12 @@ def laptop_fit(model: Model, fov: float, width: float, height: float
                       bottom=min(0.4, OVERLAY_HEIGHT / height), bar_in_scene=False)
 
 
+VIEW_FOV = math.radians(20.0)
+"""Vertical field of view of every page's camera (viser's default is 75 degrees): a wide one
+draws the particles near a laptop view's left edge as eggs (a sphere off the axis of a
+perspective view projects to an ellipse stretched by up to 1 / cos of its angle off the axis;
+75 degrees puts the left edge of a 1366x768 view 54 degrees off it, 1.7 times longer than wide; 20
+degrees 17 degrees off it, 5 % longer than wide)."""
 PANEL_WIDTH = 420
 """CSS pixels of the page's control panel (viser's "large" controls) at the right edge."""
 NARROW = 700
@@ -367,23 +374,26 @@ def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bott
                           tuple[float, float, float]]:
     """(position, look_at, up) of a camera that shows the whole lattice, its walls and (with
     ``bar_in_scene``: a phone's) the colour bar under it in the part of the view the panel
-    leaves, with a small margin.  ``right`` and ``bottom``: the fractions of the view's width
+    leaves, with a small margin (a lattice under gravity: its sagged equilibrium, ``sag``).
+    ``right`` and ``bottom``: the fractions of the view's width
     (on the right) and height (at the bottom) under the panel (or the floating colour bar);
     ``fov``: the vertical field of view (radians); ``aspect``: width / height of the view.
     Planar lattices are seen straight from above; 3-D ones from the front and above (about 40
     degrees) so their out-of-plane motion shows."""
     a = model.spacing
-    width = (model.nx + 1) * a
-    top = (model.ny + 1) * a / 2
-    lowest = -(model.ny + 1) * a / 2
+    left, right_sag, down, up = sag(model)
+    width = (model.nx + 1) * a + left + right_sag
+    top = (model.ny + 1) * a / 2 + up
+    lowest = -(model.ny + 1) * a / 2 - down
     if bar_in_scene:
-        lowest = -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * BAR_ASPECT
+        lowest = (-(model.ny - 1) * a / 2 - down - 1.5 * a
+                  - BAR_FRACTION * (model.nx + 1) * a * BAR_ASPECT)
     free_x, free_y = max(0.2, 1.0 - right), max(0.2, 1.0 - bottom)
     tangent = math.tan(fov / 2)
     distance = max(width / (2 * tangent * aspect * free_x),
                    (top - lowest) / (2 * tangent * free_y)) / 0.9
-    # the lattice's centre at the centre of the free part of the view
-    shift_x = distance * tangent * aspect * (1.0 - free_x)
+    # the lattice's centre (sagged) at the centre of the free part of the view
+    shift_x = distance * tangent * aspect * (1.0 - free_x) + (right_sag - left) / 2
     shift_y = -distance * tangent * (1.0 - free_y)
     centre = ((top + lowest) / 2 + shift_y, shift_x)
     if model.dim == 3:

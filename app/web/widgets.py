@@ -7,9 +7,10 @@
   the page shows is also a value the server accepts back;
 * ``History`` keeps the values a plot shows against simulated time;
 * ``PlotAxis`` gives a plot's value axis readable ticks: a unit with an SI prefix that puts the
-  numbers between 1 and 1000, and a range that fits the data but spans at least 1 % of their size
-  (the page's plots print at most three decimals, so a nearly flat line would else read
-  "0.598, 0.598, 0.598");
+  numbers between 1 and 1000 (or %, ppm, ppb for a ratio), a range that fits the data but spans
+  at least 1 % of their size (the page's plots print at most three decimals, so a nearly flat
+  line would else read "0.598, 0.598, 0.598"), and an axis wide enough for the longest tick
+  label with its minus sign;
 * ``download_name`` makes a harmless file name for the user's browser from a scene name;
 * ``MATPLOTLIB_LOCK`` is held while a folder draws a matplotlib picture.
 """
@@ -120,13 +121,19 @@ class History:
 PREFIXES = ((1e-12, "p"), (1e-9, "n"), (1e-6, "µ"), (1e-3, "m"), (1.0, ""), (1e3, "k"),
             (1e6, "M"), (1e9, "G"))
 """SI prefixes (factor, symbol) a plot's unit may take."""
+RATIO_UNITS = ((1e-15, "×1e-15"), (1e-12, "×1e-12"), (1e-9, "ppb"), (1e-6, "ppm"), (1e-2, "%"))
+"""Units (factor, name) of a plotted ratio (a relative error): per cent down to 1 %, then parts
+per million (1 to 10 000 ppm), per billion, and powers of ten below."""
 MIN_SPAN = 0.01
 """Least span of a plot's value axis, as a fraction of the largest value's size."""
 
 
-def axis_range(values: np.ndarray, unit: str) -> tuple[float, str, tuple[float, float]]:
+def axis_range(values: np.ndarray, unit: str,
+               prefixes: tuple[tuple[float, str], ...] = PREFIXES
+               ) -> tuple[float, str, tuple[float, float]]:
     """(factor, unit shown, (low, high) in shown units) for plotting ``values`` (any shape, in
-    ``unit``): values / factor lie between 1 and 1000 in size; the range holds every finite value,
+    ``unit``): the largest factor of ``prefixes`` (SI by default) not above the values' size, so
+    that values / factor lie between 1 and 1000 in size (for SI prefixes); the range holds every finite value,
     spans at least ``MIN_SPAN`` of the largest size, and is rounded out to a round step so it moves
     seldom."""
     finite = np.asarray(values, dtype=float)
@@ -134,8 +141,8 @@ def axis_range(values: np.ndarray, unit: str) -> tuple[float, str, tuple[float, 
     size = float(np.abs(finite).max()) if finite.size else 0.0
     if size == 0.0:
         return 1.0, unit, (-1.0, 1.0)
-    factor, prefix = PREFIXES[0]
-    for candidate, symbol in PREFIXES:
+    factor, prefix = prefixes[0]
+    for candidate, symbol in prefixes:
         if size / candidate >= 1.0:
             factor, prefix = candidate, symbol
     low, high = float(finite.min()) / factor, float(finite.max()) / factor
@@ -151,33 +158,59 @@ def axis_range(values: np.ndarray, unit: str) -> tuple[float, str, tuple[float, 
     return factor, prefix + unit, (low, high)
 
 
+KEEP_RANGE = 2.5
+"""A plot's value range stays while it is at most this many times the range its data need."""
+MIN_AXIS_SIZE = 50
+"""Least width (CSS px) of a plot's value axis (uPlot's own)."""
+
+
 class PlotAxis:
-    """Keeps one uPlot's value axis readable: ``show(plot, x, columns)`` plots the columns in the
-    unit ``axis_range`` picks and re-sets the plot's axis label and range only when they change."""
+    """A plot's value axis: its quantity, its unit with the prefix ``axis_range`` picks (from
+    ``prefixes``: SI by default), its range, and a width that holds the longest tick label with
+    its sign.  ``app.web.plots.LivePlot`` builds its plot with what ``layout`` says."""
 
-    def __init__(self, quantity: str, unit: str, x_label: str, size: int = 60) -> None:
-        self.quantity, self.unit, self.x_label, self.size = quantity, unit, x_label, size
-        self.shown: tuple[str, tuple[float, float]] | None = None
-        """(unit, range) the plot shows now."""
+    def __init__(self, quantity: str, unit: str, x_label: str,
+                 prefixes: tuple[tuple[float, str], ...] = PREFIXES) -> None:
+        self.quantity, self.unit, self.x_label, self.prefixes = quantity, unit, x_label, prefixes
 
-    def axes(self, unit: str | None = None) -> tuple[dict, dict]:
+    def axes(self, unit: str | None = None, size: int = MIN_AXIS_SIZE) -> tuple[dict, dict]:
         """The plot's (x axis, value axis) options."""
-        return ({"label": self.x_label},
-                {"label": f"{self.quantity} ({unit or self.unit})", "size": self.size})
+        shown = self.unit if unit is None else unit
+        label = f"{self.quantity} ({shown})" if shown else self.quantity
+        return ({"label": self.x_label}, {"label": label, "size": size})
 
-    def show(self, plot: Any, x: np.ndarray, columns: Any) -> None:
-        columns = [np.asarray(column, dtype=float) for column in columns]
-        factor, unit, (low, high) = axis_range(np.concatenate(columns) if columns else
-                                               np.zeros(0), self.unit)
-        if (unit, (low, high)) != self.shown:
-            plot.axes = self.axes(unit)
-            plot.scales = {"x": {"time": False}, "y": {"range": [low, high]}}
-            self.shown = (unit, (low, high))
-        plot.data = (np.asarray(x, dtype=float), *(column / factor for column in columns))
+    def layout(self, values: np.ndarray, current: tuple | None = None
+               ) -> tuple[float, tuple[str, tuple[float, float], int]]:
+        """(factor, (unit shown, (low, high), axis width px)) for plotting ``values`` / factor.
+        The ``current`` layout stays while it holds the values in the same unit and its range is
+        at most ``KEEP_RANGE`` times the one they need, so the axis moves seldom."""
+        factor, unit, (low, high) = axis_range(values, self.unit, self.prefixes)
+        if current is not None and current[0] == unit:
+            (kept_low, kept_high) = current[1]
+            finite = np.asarray(values, dtype=float)
+            finite = finite[np.isfinite(finite)] / factor
+            if (finite.size and kept_low <= finite.min() and finite.max() <= kept_high
+                    and kept_high - kept_low <= KEEP_RANGE * (high - low)):
+                return factor, current
+        return factor, (unit, (low, high), axis_size(low, high))
 
-    def clear(self, plot: Any, lines: int) -> None:
-        """No data (a reset): the plot shows empty axes."""
-        plot.data = (np.zeros(0),) * (lines + 1)
+    def empty_layout(self) -> tuple[str, tuple[float, float], int]:
+        """The layout of a plot without data."""
+        return self.layout(np.zeros(0))[1]
+
+
+def tick_labels(low: float, high: float, count: int = 5) -> list[str]:
+    """``count`` ticks across [low, high] as the page's plots print them (uPlot: at most three
+    decimals, a minus sign kept)."""
+    return [f"{tick:.3f}".rstrip("0").rstrip(".") for tick in np.linspace(low, high, count)]
+
+
+def axis_size(low: float, high: float) -> int:
+    """Width (CSS px) of a value axis whose ticks span [low, high]: the longest tick label (with
+    its minus sign) at about 7 px a character (a thousands separator included), plus the tick
+    marks and gap."""
+    longest = max(len(label) for label in tick_labels(low, high, 9))
+    return max(MIN_AXIS_SIZE, 7 * longest + 24)
 
 
 def download_name(name: str) -> str:

@@ -1,7 +1,8 @@
 """The page's "Accuracy" folder: what the current speed costs, live and before running.
 
 * **Live**: the relative energy-balance error of the running state (``Frame.energy_balance_error``,
-  0 for the exact dynamics) as a number and its own plot; amber above the tolerance, red above ten
+  0 for the exact dynamics) as a number and its own plot (in %, ppm or ppb: the unit that keeps
+  its ticks readable; emptied at a reset); amber above the tolerance, red above ten
   times it, with a sentence saying why it happens for this integrator and what to do.
 * **Predicted**: the energy and phase error that the current integrator and dt will have after
   the scene's duration, from the normal modes of the scene's initial state (``sim.theory.prediction``),
@@ -37,7 +38,8 @@ from app.web.inputs import (
     ok_html,
     warning_html,
 )
-from app.web.widgets import History, say
+from app.web.plots import LivePlot
+from app.web.widgets import RATIO_UNITS, History, PlotAxis, say
 from sim.integrators.registry import describe
 from sim.runtime.runner import Frame
 
@@ -83,19 +85,18 @@ class AccuracyFolder(Folder):
         self._predictors: dict[int, Any] = {}
         self._predicting = threading.Lock()
         self._last_plot = 0.0
-        with gui.add_folder("Accuracy"):
+        with gui.add_folder("Accuracy") as folder:
             self.live = gui.add_html("")
             self.why = gui.add_html("", visible=False)
-            empty = np.zeros(1)
-            self.plot = gui.add_uplot(
-                data=(empty, empty),
-                series=({"label": "t (s)"},
-                        {"label": "energy-balance error (%)", "stroke": "#c0392b", "width": 1.5}),
-                scales={"x": {"time": False}}, aspect=2.2,
-            )
+            self.error_plot = LivePlot(
+                gui, folder,
+                ({"label": "t (s)"},
+                 {"label": "energy-balance error", "stroke": "#c0392b", "width": 1.5}),
+                PlotAxis("energy-balance error", "", "simulated time t (s)", RATIO_UNITS),
+                aspect=2.2)
             self.predicted = gui.add_html("")
             self.tolerance = gui.add_number(
-                "Tolerance (%)", DEFAULT_TOLERANCE * 100, min=1e-6, max=100.0, step=0.1,
+                "Tolerance (%)", DEFAULT_TOLERANCE * 100, step=0.1,
                 hint="error allowed over the scene's duration (the live energy-balance error is "
                 "compared with it; Choose for me uses the field error where it can)",
             )
@@ -189,8 +190,14 @@ class AccuracyFolder(Folder):
 
     # --- keeping in step ----------------------------------------------------------------------
 
+    @property
+    def plot(self) -> Any:
+        """The viser plot of the error shown now."""
+        return self.error_plot.handle
+
     def clear(self) -> None:
         self.history.clear()
+        self.error_plot.clear()
         self._prediction_key = None
 
     def show_scene(self, simulation: sim.Simulation) -> None:
@@ -198,7 +205,8 @@ class AccuracyFolder(Folder):
 
     def update(self, frame: Frame, now: float) -> None:
         error = frame.energy_balance_error
-        if self.history.add(frame.time, (100.0 * error,)):
+        if self.history.add(frame.time, (error,)):  # a reset: the old line goes at once
+            self.error_plot.clear()
             self._prediction_key = None
         try:
             tolerance = self.tolerance_value()
@@ -224,7 +232,7 @@ class AccuracyFolder(Folder):
         if now - self._last_plot > PLOT_INTERVAL and len(self.history) > 1:
             self._last_plot = now
             times, errors = self.history.columns()
-            self.plot.data = (times, *errors)
+            self.error_plot.show(times, errors)
         self._update_prediction(frame)
 
     def _update_prediction(self, frame: Frame) -> None:

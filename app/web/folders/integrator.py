@@ -63,8 +63,7 @@ class IntegratorFolder(Folder):
                 "Method", sim.integrators.names(simulation.model),
                 initial_value=simulation.integrator, hint=methods_hint(),
             )
-            self.dt = gui.add_number("Time step dt (s)", simulation.dt, min=1e-6, max=MAX_DT,
-                                     step=1e-4)
+            self.dt = gui.add_number("Time step dt (s)", simulation.dt, step=1e-4)
             self.stability = gui.add_html("")
             self.steps_per_frame = gui.add_slider(
                 "Steps per frame", 1, MAX_STEPS_PER_FRAME, 1, int(host.runner.steps_per_frame),

@@ -6,7 +6,7 @@ simulation thread, cheap: a few numbers per frame) appends their displacements t
 chosen component against time and its spectrum (amplitude against frequency), and lists the
 dominant frequencies with the nearest normal modes of the lattice (equal masses).  A reset or a
 new scene starts the series again and empties the plots at once.  The plots' value axes take the
-SI prefix that keeps their ticks readable (``app.web.widgets.PlotAxis``).
+SI prefix that keeps their ticks readable (``app.web.plots.LivePlot``).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import viser
 import sim
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, warning_html
+from app.web.plots import LivePlot
 from app.web.widgets import PlotAxis
 from sim.instruments.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
 from sim.runtime.runner import Frame
@@ -63,10 +64,8 @@ class ProbesFolder(Folder):
             self.clear_button = gui.add_button("Stop probing", icon=viser.Icon.X)
             self.component = gui.add_dropdown("Component", ["x", "y"], initial_value="y")
             self.text = gui.add_html(as_html("Select particles, then press Probe the selection."))
-            self.time_plot: Any = None
-            self.spectrum_plot: Any = None
-            self.time_axis = PlotAxis("displacement", "m", "simulated time t (s)")
-            self.spectrum_axis = PlotAxis("amplitude", "m", "frequency f (Hz)")
+            self.time_plot: LivePlot | None = None
+            self.spectrum_plot: LivePlot | None = None
             self._plotted = False
             """Whether the plots show a series (so a restarted one empties them)."""
             self._plots_folder = gui.add_folder("Plots")
@@ -126,24 +125,20 @@ class ProbesFolder(Folder):
     def _build_plots(self, count: int) -> None:
         for plot in (self.time_plot, self.spectrum_plot):
             if plot is not None:
-                plot.remove()
-        empty = np.zeros(1)
+                plot.handle.remove()
         with self._plots_folder:
-            self.time_plot = self._gui.add_uplot(
-                data=(empty,) * (count + 1),
-                series=({"label": "t (s)"}, *(
-                    {"label": f"probe {k + 1} (m)", "stroke": COLOURS[k], "width": 1.2}
+            self.time_plot = LivePlot(
+                self._gui, self._plots_folder,
+                ({"label": "t (s)"}, *(
+                    {"label": f"probe {k + 1}", "stroke": COLOURS[k], "width": 1.2}
                     for k in range(count))),
-                scales={"x": {"time": False}}, aspect=2.0, axes=self.time_axis.axes(),
-            )
-            self.spectrum_plot = self._gui.add_uplot(
-                data=(empty,) * (count + 1),
-                series=({"label": "f (Hz)"}, *(
-                    {"label": f"probe {k + 1} amplitude (m)", "stroke": COLOURS[k], "width": 1.2}
+                PlotAxis("displacement", "m", "simulated time t (s)"), aspect=2.0)
+            self.spectrum_plot = LivePlot(
+                self._gui, self._plots_folder,
+                ({"label": "f (Hz)"}, *(
+                    {"label": f"probe {k + 1} amplitude", "stroke": COLOURS[k], "width": 1.2}
                     for k in range(count))),
-                scales={"x": {"time": False}}, aspect=2.0, axes=self.spectrum_axis.axes(),
-            )
-        self.time_axis.shown = self.spectrum_axis.shown = None
+                PlotAxis("amplitude", "m", "frequency f (Hz)"), aspect=2.0)
         self._plotted = False
 
     # --- keeping in step -------------------------------------------------------------------------
@@ -158,9 +153,8 @@ class ProbesFolder(Folder):
             series = self.series
         if (self._plotted and series is not None and self.time_plot is not None
                 and len(series.times) < 8):  # started again (a reset): the old lines go at once
-            lines = len(series.particles)  # the spectrum first: an empty time plot means both are
-            self.spectrum_axis.clear(self.spectrum_plot, lines)
-            self.time_axis.clear(self.time_plot, lines)
+            self.spectrum_plot.clear()  # the spectrum first: an empty time plot means both are
+            self.time_plot.clear()
             self._plotted = False
         if now - self._last < REFRESH_SECONDS:
             return
@@ -176,7 +170,7 @@ class ProbesFolder(Folder):
             return
         times = series.times
         values = series.displacements[:, :, component]
-        self.time_axis.show(self.time_plot, times, values.T)
+        self.time_plot.show(times, values.T)
         self._plotted = True
         columns = []
         lines = []
@@ -197,7 +191,7 @@ class ProbesFolder(Folder):
             lines.append(f"probe {k + 1}: " + ("; ".join(described) or "no motion"))
         if frequencies is not None:
             band = shown_band(frequencies, columns)
-            self.spectrum_axis.show(self.spectrum_plot, band[0], band[1:])
+            self.spectrum_plot.show(band[0], band[1:])
         span = max(times[-1] - times[0], 1e-12)
         nyquist = 0.5 * (times.size - 1) / span
         self.text.content = as_html(

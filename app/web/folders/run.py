@@ -57,6 +57,7 @@ class RunFolder(Folder):
                 hint="simulated seconds per second: real time (x1) or slow motion")
             self.status = gui.add_html("")
             self.error_html = gui.add_html("", visible=False)
+            self.end_html = gui.add_html("", visible=False)
             self.part_html = gui.add_html("", visible=False)
 
         @self.play_button.on_click
@@ -117,18 +118,27 @@ class RunFolder(Folder):
         self.play_button.label = "Pause" if playing else "Play"
         self.play_button.icon = viser.Icon.PLAYER_PAUSE if playing else viser.Icon.PLAYER_PLAY
 
+    def _say_end(self, text: str | None) -> None:
+        """Show the note that the run paused at the scene's duration, or take it away."""
+        if text is not None:
+            self.end_html.content = as_html(text)
+        if self.end_html.visible != (text is not None):
+            self.end_html.visible = text is not None
+
     def _stop_at_duration(self, frame: Frame) -> None:
-        """Pause once at the scene's duration (unless the user asked to go on) and say so."""
+        """Pause once at the scene's duration (unless the user asked to go on) and say so; the
+        note goes when the run goes on or starts again (a reset)."""
         duration = self.host.runner.simulation.scene.duration
         if frame.time < duration - 1e-9:
             self._reached_end = False
+            self._say_end(None)
             return
         if frame.playing and not self.go_on and not self._reached_end:
             self._reached_end = True
             self.host.control.pause()
-            self.part_html.content = as_html(
-                f"Paused at the scene's duration ({duration:g} s); press Play to go on.")
-            self.part_html.visible = True
+            self._say_end(f"Paused at the scene's duration ({duration:g} s); press Play to go on.")
+        elif frame.playing and self.go_on:
+            self._say_end(None)
 
     def update(self, frame: Frame, now: float) -> None:
         if frame.preparing is not None:

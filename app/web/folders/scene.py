@@ -38,10 +38,8 @@ class SceneFolder(Folder):
         with gui.add_folder("Scene", expand_by_default=False):
             self.info = gui.add_html("")
             self.preset = gui.add_dropdown("Preset", names, initial_value=current)
-            self.nx = gui.add_number("Columns (nx)", simulation.model.nx, min=1, max=MAX_SIDE,
-                                     step=1)
-            self.ny = gui.add_number("Rows (ny)", simulation.model.ny, min=1, max=MAX_SIDE,
-                                     step=1)
+            self.nx = gui.add_number("Columns (nx)", simulation.model.nx, step=1)
+            self.ny = gui.add_number("Rows (ny)", simulation.model.ny, step=1)
             self.build_button = gui.add_button(
                 "Build scene", icon=viser.Icon.HAMMER,
                 hint="replace the lattice by this preset (its own parameters) at this size",

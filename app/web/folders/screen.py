@@ -13,8 +13,12 @@ sources in one column (two-sources) the lines are their maxima, d sin(theta) = (
 lambda with dphi the phase difference, so they swing with the Sources folder's slider.  The chosen column is
 drawn as a green line on the lattice.
 
-The screen starts again when the sources or barriers change, the time goes back (Reset) or the
-column changes; *Clear the screen* starts it again by hand.  Nothing here posts a command.
+A row of the screen counts only once the sources' full wave has reached it (``sim.theory.front``: the
+lattice's group speed at the driving frequency along the path from the source, through the
+slits), so before the front has passed the screen says when it will arrive instead of showing
+<u²> of the transient.  The screen starts again when the sources or barriers change, the time
+goes back (Reset) or the column changes; *Clear the screen* starts it again by hand.  Nothing
+here posts a command.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from app.web.widgets import MATPLOTLIB_LOCK, say
 from sim.instruments.screen import IntensityScreen
 from sim.runtime.runner import Frame
 from sim.scenes import ripple_tank
-from sim.theory import lattice_waves, slits
+from sim.theory import front, lattice_waves, slits
 
 PERIODS = 4
 """Whole periods the screen averages over."""
@@ -44,10 +48,11 @@ MAXIMUM_COLOUR, MINIMUM_COLOUR, MEASURED_COLOUR = "#c0392b", "#7d3c98", "#1f4e79
 
 
 def render_screen(y: np.ndarray, intensity: np.ndarray | None, fringes: list[dict],
-                  title: str) -> np.ndarray:
+                  title: str, waiting: str = "waiting for a whole period ...") -> np.ndarray:
     """An RGB picture (height, width, 3) uint8: ``intensity`` (ny,) relative to its peak against
-    ``y`` (ny,) m, the theory lines of ``fringes`` (``compare`` rows) dashed and labelled with
-    their order m, the measured extrema as dots."""
+    ``y`` (ny,) m (NaN: a row not counted yet, left out), the theory lines of ``fringes``
+    (``compare`` rows) dashed and labelled with their order m, the measured extrema as dots;
+    ``waiting`` is said when nothing is measured yet."""
     with MATPLOTLIB_LOCK:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -55,11 +60,12 @@ def render_screen(y: np.ndarray, intensity: np.ndarray | None, fringes: list[dic
         figure = Figure(figsize=(4.4, 3.1), dpi=90)
         FigureCanvasAgg(figure)
         axis = figure.add_subplot()
-        peak = float(intensity.max()) if intensity is not None and intensity.size else 0.0
+        counted = intensity is not None and bool(np.any(np.isfinite(intensity)))
+        peak = float(np.nanmax(intensity)) if counted else 0.0
         if peak > 0.0:
             axis.plot(y, intensity / peak, color=MEASURED_COLOUR, lw=1.6, label="measured <u²>")
         else:
-            axis.text(0.5, 0.5, "waiting for a whole period ...", ha="center", va="center",
+            axis.text(0.5, 0.5, waiting, ha="center", va="center", wrap=True, fontsize=8,
                       transform=axis.transAxes)
         for index, fringe in enumerate(fringes):
             colour = MAXIMUM_COLOUR if fringe["kind"] == "maximum" else MINIMUM_COLOUR
@@ -117,6 +123,8 @@ class ScreenFolder(Folder):
         self._watching: tuple | None = None
         """(sources, barriers, driver, column) the screen was made for."""
         self._theory: tuple[list, str] = ([], "")
+        self._arrivals: np.ndarray | None = None
+        """(ny,) time (s) the sources' full wave has reached each row of the screen, or None."""
         self._last = 0.0
         self._last_time = -math.inf
         self._working = threading.Lock()
@@ -127,7 +135,7 @@ class ScreenFolder(Folder):
         with self.folder:
             self.picture = gui.add_image(np.full((8, 8, 3), 255, np.uint8))
             self.column = gui.add_number(
-                "Screen column", 0, min=0, step=1,
+                "Screen column", 0, step=1,
                 hint="the column whose time-averaged <u²> the screen shows")
             self.clear_button = gui.add_button(
                 "Clear the screen", icon=viser.Icon.ERASER,
@@ -172,6 +180,10 @@ class ScreenFolder(Folder):
             return
         frequency, component = drive
         self.screen = IntensityScreen(model, column, component, 1.0 / frequency, PERIODS)
+        try:
+            self._arrivals = front.arrival_times(model, column)
+        except (lattice_waves.WaveError, ValueError):  # no wave speed: every row counts
+            self._arrivals = None
         if self.column.value != column:
             self.column.value = column
         self._theory = self._theory_of(model, column, frequency, component)
@@ -236,7 +248,6 @@ class ScreenFolder(Folder):
         model = simulation.model
         shown = bool(model.sources or simulation.scene.model.sources)
         self.folder.visible = shown
-        self.column.max = model.nx - 1
         self.message.content = ""
         self._last_time = -math.inf
         if not shown:
@@ -270,21 +281,46 @@ class ScreenFolder(Folder):
         self._last = now
         intensity = screen.intensity
         y = np.asarray(model.rest_positions[screen.rows, 1])
-        threading.Thread(target=self._draw, args=(model, y, intensity, screen.whole_periods),
+        counted, waiting = self.counted_rows(frame.time, screen)
+        if intensity is not None:
+            intensity = np.where(counted, intensity, np.nan)
+        threading.Thread(target=self._draw,
+                         args=(model, y, intensity, screen.whole_periods, waiting),
                          name="web-screen", daemon=True).start()
 
+    def counted_rows(self, time: float, screen: IntensityScreen) -> tuple[np.ndarray, str]:
+        """(rows whose average is counted, what the picture says while none is): a row counts
+        once the sources' full wave had reached it before the averaged periods began (one period
+        of margin), so the screen never shows <u²> of a wave that has not arrived."""
+        rows = np.ones(screen.rows.size, bool)
+        arrivals = self._arrivals
+        if arrivals is None or arrivals.size != rows.size:
+            return rows, "waiting for a whole period ..."
+        began = time - (screen.whole_periods + 1) * screen.period
+        counted = arrivals <= began
+        first, last = float(arrivals.min()), float(arrivals.max())
+        if time < first:
+            waiting = (f"the wave front has not reached the screen yet:\nit arrives at "
+                       f"t ≈ {first:.0f} s (its ends at {last:.0f} s);\n<u²> counts from then on")
+        else:
+            waiting = (f"the wave front reached the screen at t ≈ {first:.0f} s;\n"
+                       "averaging over whole periods since ...")
+        return counted, waiting
+
     def _draw(self, model: sim.Model, y: np.ndarray, intensity: np.ndarray | None,
-              periods: int) -> None:
+              periods: int, waiting: str) -> None:
         with self._working:
             try:
                 theory, text = self._theory
-                fringes = (compare(y, intensity, theory, model) if intensity is not None
+                whole = intensity is not None and bool(np.all(np.isfinite(intensity)))
+                fringes = (compare(y, intensity, theory, model) if whole
                            else [{"order": f.order, "kind": f.kind, "theory_y": f.y,
                                   "measured_y": None, "difference": None} for f in theory])
                 self.shown_fringes = fringes
+                rows = "" if whole or intensity is None else ", rows the wave has reached"
                 title = f"screen at column {self._watching[-1] if self._watching else '-'}: " \
-                        f"<u²> over {periods} whole period{'s' if periods != 1 else ''}"
-                self.picture.image = render_screen(y, intensity, fringes, title)
+                        f"<u²> over {periods} whole period{'s' if periods != 1 else ''}{rows}"
+                self.picture.image = render_screen(y, intensity, fringes, title, waiting)
                 if self.about.content != as_html(text):
                     self.about.content = as_html(text)
             except Exception as error:  # a failed picture must not stop the page

@@ -29,8 +29,8 @@ class SelectionFolder(Folder):
             self.text = gui.add_html(as_html(
                 "Click a particle to select it (shift+click adds); drag the gizmo to move it."
             ))
-            self.row = gui.add_number("Row", 0, min=0, step=1)
-            self.column = gui.add_number("Column", 0, min=0, step=1)
+            self.row = gui.add_number("Row", 0, step=1)
+            self.column = gui.add_number("Column", 0, step=1)
             self.select_buttons = gui.add_button_group("Select", CHOICES)
             self.mass = gui.add_slider("Mass (kg)", 0.1, 20.0, 0.1, 1.0, disabled=True,
                                        hint="mass of the selected particles")

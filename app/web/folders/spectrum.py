@@ -111,9 +111,9 @@ class SpectrumFolder(Folder):
                 hint="x: motion along the rows, y: along the columns, z: out of the plane",
             )
             self.picture = gui.add_image(np.full((8, 8, 3), 255, np.uint8))
-            self.m = gui.add_number("m (along x)", 1, min=1, step=1)
-            self.n = gui.add_number("n (along y)", 1, min=1, step=1)
-            self.amplitude = gui.add_number("Amplitude (a)", 0.2, min=1e-6, max=2.0, step=0.05,
+            self.m = gui.add_number("m (along x)", 1, step=1)
+            self.n = gui.add_number("n (along y)", 1, step=1)
+            self.amplitude = gui.add_number("Amplitude (a)", 0.2, step=0.05,
                                             hint="largest displacement, in lattice spacings")
             self.frequency = gui.add_html("")
             self.excite_button = gui.add_button(
@@ -191,7 +191,6 @@ class SpectrumFolder(Folder):
         model = simulation.model
         names = list(POLARISATION_NAMES[: model.dim])
         self.polarisation.options = names
-        self.m.max, self.n.max = model.nx, model.ny
         self.excite_button.disabled = not model.uniform_mass or model.periodic
         self._last = 0.0
         self._show_frequency()

@@ -33,7 +33,7 @@ class StudyFolder(Folder):
         gui = host.server.gui
         with gui.add_folder("Speed vs accuracy", expand_by_default=False):
             self.tolerance = gui.add_number(
-                "Tolerance (%)", initial_value=1.0, min=1e-6, max=100.0, step=0.1,
+                "Tolerance (%)", initial_value=1.0, step=0.1,
                 hint="largest field error (relative L2 distance of the displacement field from a "
                 "reference) at the end of the scene's duration that the chosen setting must meet",
             )

@@ -47,8 +47,8 @@ class WallsControls:
         self.boundary = gui.add_dropdown("Walls", offered(model), initial_value=names[0],
                                          hint=walls_hint())
         self.sponge_width = gui.add_number(
-            "Sponge width (particles)", model.sponge_width, min=1, max=max_width,
-            step=1, hint="depth of the absorbing layer; a wall gets one when the lattice is "
+            "Sponge width (particles)", model.sponge_width, step=1,
+            hint="depth of the absorbing layer; a wall gets one when the lattice is "
             "more than three layers long across it",
         )
         self.boundary_button = gui.add_button(
