@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 
 import app.recording.instruments as instruments
+from app.colours import SCALES, scheme
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.scales import QUANTITIES
 from app.recording.screen import check_screen
@@ -31,8 +32,11 @@ class RecordingOptions:
         ones), "jpeg", "video", "raw" (float image, lossless) or "none".
     quantity: the field's quantity, "displacement" (the signed component u_axis, m; diverging
         colours), "magnitude" (|x - x_rest|, m) or "speed" (|v|, m/s).
-    field_scale: value at the end of the field's colour map (m or m/s); None: fixed from the
-        look-ahead run (``app.recording.scales``).
+    field_scale: value at the end of the field's colour map (m or m/s) to start from; None: from
+        the look-ahead run (``app.recording.scales``).
+    field_policy: the field's colour-scale policy (``app.colours.SCALES``); None: ``fixed`` when
+        ``field_scale`` is given, else the quantity's scheme's (``adaptive-symlog``: a log scale
+        following the field's amplitude, as on the page and in movies).
     exaggeration: 3-D lattices: display scale of heights (z); None picks one so the typical
         height shows as 8 % of the lattice width.
     frame_interval: simulated seconds between recorded frames at least, for frames published
@@ -60,6 +64,7 @@ class RecordingOptions:
     field: str = "auto"
     quantity: str = "displacement"
     field_scale: float | None = None
+    field_policy: str | None = None
     exaggeration: float | None = None
     frame_interval: float | None = None
     positions: str | int = "auto"
@@ -82,6 +87,9 @@ class RecordingOptions:
         if self.quantity not in QUANTITIES:
             raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got "
                              f"{self.quantity!r}")
+        if self.field_policy is not None and self.field_policy not in SCALES:
+            raise ValueError(f"field colour scale must be one of {', '.join(SCALES)}, got "
+                             f"{self.field_policy!r}")
         if self.field_scale is not None and not self.field_scale > 0:
             raise ValueError(f"field scale must be positive, got {self.field_scale!r}")
         detailed = model.n_particles <= self.detail_limit
@@ -169,6 +177,12 @@ class LoggingPlan:
         elif self.modes_every:
             parts.append(f"mode energies every {self.modes_every} frames")
         return ", ".join(parts) or "energies only"
+
+    def field_policy(self, options: RecordingOptions) -> str:
+        """The field's colour-scale policy for ``options`` (see ``RecordingOptions``)."""
+        if options.field_policy is not None:
+            return options.field_policy
+        return "fixed" if options.field_scale is not None else scheme(self.quantity).scale
 
     def estimated_bytes_per_frame(self, model: Model, jpeg_quality: int = 80,
                                   modes: bool = True) -> float:
