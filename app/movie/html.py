@@ -40,8 +40,8 @@ SPHERE_LIMIT = 2500
 """Up to this many particles: spheres and springs (as on the page); above: the field picture."""
 SMALL_FPS = 25.0
 """Frames per simulated second of small lattices by default."""
-LARGE_FPS = 3.0
-"""Pictures per simulated second of large lattices by default (the flagship: 451 pictures)."""
+LARGE_FPS = 5.0
+"""Pictures per simulated second of large lattices by default (the flagship: 751 pictures)."""
 PICTURE_SIZE = (400, 400)
 """Largest field picture (pixels) by default: the flagship's 682x383 particles in blocks of
 2x2, each showing its largest value with its sign (short waves neither alias nor average
