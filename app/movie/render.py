@@ -101,7 +101,7 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
     if isinstance(scene_or_simulation, (str, Path)) and str(scene_or_simulation).endswith(".rrd"):
         return open_recording(Path(scene_or_simulation), options)
     scene = scene_or_simulation
-    start_time = 0.0
+    start_time = options.start_time
     if hasattr(scene, "step") and hasattr(scene, "state"):  # a running Simulation: snapshot it
         from sim.scenes import scene_from_simulation
 
