@@ -130,9 +130,11 @@ class LatticeScene:
                                   point_size=0.2 * a, point_shape="square", precision="float32",
                                   point_shading="flat")
 
-    def camera(self, aspect: float = 16 / 9) -> None:
+    def camera(self, aspect: float = 16 / 9) -> str:
         """The initial camera: the whole lattice, between the title (top) and the colour bar
-        and player (bottom); planar lattices from above, 3-D ones from the front and above."""
+        and player (bottom); planar lattices from above, 3-D ones from the front and above.
+        Returns the page's script that fits a planar lattice to the window's own shape
+        (``viser_page.fit_camera_script``; "" for 3-D)."""
         model = self.model
         rest = model.rest_positions
         a = model.spacing
@@ -143,7 +145,8 @@ class LatticeScene:
         tangent = math.tan(fov / 2)
         free_y = 0.62  # title above, colour bar and player below
         distance = max(width / (2 * tangent * aspect * 0.95), height / (2 * tangent * free_y))
-        shift = -0.06 * 2 * tangent * distance  # a little below the centre of the view
+        share = -0.06  # a little below the centre of the view
+        shift = share * 2 * tangent * distance
         initial = self.server.initial_camera
         initial.fov = fov
         if model.dim == 3:
@@ -151,12 +154,15 @@ class LatticeScene:
             initial.position = (centre[0], centre[1] + shift - 0.75 * distance, 0.65 * distance)
             initial.look_at = (centre[0], centre[1] + shift, 0.0)
             initial.up = (0.0, 0.0, 1.0)
+            script = ""
         else:
             initial.position = (centre[0], centre[1] + shift, distance)
             initial.look_at = (centre[0], centre[1] + shift, 0.0)
             initial.up = (0.0, 1.0, 0.0)
+            script = viser_page.fit_camera_script(centre, width, height, fov, free_y, share)
         initial.near = 0.01 * distance
         initial.far = 10.0 * distance
+        return script
 
     # -- per frame --
 
@@ -274,7 +280,7 @@ def write_html(source: FrameSource, path: Path, options: MovieOptions, *,
     server = viser_page.start_server()
     try:
         lattice = LatticeScene(server, model, axis, options.size, limits)
-        lattice.camera()
+        camera_script = lattice.camera()
         serializer = server.get_scene_serializer()
         times: list[float] = []
         shown_limits: list[float] = []
@@ -305,7 +311,7 @@ def write_html(source: FrameSource, path: Path, options: MovieOptions, *,
         head, body = overlay(scene, integrator, dt, lattice, label,
                              [t - times[0] for t in times], shown_limits,
                              start_time + times[0], readme)
-        document = viser_page.page(serializer, head, body)
+        document = viser_page.page(serializer, camera_script + head, body)
     finally:
         viser_page.stop_server(server)
     with AtomicFile(path, overwrite=True) as output:

@@ -28,6 +28,31 @@ HIDDEN_NOTICES = ".mantine-Notifications-root { display: none !important; }"
 """CSS that hides viser's notices (such as its note on software graphics) over our title."""
 
 
+def fit_camera_script(centre: tuple[float, float], width: float, height: float, fov: float,
+                      free_y: float, shift: float) -> str:
+    """A ``<script>`` for ``<head>`` that frames a planar lattice (``width`` x ``height`` m
+    around ``centre``, seen from above) for the page's own shape: the camera's distance is
+    chosen for the window's width / height, so a phone held upright sees the whole lattice as a
+    laptop does.  viser's player reads the initial camera from the page's URL
+    (``initialCameraPosition``, ``initialCameraLookAt``), so the script sets them before the
+    player starts (a page that already names them keeps them)."""
+    return f"""<script>(function () {{
+  try {{
+    const search = new URLSearchParams(window.location.search);
+    if (search.has("initialCameraPosition")) return;
+    const aspect = Math.max(0.2, window.innerWidth / Math.max(1, window.innerHeight));
+    const tangent = Math.tan({fov} / 2);
+    const distance = Math.max({width} / (2 * tangent * aspect * 0.95),
+                              {height} / (2 * tangent * {free_y}));
+    const y = {centre[1]} + {shift} * 2 * tangent * distance;
+    search.set("initialCameraPosition", [{centre[0]}, y, distance].join(","));
+    search.set("initialCameraLookAt", [{centre[0]}, y, 0].join(","));
+    search.set("initialCameraFar", String(10 * distance));
+    window.history.replaceState(null, "", "?" + search.toString() + window.location.hash);
+  }} catch (error) {{ /* the camera the file was written with stays */ }}
+}})();</script>"""
+
+
 def _free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
