@@ -107,7 +107,7 @@ class VideoField:
     every ``keyframe_interval`` frames keeps seeking in the viewer quick.
     """
 
-    def __init__(self, crf: int = 23, preset: str = "veryfast", keyframe_interval: int = 60,
+    def __init__(self, crf: int = 28, preset: str = "veryfast", keyframe_interval: int = 60,
                  signed: bool = False):
         import av
 

@@ -109,10 +109,13 @@ class RecordingOptions:
         modes_every = 0
         if self.modes:
             modes_every = self.modes_every or instruments.modes_every(model, expected_frames)
+        policy = self.field_policy or (
+            "fixed" if self.field_scale is not None else scheme(self.quantity).scale)
         return LoggingPlan(
             detailed=detailed,
             field=field_mode,
             quantity=self.quantity,
+            field_policy=policy,
             positions_every=positions_every,
             springs=detailed and positions_every == 1 and not surface,
             surface=surface,
@@ -152,6 +155,8 @@ class LoggingPlan:
     probes: tuple[tuple[int, int], ...] = ()
     modes_every: int = 0
     screen: int | None = None
+    field_policy: str = "fixed"
+    """The field's colour-scale policy (``app.colours.SCALES``)."""
 
     def describe(self) -> str:
         parts = []
@@ -178,12 +183,6 @@ class LoggingPlan:
             parts.append(f"mode energies every {self.modes_every} frames")
         return ", ".join(parts) or "energies only"
 
-    def field_policy(self, options: RecordingOptions) -> str:
-        """The field's colour-scale policy for ``options`` (see ``RecordingOptions``)."""
-        if options.field_policy is not None:
-            return options.field_policy
-        return "fixed" if options.field_scale is not None else scheme(self.quantity).scale
-
     def estimated_bytes_per_frame(self, model: Model, jpeg_quality: int = 80,
                                   modes: bool = True) -> float:
         """A size estimate a frame on disk (the measured sizes are in docs/recording.md); used for
@@ -201,8 +200,12 @@ class LoggingPlan:
         if self.field == "jpeg":
             total += model.n_particles * 0.2 * (1 + jpeg_quality / 50)
         elif self.field == "video":
-            # measured: ~9.5 kB a frame of interference, ~2 kB at 100x60 (per-frame overhead)
-            total += 1500.0 + model.n_particles * 0.04
+            # measured on interference: ~9.5 kB a frame on a fixed linear scale, ~2 kB at 100x60
+            # (per-frame overhead); on a scale that follows the field (log) the whole lattice
+            # shows its waves: ~26 kB a frame (H.264 at CRF 28, docs/recording.md "Sizes")
+            detail = 0.1 if (SCALES[self.field_policy].follows
+                             or SCALES[self.field_policy].logarithmic) else 0.04
+            total += 1500.0 + model.n_particles * detail
         elif self.field == "raw":
             total += model.n_particles * 4
         return total

@@ -138,7 +138,7 @@ class Recorder:
             self._output.discard()
             raise
         self.field_scale = self.options.field_scale or self.scales.field
-        self.field_policy = self.plan.field_policy(self.options)
+        self.field_policy = self.plan.field_policy
         """The field's colour-scale policy (``app.colours.SCALES``)."""
         exaggeration = self.options.exaggeration
         if exaggeration is None:
