@@ -187,6 +187,28 @@ class ColourScale:
             1.0 / math.log1p(SYMLOG_RANGE))
         return np.minimum(result, np.float32(1.0)).astype(np.float32)
 
+    def value_at(self, fraction: float) -> float:
+        """|value| at ``fraction`` in [0, 1] of the way from zero to the limit."""
+        if not self.logarithmic:
+            return fraction * self.limit
+        return self.limit / SYMLOG_RANGE * math.expm1(fraction * math.log1p(SYMLOG_RANGE))
+
+    def values(self, fractions: np.ndarray) -> np.ndarray:
+        """The inverse of ``fraction``: positions on the map (float, [0, 1]) -> values (float32),
+        e.g. to read a colour-mapped picture back on the scale it was drawn with."""
+        fractions = np.asarray(fractions, dtype=np.float32)
+        if self.signed:
+            magnitudes = np.minimum(np.abs(fractions - np.float32(0.5)) * np.float32(2.0), 1.0)
+            sign = np.sign(fractions - np.float32(0.5))
+        else:
+            magnitudes, sign = np.clip(fractions, 0.0, 1.0), np.float32(1.0)
+        if self.logarithmic:
+            result = np.float32(self.limit / SYMLOG_RANGE) * np.expm1(
+                magnitudes * np.float32(math.log1p(SYMLOG_RANGE)))
+        else:
+            result = magnitudes * np.float32(self.limit)
+        return (sign * result).astype(np.float32)
+
     def fraction(self, values: np.ndarray) -> np.ndarray:
         values = np.asarray(values, dtype=np.float32)
         if not self.signed:

@@ -542,10 +542,10 @@ def test_compare_plots_each_integrators_drift(tmp_path):
         assert temporal(chunks, f"/{name}/energy/total", "Scalars:scalars")
 
 
-def test_interference_field_is_signed_and_its_scale_fixed(tmp_path):
+def test_interference_field_is_signed_and_its_scale_fixed_on_request(tmp_path):
     path = tmp_path / "interference.rrd"
     assert main(["record", "interference", "--steps", "40", "--every", "20", "--field", "raw",
-                 "--raw-dtype", "float16", "-o", str(path), "--quiet"]) == 0
+                 "--raw-dtype", "float16", "--scale", "fixed", "-o", str(path), "--quiet"]) == 0
     chunks = read_chunks(path)
     model = sim.scenes.build("interference").model
     images = temporal(chunks, "/field", "DepthImage:buffer")
@@ -557,4 +557,6 @@ def test_interference_field_is_signed_and_its_scale_fixed(tmp_path):
     assert field[middle, -1] == pytest.approx(-0.5 * model.spacing, rel=1e-3)
     assert np.count_nonzero(field) == 2
     assert "u_y (m)" in document(chunks)
-    assert not temporal(chunks, "/settings/field_scale", "Scalars:scalars")  # fixed, not per frame
+    limits = temporal(chunks, "/colour_scale/field", "Scalars:scalars")
+    assert len({scalar(value) for value in limits.values()}) == 1  # fixed: one limit throughout
+    assert "The scale is fixed for the whole recording" in document(chunks)

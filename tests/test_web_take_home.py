@@ -119,3 +119,29 @@ def test_camera_fits_lattice_and_colour_bar_in_the_free_part(scene, size):
     assert v.min() >= 0 and v.max() <= 1 - bottom + 1e-9
     spans = ((u.max() - u.min()) / (1 - right), (v.max() - v.min()) / (1 - bottom))
     assert max(spans) > 0.85
+
+
+def test_the_pages_movie_as_one_html_file_starts_at_the_runs_time(web_app):
+    """"Download a movie" as an HTML page: one file, labelled from the run's own time."""
+    import json
+    import re
+
+    from app.web.folders.recording import MOVIE_FORMATS
+
+    folder = web_app.panel.recording
+    jobs = web_app.recordings.jobs
+    web_app.runner.play()
+    assert wait_for(lambda: web_app.runner.simulation.time > 1.0)
+    web_app.runner.pause()
+    started_at = web_app.runner.simulation.time
+    folder.movie_format.value = MOVIE_FORMATS[1]
+    client = PageClient()
+    press(folder.movie_button, client)
+    assert wait_for(lambda: client.downloads, timeout=300)
+    assert not jobs.running and jobs.outcome != "cancelled"
+    (name, content), = client.downloads
+    assert name.endswith(".html")
+    page = content.decode()
+    data = json.loads(re.search(r"const CO = (\{.*?\});", page).group(1))
+    assert abs(data["start"] - started_at) < 1e-6 and data["times"][0] == 0.0
+    assert "__VISER_EMBED_DATA__" in page and "About this run" in page

@@ -95,7 +95,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--exaggerate", type=positive_float, metavar="FACTOR",
                         help="3-D scenes: draw heights FACTOR times larger")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.set_defaults(handler=command_movie)
+    parser.set_defaults(handler=command_movie, command_parser=parser)
 
 
 def _readable_copy(partial: Path, cleanup: contextlib.ExitStack) -> Path:
@@ -113,13 +113,26 @@ def _readable_copy(partial: Path, cleanup: contextlib.ExitStack) -> Path:
     return copy
 
 
+def movie_length(path: Path) -> str:
+    """A movie file's length in words: seconds, frames and frames per second."""
+    import av
+
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        frames = stream.frames or sum(1 for _ in container.demux(stream) if _.size)
+        rate = float(stream.average_rate or 0)
+    seconds = frames / rate if rate else 0.0
+    return f"{seconds:.1f} s of movie: {frames} frames at {rate:g} frames/s"
+
+
 def command_movie(arguments: argparse.Namespace) -> int:
     from app.movie import encode
     from app.movie.render import render_movie
 
     output: Path = arguments.output
-    kind = encode.kind_of(output)
-    if not encode.available(kind):
+    page = output.suffix.lower() == ".html"
+    kind = "html" if page else encode.kind_of(output)
+    if not page and not encode.available(kind):
         raise ValueError(f"this PyAV build cannot write .{kind}; try .mp4 or .gif")
     check_output_file(output, arguments.force, f".{kind}")
     options = MovieOptions(
@@ -144,8 +157,18 @@ def command_movie(arguments: argparse.Namespace) -> int:
                 integrator=arguments.integrator or source.integrator),
                 duration=arguments.duration)
         started = time.perf_counter()
-        path = render_movie(source, output, options)
+        if page:
+            from app.movie.html import render_html
+            from app.recording.explain import command_from_arguments, command_line
+
+            command = (command_from_arguments(arguments.command_parser, arguments)
+                       if getattr(arguments, "command_parser", None) else command_line())
+            written = render_html(source, output, options, command=command)
+            path, length = written.path, written.describe()
+        else:
+            path = render_movie(source, output, options)
+            length = movie_length(path)
     elapsed = time.perf_counter() - started
-    print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB, {elapsed:.1f} s)", file=sys.stderr
-          if arguments.quiet else sys.stdout)
+    print(f"wrote {path}: {length} ({path.stat().st_size / 1e6:.2f} MB, made in {elapsed:.1f} s)",
+          file=sys.stderr if arguments.quiet else sys.stdout)
     return 0

@@ -31,6 +31,7 @@ from app.cli.arguments import (
     scene_from_arguments,
 )
 from app.cli.limits import planned_steps
+from app.colours import SCALES
 from app.recording import destination, instruments
 from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo
@@ -128,7 +129,14 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--field-scale", type=positive_float, metavar="VALUE",
-        help="field value at the end of the colour map (default: fixed from a look-ahead run)",
+        help="field value at the end of the colour map (default: from a look-ahead run); "
+        "alone it fixes the field's scale (--scale fixed)",
+    )
+    parser.add_argument(
+        "--scale", choices=tuple(SCALES), dest="field_policy",
+        help="the field's colour scale: adaptive-symlog (default: a log scale whose limit follows "
+        "the field, as on the page and in movies, so the waves show at every moment), adaptive "
+        "(linear), symlog (log, fixed limit) or fixed (linear, one limit for the whole recording)",
     )
     parser.add_argument(
         "--exaggerate", type=positive_float, metavar="FACTOR",
@@ -332,6 +340,7 @@ def command_record(arguments: argparse.Namespace) -> int:
     check_output_file(output, arguments.force, ".rrd")
     options = RecordingOptions(
         field=arguments.field, quantity=arguments.quantity, field_scale=arguments.field_scale,
+        field_policy=arguments.field_policy,
         positions=arguments.positions, jpeg_quality=arguments.jpeg_quality,
         raw_dtype=arguments.raw_dtype, exaggeration=arguments.exaggerate, frame_interval=0.0,
         probes=tuple(probes), modes=arguments.modes, screen=arguments.screen,

@@ -43,6 +43,8 @@ class MovieOptions:
         the width).
     integrator, dt: of a run from a scene (default: the scene's).
     progress: show a progress bar (tqdm) on stderr.
+    start_time: the simulated time (s) of a scene's initial state, for the frames' labels (a
+        snapshot of a run at t = 66 s starts at 66 s, not at 0).
     """
 
     fps: float | None = None
@@ -56,6 +58,7 @@ class MovieOptions:
     integrator: str | None = None
     dt: float | None = None
     progress: bool = True
+    start_time: float = 0.0
 
     def resolved(self, kind: str) -> MovieOptions:
         """These options with the defaults of a movie of ``kind`` (mp4, webm, gif) filled in."""

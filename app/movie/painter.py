@@ -36,11 +36,29 @@ def _font(size: int):
 
 
 def _fit_text(draw: Any, text: str, font: Any, width: int) -> str:
+    """``text``, or as many of its words as fit in ``width`` pixels followed by "…" (a word,
+    such as a number, is never cut)."""
     if draw.textlength(text, font=font) <= width:
         return text
-    while text and draw.textlength(text + "…", font=font) > width:
-        text = text[:-1]
-    return text + "…"
+    words = text.split(" ")
+    while len(words) > 1 and draw.textlength(" ".join(words) + " …", font=font) > width:
+        words.pop()
+    kept = " ".join(words).rstrip(",;:(")
+    if draw.textlength(kept + " …", font=font) > width:  # one long word: cut it after all
+        while kept and draw.textlength(kept + "…", font=font) > width:
+            kept = kept[:-1]
+        return kept + "…"
+    return kept + " …"
+
+
+def _fit_title(draw: Any, text: str, size: int, width: int) -> tuple[str, Any]:
+    """The title in the largest font from ``size`` down to 70 % of it that holds it all in
+    ``width`` pixels, else cut after a whole word (``_fit_text``) in the smallest."""
+    for share in (1.0, 0.9, 0.8, 0.7):
+        font = _font(round(size * share))
+        if draw.textlength(text, font=font) <= width:
+            return text, font
+    return _fit_text(draw, text, font, width), font
 
 
 def _title(scene: Any) -> str:
@@ -135,8 +153,8 @@ class Painter:
         image = Image.new("RGB", (self.width, self.height), BACKGROUND)
         draw = ImageDraw.Draw(image)
         margin = round(0.02 * self.width)
-        title_font = _font(round(self.top * 0.5))
-        title = _fit_text(draw, _title(scene), title_font, int(self.width * 0.72))
+        title, title_font = _fit_title(draw, _title(scene), round(self.top * 0.5),
+                                       int(self.width * 0.72))
         draw.text((margin, self.top // 2), title, fill=TEXT, font=title_font, anchor="lm")
         # colour bar: left half of the bottom band; its numbers are drawn per frame
         self.bar_top = bar_top = self.height - self.bottom + round(self.bottom * 0.2)

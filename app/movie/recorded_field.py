@@ -2,15 +2,19 @@
 which are recorded as one colour-mapped pixel per particle rather than positions).
 
 The field's entity (``/field``, or a comparison's first tree's) holds, static, what its colours
-mean: ``quantity`` (displacement, magnitude or speed), ``axis`` and ``colour_scale`` (the value at
-the map's end, m or m/s), logged by ``app.recording.field.FieldView``.  Each frame is decoded
+mean: ``quantity`` (displacement, magnitude or speed), ``axis``, ``colour_policy`` (a scale policy
+of ``app.colours``; recordings that do not say are ``fixed``) and ``colour_scale`` (the limit it
+started with, m or m/s), and the tree's ``colour_scale/field`` holds the limit in use at each
+frame, logged by ``app.recording.field.FieldView``.  Each frame is decoded
 (H.264 ``VideoStream`` samples through PyAV, JPEG ``EncodedImage`` through Pillow, or the raw
 float ``DepthImage``) one at a time, so memory holds the compressed samples and one picture.  A
 colour image gives each particle's value back by the nearest of the 256 colours of the map
-(``app.colours``): the movie shows the field at that resolution, 128 levels either side of zero
-over ±colour_scale, and the level next to zero is drawn as zero (compression noise of the video,
-not a wave).  Such a movie keeps the recording's fixed linear scale unless asked for another
-(``scale_policy``): a scale that magnifies small values would magnify the video's noise.
+(``app.colours``) read on the frame's own scale (``ColourScale.values``): the movie shows the
+field at that resolution, 128 levels either side of zero, and the level next to zero is drawn as
+zero (compression noise of the video, not a wave).  Such a movie is drawn with the recording's
+own policy unless asked for another (``scale_policy``): a recording that followed the field makes
+a movie that follows it, one on a fixed linear scale (where a scale that magnifies small values
+would magnify the video's noise) a movie on that scale.
 ``open_recording`` picks this source or ``RecordingSource`` (positions).
 """
 
@@ -22,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from app.colours import MAGNITUDE, SIGNED_FIELD
+from app.colours import MAGNITUDE, SIGNED_FIELD, make_scale
 from app.movie.frames import FrameSource, State
 from app.movie.options import MovieOptions
 from app.movie.recorded import (
@@ -69,13 +73,25 @@ class FieldRecordingSource:
         self.model, integrator, dt = model_from_document(document, masses)
         described: dict[str, Any] = {}
         samples: dict[str, dict[int, tuple[float, str, Any]]] = {}
+        limits: dict[str, dict[int, float]] = {}
         for chunk in chunks:
+            if chunk.entity_path.endswith("colour_scale/field") and not chunk.is_static:
+                batch = chunk.to_record_batch()
+                if "Scalars:scalars" in batch.schema.names:
+                    entity = chunk.entity_path[: -len("colour_scale/field")] + "field"
+                    rows_of = limits.setdefault(entity, {})
+                    for step, value in zip(batch.column("step").to_pylist(),
+                                           batch.column("Scalars:scalars").to_pylist(),
+                                           strict=True):
+                        if value:
+                            rows_of[step] = float(value[0])
+                continue
             if not chunk.entity_path.endswith("field"):
                 continue
             batch = chunk.to_record_batch()
             names = batch.schema.names
             if chunk.is_static:
-                for key in ("quantity", "axis", "colour_scale"):
+                for key in ("quantity", "axis", "colour_scale", "colour_policy"):
                     if key in names:
                         described.setdefault(chunk.entity_path, {})[key] = \
                             batch.column(key)[0].as_py()[0]
@@ -99,9 +115,14 @@ class FieldRecordingSource:
         self.quantity = str(described[entity]["quantity"])
         self.axis = int(described[entity]["axis"])
         self.limit = float(described[entity]["colour_scale"])
+        self.policy = str(described[entity].get("colour_policy", "fixed"))
         self.signed = self.quantity in SIGNED
+        steps_with_limit = sorted(limits.get(entity, {}))
+        self._limits = [limits[entity][s] for s in steps_with_limit]
+        self._limit_steps = np.array(steps_with_limit, dtype=np.int64)
         self.colour = "speed" if self.quantity == "speed" else "displacement"
         order = sorted(samples[entity])
+        self._steps = np.array(order, dtype=np.int64)
         self._all = [samples[entity][s] for s in order]
         times = np.array([row[0] for row in self._all])
         keep = np.ones(len(times), bool)
@@ -120,10 +141,11 @@ class FieldRecordingSource:
         self.scene = scene_of(document, self.model, integrator, dt, duration,
                               self.model.rest_positions, path.stem)
         resolution = ("float values" if self.kind == "DepthImage:buffer" else
-                      f"256 colours over {'±' if self.signed else '0-'}{self.limit:.3g}")
+                      f"256 colours over {'±' if self.signed else '0-'}{self.limit:.3g}"
+                      if not self._limits else f"256 colours, {self.policy} scale")
         self.summary = (f"{self.scene.summary()}; recording {path.name}, field image "
                         f"({resolution})")
-        self.scale_policy = "fixed" if self.kind != "DepthImage:buffer" else None
+        self.scale_policy = self.policy if self.kind != "DepthImage:buffer" else None
         self._table = (SIGNED_FIELD if self.signed else MAGNITUDE).table()
 
     def scales(self, colour: str) -> ColourScales:
@@ -131,6 +153,13 @@ class FieldRecordingSource:
         rest_strain = (model.spacing - model.rest_length) / model.rest_length
         return ColourScales(strain=1.0, field=self.limit, height=0.0, axis=self.axis,
                             rest_strain=rest_strain, seconds=0.0)
+
+    def limit_at(self, index: int) -> float:
+        """The limit of the colour scale the recorded frame ``index`` was drawn on."""
+        if not self._limits:
+            return self.limit
+        position = int(np.searchsorted(self._limit_steps, self._steps[index], side="right")) - 1
+        return self._limits[max(0, position)]
 
     def _pictures(self) -> Iterator[np.ndarray]:
         """(ny, nx) values of every recorded frame in order (top lattice row first)."""
@@ -147,27 +176,33 @@ class FieldRecordingSource:
 
             from PIL import Image
 
-            for _, _, value in self._all:
+            for k, (_, _, value) in enumerate(self._all):
                 with Image.open(io.BytesIO(_flat(value).tobytes())) as image:
-                    yield self._values(np.asarray(image.convert("RGB"))[:ny, :nx], inverse)
+                    yield self._values(np.asarray(image.convert("RGB"))[:ny, :nx], inverse, k)
             return
         import av
 
         codec = av.CodecContext.create("h264", "r")
+        decoded = 0
         for _, _, value in self._all:  # one sample is one encoded frame (no B-frames)
             for frame in codec.decode(av.Packet(_flat(value).tobytes())):
-                yield self._values(frame.to_ndarray(format="rgb24")[:ny, :nx], inverse)
+                yield self._values(frame.to_ndarray(format="rgb24")[:ny, :nx], inverse, decoded)
+                decoded += 1
         for frame in codec.decode(None):
-            yield self._values(frame.to_ndarray(format="rgb24")[:ny, :nx], inverse)
+            yield self._values(frame.to_ndarray(format="rgb24")[:ny, :nx], inverse, decoded)
+            decoded += 1
 
-    def _values(self, rgb: np.ndarray, inverse: np.ndarray) -> np.ndarray:
-        index = inverse[rgb[:, :, 0] >> 3, rgb[:, :, 1] >> 3, rgb[:, :, 2] >> 3].astype(np.float32)
+    def _values(self, rgb: np.ndarray, inverse: np.ndarray, index: int) -> np.ndarray:
+        """Values of a decoded picture on the scale recorded frame ``index`` was drawn on."""
+        levels = inverse[rgb[:, :, 0] >> 3, rgb[:, :, 1] >> 3, rgb[:, :, 2] >> 3].astype(
+            np.float32)
         if not self.signed:
-            index[index <= 1] = 0.0
-            return index * np.float32(self.limit / 255.0)
-        level = index - np.float32(127.5)
-        level[np.abs(level) <= 1.5] = 0.0  # zero and the level next to it
-        return level * np.float32(self.limit / 127.5)
+            levels[levels <= 1] = 0.0
+        else:
+            levels[np.abs(levels - np.float32(127.5)) <= 1.5] = 127.5  # zero and the next level
+        scale = make_scale(self.policy, self.limit_at(min(index, len(self._all) - 1)),
+                           self.signed)
+        return scale.values(levels * np.float32(1.0 / 255.0))
 
     def states(self, velocities: bool, strains: bool) -> Iterator[State]:
         model = self.model

@@ -101,13 +101,15 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
     if isinstance(scene_or_simulation, (str, Path)) and str(scene_or_simulation).endswith(".rrd"):
         return open_recording(Path(scene_or_simulation), options)
     scene = scene_or_simulation
+    start_time = options.start_time
     if hasattr(scene, "step") and hasattr(scene, "state"):  # a running Simulation: snapshot it
         from sim.scenes.building import scene_from_simulation
 
+        start_time = float(scene.time)  # its frames are labelled with the run's own time
         scene = scene_from_simulation(scene)
         options = dataclasses.replace(
             options, integrator=options.integrator or scene.integrator, dt=options.dt or scene.dt)
-    return SimulationSource(scene, options)
+    return SimulationSource(scene, options, start_time)
 
 
 def render_movie(

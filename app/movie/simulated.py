@@ -14,11 +14,13 @@ from app.recording.scales import ColourScales, look_ahead
 
 
 class SimulationSource:
-    """Frames of a fresh run of ``scene`` (its initial state at t = 0)."""
+    """Frames of a fresh run of ``scene``: its initial state at ``start_time`` (s; a snapshot of
+    a running simulation starts at that simulation's time, and its frames say so)."""
 
-    def __init__(self, scene: Any, options: MovieOptions) -> None:
+    def __init__(self, scene: Any, options: MovieOptions, start_time: float = 0.0) -> None:
         from sim import Simulation
 
+        self.start_time = start_time
         self.scene = scene
         self.model = scene.model
         self.simulation = Simulation(scene, integrator=options.integrator, dt=options.dt)
@@ -34,7 +36,7 @@ class SimulationSource:
         """Steps of the whole movie: frame k shows step round(k * steps / (frames - 1)), so the
         last frame is at the movie's duration (whole steps per frame would overshoot it)."""
         self.summary = (f"{scene.name}: {self.model.describe()}; {self.simulation.integrator}, "
-                        f"dt={dt:g} s")
+                        f"dt={dt:g} s" + (f"; from t = {start_time:.2f} s" if start_time else ""))
 
     def scales(self, colour: str) -> ColourScales:
         quantity = "speed" if colour == "speed" else colour
@@ -56,7 +58,7 @@ class SimulationSource:
                     return
                 done = target
             yield State(
-                simulation.time, simulation.peek_positions().copy(),
+                self.start_time + simulation.time, simulation.peek_positions().copy(),
                 simulation.velocities.copy() if velocities else None,
                 simulation.strains() if strains else None,
             )

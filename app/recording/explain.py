@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 
 import app.recording.instruments as instruments
+from app.colours import PERCENTILE as COLOUR_PERCENTILE
+from app.colours import SCALES, SMOOTHING_SECONDS, SYMLOG_RANGE
 from app.recording.scales import AXIS_NAMES, UNITS, ColourScales
 from sim.model import boundaries, parameters
 
@@ -138,15 +140,14 @@ def table_rows(document: str) -> dict[str, list[str]]:
     return rows
 
 
-def parameter_lines(model: Any) -> list[str]:
-    """The read-me's table of the scene's parameters: one line per row of the parameter table
-    (``sim.model.parameters``) that the model has, with its value."""
-    lines = ["## Scene parameters (SI units)", "",
-             "| parameter | symbol | value | unit | meaning |", "| --- | --- | --- | --- | --- |"]
+def parameter_rows(model: Any) -> list[tuple[str, str, str, str, str]]:
+    """(name, symbol, value, unit, meaning) of each scene parameter the model has, one per row of
+    the parameter table (``sim.model.parameters``), the value written out for a reader."""
     values = dict(model.parameters())
     masses = model.masses
     values["mass"] = f"{masses.flat[0]:g}" if model.uniform_mass else (
         f"{masses.min():g} to {masses.max():g} (per particle: `lattice/particles:mass`)")
+    rows = []
     for key, value in values.items():
         row = parameters.get(key)
         if key == "gravity":
@@ -157,13 +158,22 @@ def parameter_lines(model: Any) -> list[str]:
             value = ", ".join(value) if value else "none"
         elif isinstance(value, float):
             value = f"{value:g}"
-        lines.append(f"| {key} | {row.symbol} | {value} | {row.unit} | {row.help} |")
+        rows.append((key, row.symbol, str(value), row.unit, row.help))
+    return rows
+
+
+def parameter_lines(model: Any) -> list[str]:
+    """The read-me's markdown table of the scene's parameters (``parameter_rows``)."""
+    lines = ["## Scene parameters (SI units)", "",
+             "| parameter | symbol | value | unit | meaning |", "| --- | --- | --- | --- | --- |"]
+    lines += ["| " + " | ".join(cells) + " |" for cells in parameter_rows(model)]
     return lines
 
 
 def scene_document(
     scene: Any, model: Any, *, integrator: str, dt: float, plan: Any, scales: ColourScales,
     run: RunInfo, trees: tuple[str | None, ...], exaggeration: float = 1.0,
+    field_policy: str = "fixed",
 ) -> str:
     """The markdown document logged statically at ``/scene``."""
     a = model.spacing
@@ -193,7 +203,7 @@ def scene_document(
     lines += [f"| recorded by | `{command}` | |",
               f"| written | {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC | |", ""]
     lines += ["## How to read the views", ""]
-    lines += _view_notes(model, plan, scales, trees, exaggeration)
+    lines += _view_notes(model, plan, scales, trees, exaggeration, field_policy)
     lines += ["", "## Versions", ""]
     lines += [f"* {name} {version}" for name, version in versions().items()]
     lines += [
@@ -206,7 +216,7 @@ def scene_document(
 
 def _view_notes(
     model: Any, plan: Any, scales: ColourScales, trees: tuple[str | None, ...],
-    exaggeration: float,
+    exaggeration: float, field_policy: str = "fixed",
 ) -> list[str]:
     notes = [
         "* **Timeline**: `sim_time` is the simulated time in seconds (the default); `step` counts "
@@ -232,16 +242,33 @@ def _view_notes(
             f"stretched, saturating at ±{scales.strain:.3g} (legend: `legend/strain`)."
         )
     if plan.field:
+        follows = SCALES[field_policy].follows
+        limit = "the limit in use" if follows else f"{scales.field:.3g} {UNITS[plan.quantity]}"
         if plan.quantity == "displacement":
             what = (f"the displacement u_{AXIS_NAMES[scales.axis]} (m) of every particle, signed: "
-                    f"blue negative, white zero, red positive, ±{scales.field:.3g} m")
+                    f"blue negative, white zero, red positive, ± {limit}")
         else:
             what = (f"the {plan.quantity} ({UNITS[plan.quantity]}) of every particle: black 0 to "
-                    f"yellow {scales.field:.3g} {UNITS[plan.quantity]}")
+                    f"yellow {limit}")
+        if follows:
+            scale = (
+                f"The colour scale follows the field ({field_policy}: its limit is the "
+                f"{COLOUR_PERCENTILE:g}th percentile of |value| of each frame, smoothed over "
+                f"{SMOOTHING_SECONDS:g} simulated s"
+                + (f"; logarithmic: linear within limit / {SYMLOG_RANGE:g} of zero, a "
+                   "logarithm beyond, so waves of every amplitude show)"
+                   if SCALES[field_policy].logarithmic else ")")
+                + ", so the waves show at every moment; the colour bar at `legend/field` shows "
+                "the numbers of the frame on screen and `colour_scale/field` plots the limit. "
+                "Colours of two moments are not comparable: read the bar (`oscillators record "
+                "--scale fixed` keeps one scale).")
+        else:
+            scale = ("The scale is fixed for the whole recording"
+                     + (", logarithmic" if SCALES[field_policy].logarithmic else "")
+                     + ", so frames are comparable.")
         notes.append(
             f"* **field**: one pixel per particle, the lattice seen from the front (top row "
-            f"first); colour = {what} (legend: `legend/field`). The scale is fixed for the whole "
-            "recording, so frames are comparable."
+            f"first); colour = {what} (legend: `legend/field`). {scale}"
         )
     names = [name for name in trees if name]
     driven = getattr(model, "driver", None) is not None

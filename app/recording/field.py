@@ -3,12 +3,21 @@
 A lattice of ``nx`` by ``ny`` particles becomes an image of ``ny`` rows by ``nx`` columns whose
 pixel (row r, column c) is particle ``(i=c, j=ny-1-r)``: the image is the lattice seen from the
 front, top row first (image rows run downwards, lattice rows upwards).  The quantity is the
-signed displacement component ``u_axis`` (m, diverging colour map from -scale to +scale), the
-displacement magnitude ``|x - x_rest|`` (m) or the speed ``|v|`` (m/s) of every particle (0 to
-scale), see ``app.recording.scales``.
+signed displacement component ``u_axis`` (m, diverging colour map, zero in the middle), the
+displacement magnitude ``|x - x_rest|`` (m) or the speed ``|v|`` (m/s) of every particle (0 at
+the map's start), see ``app.recording.scales``.
+
+The colours follow a scale policy of ``app.colours`` (``SCALES``), by default the quantity's
+scheme's, as on the page and in movies: ``adaptive-symlog``, a logarithmic map whose limit follows
+the field's current amplitude (its 99th percentile, smoothed over a few simulated seconds), so
+waves show at every moment of a long run as they spread and weaken; ``fixed`` keeps one linear
+scale for the whole recording.  The limit in use is logged with every frame
+(``settings/field_scale``, m or m/s) and the colour bar (``/legend/field``) is redrawn when its
+numbers change, so the viewer shows the scale of the frame on screen.
 
 Three encodings, one class each, all with ``log(stream, entity, field, scale)`` for a
-``(ny, nx)`` float array (the caller sets the time first) and ``finish(stream, entity)`` at the end:
+``(ny, nx)`` float array and the ``ColourScale`` in use (the caller sets the time first) and
+``finish(stream, entity)`` at the end:
 
 * ``JpegField``: colour-mapped RGB, JPEG-compressed (``rr.EncodedImage``), ~30 kB a frame;
 * ``VideoField``: colour-mapped, H.264 through PyAV into ``rr.VideoStream``, a few kB a frame;
@@ -18,20 +27,21 @@ Three encodings, one class each, all with ``log(stream, entity, field, scale)`` 
 
 ``FieldView`` is a tree's field: it turns each frame's positions or velocities into the image and
 hands it to its encoder.  With the first frame it logs, static on the field's entity, what the
-colours mean (``quantity``, ``axis``, ``colour_scale``: the value at the map's end, m or m/s), so
-a movie can be made from the field alone (``app.movie.recorded_field``).
+colours mean (``quantity``, ``axis``, ``colour_policy`` and ``colour_scale``: the limit it
+started with, m or m/s), so a movie can be made from the field alone
+(``app.movie.recorded_field``).
 """
 
 from __future__ import annotations
 
 import io
 from fractions import Fraction
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import rerun as rr
 
-from app.colours import MAGNITUDE, SIGNED_FIELD
+from app.colours import ColourScale, colour_fractions, make_scale, scheme
 from app.recording.scales import SIGNED, field_values
 from sim.model.lattice import Model
 
@@ -52,14 +62,16 @@ def lattice_image(values: np.ndarray, nx: int, ny: int) -> np.ndarray:
     return np.flipud(values.reshape(ny, nx))
 
 
-def colour_map(field: np.ndarray, scale: float, signed: bool) -> np.ndarray:
-    """(ny, nx) values -> (ny, nx, 3) uint8 RGB: signed ones on ``SIGNED_FIELD`` (``app.colours``) from
-    -scale to +scale, magnitudes on ``MAGNITUDE`` from 0 to scale (saturating beyond)."""
-    return (SIGNED_FIELD if signed else MAGNITUDE).map(field, scale)
+def colour_map(field: np.ndarray, scale: ColourScale) -> np.ndarray:
+    """(ny, nx) values -> (ny, nx, 3) uint8 RGB on ``scale``: signed ones on ``SIGNED_FIELD``
+    (``app.colours``), magnitudes on ``MAGNITUDE`` (saturating beyond the limit)."""
+    table = scheme("displacement" if scale.signed else "magnitude").field.table()
+    return colour_fractions(scale.fraction(field), table)
 
 
 class FieldEncoder(Protocol):
-    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray,
+            scale: ColourScale) -> None:
         ...
 
     def finish(self, stream: rr.RecordingStream, entity: str) -> None:
@@ -76,8 +88,9 @@ class JpegField:
         self.quality = quality
         self.signed = signed
 
-    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
-        rgb = colour_map(field, scale, self.signed)
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray,
+            scale: ColourScale) -> None:
+        rgb = colour_map(field, scale)
         buffer = io.BytesIO()
         self._image_module.fromarray(rgb).save(buffer, format="JPEG", quality=self.quality)
         stream.log(entity, rr.EncodedImage(contents=buffer.getvalue(), media_type="image/jpeg"))
@@ -94,7 +107,7 @@ class VideoField:
     every ``keyframe_interval`` frames keeps seeking in the viewer quick.
     """
 
-    def __init__(self, crf: int = 23, preset: str = "veryfast", keyframe_interval: int = 60,
+    def __init__(self, crf: int = 28, preset: str = "veryfast", keyframe_interval: int = 60,
                  signed: bool = False):
         import av
 
@@ -120,11 +133,12 @@ class VideoField:
         self._codec = codec
         stream.log(entity, rr.VideoStream(codec=rr.VideoCodec.H264), static=True)
 
-    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray,
+            scale: ColourScale) -> None:
         height, width = field.shape
         if self._codec is None:
             self._open(stream, entity, height, width)
-        rgb = colour_map(field, scale, self.signed)
+        rgb = colour_map(field, scale)
         if height % 2 or width % 2:
             rgb = np.pad(rgb, ((0, height % 2), (0, width % 2), (0, 0)), mode="edge")
         frame = self._av.VideoFrame.from_ndarray(rgb, format="rgb24")
@@ -143,7 +157,8 @@ class VideoField:
 
 
 class RawField:
-    """The field values themselves as a depth image (``rr.DepthImage``, meter = 1)."""
+    """The field values themselves as a depth image (``rr.DepthImage``, meter = 1); the viewer
+    colours it linearly over the limit in use."""
 
     def __init__(self, dtype: str = "float32", signed: bool = False) -> None:
         if dtype not in ("float16", "float32"):
@@ -151,13 +166,15 @@ class RawField:
         self.dtype = np.dtype(dtype)
         self.signed = signed
 
-    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray, scale: float) -> None:
+    def log(self, stream: rr.RecordingStream, entity: str, field: np.ndarray,
+            scale: ColourScale) -> None:
+        limit = scale.limit
         stream.log(
             entity,
             rr.DepthImage(
                 np.ascontiguousarray(field, dtype=self.dtype), meter=1.0,
                 colormap=rr.components.Colormap.Inferno,
-                depth_range=(-scale if self.signed else 0.0, scale),
+                depth_range=(-limit if self.signed else 0.0, limit),
             ),
         )
 
@@ -185,31 +202,45 @@ def make_field_encoder(
 class FieldView:
     """The field image of one tree at ``entity``: each frame's per-particle ``quantity`` (see
     ``app.recording.scales``; ``axis`` is the signed displacement's component) as a (ny, nx)
-    image encoded by ``mode`` on the fixed ``scale`` (m or m/s)."""
+    image encoded by ``mode``, coloured on a scale of ``policy`` (``app.colours.SCALES``)
+    starting at ``scale`` (m or m/s).  ``scale_entity``: where the limit in use is logged each
+    frame; ``on_scale(colour_scale)``: called after each frame (the colour bar follows it)."""
 
     def __init__(self, entity: str, mode: str, quantity: str, axis: int, scale: float, *,
-                 jpeg_quality: int = 80, raw_dtype: str = "float32") -> None:
+                 policy: str = "fixed", floor: float = 0.0, scale_entity: str | None = None,
+                 on_scale: Any = None, jpeg_quality: int = 80,
+                 raw_dtype: str = "float32") -> None:
         self.entity = entity
         self.quantity = quantity
         self.axis = axis
         self.scale = scale
+        self.colour_scale = make_scale(policy, scale, quantity in SIGNED, floor)
+        self.scale_entity = scale_entity
+        self.on_scale = on_scale
         self.encoder: FieldEncoder = make_field_encoder(mode, jpeg_quality, raw_dtype,
                                                         signed=quantity in SIGNED)
         self._described = False
 
     def log_frame(self, stream: rr.RecordingStream, model: Model, positions: np.ndarray,
-                  velocities: np.ndarray | None) -> None:
-        """One frame from (n_particles, dim) positions (m) and velocities (m/s; the speed field
-        skips frames without them)."""
+                  velocities: np.ndarray | None, time: float = 0.0) -> None:
+        """One frame at simulated ``time`` (s) from (n_particles, dim) positions (m) and
+        velocities (m/s; the speed field skips frames without them)."""
         if self.quantity == "speed" and velocities is None:
             return
         if not self._described:
-            stream.log(self.entity, rr.AnyValues(quantity=self.quantity, axis=self.axis,
-                                                 colour_scale=self.scale), static=True)
+            stream.log(self.entity, rr.AnyValues(
+                quantity=self.quantity, axis=self.axis, colour_scale=self.scale,
+                colour_policy=self.colour_scale.policy), static=True)
             self._described = True
         values = field_values(self.quantity, positions, model.rest_positions, velocities,
                               self.axis)
-        self.encoder.log(stream, self.entity, lattice_image(values, model.nx, model.ny), self.scale)
+        self.colour_scale.observe(values, time)
+        if self.scale_entity is not None:
+            stream.log(self.scale_entity, rr.Scalars(self.colour_scale.limit))
+        self.encoder.log(stream, self.entity, lattice_image(values, model.nx, model.ny),
+                         self.colour_scale)
+        if self.on_scale is not None:
+            self.on_scale(self.colour_scale)
 
     def finish(self, stream: rr.RecordingStream) -> None:
         self.encoder.finish(stream, self.entity)

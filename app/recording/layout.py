@@ -81,7 +81,8 @@ class TreePaths:
     dt = _Entity("settings/dt")
     integrator = _Entity("settings/integrator")
     model = _Entity("settings/model")
-    field_scale = _Entity("settings/field_scale")
+    field_scale = _Entity("colour_scale/field", "The field's colour-scale limit in use (m or m/s), "
+                          "one value a frame.")
     log = _Entity("log")
 
     def probe(self, label: str, component: str) -> str:

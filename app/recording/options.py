@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 
 import app.recording.instruments as instruments
+from app.colours import SCALES, scheme
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.scales import QUANTITIES
 from app.recording.screen import check_screen
@@ -31,8 +32,11 @@ class RecordingOptions:
         ones), "jpeg", "video", "raw" (float image, lossless) or "none".
     quantity: the field's quantity, "displacement" (the signed component u_axis, m; diverging
         colours), "magnitude" (|x - x_rest|, m) or "speed" (|v|, m/s).
-    field_scale: value at the end of the field's colour map (m or m/s); None: fixed from the
-        look-ahead run (``app.recording.scales``).
+    field_scale: value at the end of the field's colour map (m or m/s) to start from; None: from
+        the look-ahead run (``app.recording.scales``).
+    field_policy: the field's colour-scale policy (``app.colours.SCALES``); None: ``fixed`` when
+        ``field_scale`` is given, else the quantity's scheme's (``adaptive-symlog``: a log scale
+        following the field's amplitude, as on the page and in movies).
     exaggeration: 3-D lattices: display scale of heights (z); None picks one so the typical
         height shows as 8 % of the lattice width.
     frame_interval: simulated seconds between recorded frames at least, for frames published
@@ -60,6 +64,7 @@ class RecordingOptions:
     field: str = "auto"
     quantity: str = "displacement"
     field_scale: float | None = None
+    field_policy: str | None = None
     exaggeration: float | None = None
     frame_interval: float | None = None
     positions: str | int = "auto"
@@ -82,6 +87,9 @@ class RecordingOptions:
         if self.quantity not in QUANTITIES:
             raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, got "
                              f"{self.quantity!r}")
+        if self.field_policy is not None and self.field_policy not in SCALES:
+            raise ValueError(f"field colour scale must be one of {', '.join(SCALES)}, got "
+                             f"{self.field_policy!r}")
         if self.field_scale is not None and not self.field_scale > 0:
             raise ValueError(f"field scale must be positive, got {self.field_scale!r}")
         detailed = model.n_particles <= self.detail_limit
@@ -101,10 +109,13 @@ class RecordingOptions:
         modes_every = 0
         if self.modes:
             modes_every = self.modes_every or instruments.modes_every(model, expected_frames)
+        policy = self.field_policy or (
+            "fixed" if self.field_scale is not None else scheme(self.quantity).scale)
         return LoggingPlan(
             detailed=detailed,
             field=field_mode,
             quantity=self.quantity,
+            field_policy=policy,
             positions_every=positions_every,
             springs=detailed and positions_every == 1 and not surface,
             surface=surface,
@@ -144,6 +155,8 @@ class LoggingPlan:
     probes: tuple[tuple[int, int], ...] = ()
     modes_every: int = 0
     screen: int | None = None
+    field_policy: str = "fixed"
+    """The field's colour-scale policy (``app.colours.SCALES``)."""
 
     def describe(self) -> str:
         parts = []
@@ -187,8 +200,12 @@ class LoggingPlan:
         if self.field == "jpeg":
             total += model.n_particles * 0.2 * (1 + jpeg_quality / 50)
         elif self.field == "video":
-            # measured: ~9.5 kB a frame of interference, ~2 kB at 100x60 (per-frame overhead)
-            total += 1500.0 + model.n_particles * 0.04
+            # measured on interference: ~9.5 kB a frame on a fixed linear scale, ~2 kB at 100x60
+            # (per-frame overhead); on a scale that follows the field (log) the whole lattice
+            # shows its waves: ~26 kB a frame (H.264 at CRF 28, docs/recording.md "Sizes")
+            detail = 0.1 if (SCALES[self.field_policy].follows
+                             or SCALES[self.field_policy].logarithmic) else 0.04
+            total += 1500.0 + model.n_particles * detail
         elif self.field == "raw":
             total += model.n_particles * 4
         return total

@@ -31,10 +31,10 @@ How it stays fast and safe:
   (``failure`` holds the error; ``close()`` raises ``RecordingError`` saying so).
 
 What is logged depends on the lattice (``app.recording.options.LoggingPlan``; the views of each
-tree are written by ``app.recording.track.Track``).  Colour scales are fixed before the first
-frame from a look-ahead run (``app.recording.scales``); the document at ``/scene``
-(``app.recording.explain``) says what every view shows, the colour bars are at ``/legend``
-(``app.recording.legends``).
+tree are written by ``app.recording.track.Track``).  Colour scales start from a look-ahead
+run (``app.recording.scales``); the field's follows the field by default
+(``app.recording.field``); the document at ``/scene`` (``app.recording.explain``) says what
+every view shows, the colour bars are at ``/legend`` (``app.recording.legends``).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo, scene_document
 from app.recording.field import video_available
 from app.recording.layout import COMPONENT_NAMES, LEGEND_ENTITY, SCENE_ENTITY, blueprint
-from app.recording.legends import colour_legends
+from app.recording.legends import FieldLegend, colour_legends, field_label
 from app.recording.options import DEFAULT_FRAME_INTERVAL, RecordingOptions
 from app.recording.scales import ColourScales, look_ahead
 from app.recording.style import nice_number
@@ -138,6 +138,8 @@ class Recorder:
             self._output.discard()
             raise
         self.field_scale = self.options.field_scale or self.scales.field
+        self.field_policy = self.plan.field_policy
+        """The field's colour-scale policy (``app.colours.SCALES``)."""
         exaggeration = self.options.exaggeration
         if exaggeration is None:
             width = (max(self.model.nx, self.model.ny) + 1) * self.model.spacing
@@ -151,7 +153,7 @@ class Recorder:
         self.recording_id = str(uuid.uuid4())
         self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
                                          batcher_config=_SMALL_CHUNKS)
-        legends = colour_legends(self.plan, self.scales, self.field_scale, self.exaggeration)
+        legends = colour_legends(self.plan, self.scales, self.exaggeration)
         bp = blueprint(
             self.trees, dim=self.model.dim,
             show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
@@ -164,7 +166,7 @@ class Recorder:
         self.document = scene_document(
             scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
             scales=self.scales, run=self.run, trees=self.trees,
-            exaggeration=self.exaggeration,
+            exaggeration=self.exaggeration, field_policy=self.field_policy,
         ) + f"\n\nLogged: {self.plan.describe()}."
         """The read-me logged at ``/scene`` (logged again at the end with the probes' spectra)."""
         self.stream.log(
@@ -173,10 +175,16 @@ class Recorder:
         )
         offset = 0.0
         for name, (png, height) in legends.items():
-            self.stream.log(f"{LEGEND_ENTITY}/{name}",
-                            rr.EncodedImage(contents=png, media_type="image/png"),
-                            rr.Transform3D(translation=[0.0, offset, 0.0]), static=True)
+            entity = f"{LEGEND_ENTITY}/{name}"
+            self.stream.log(entity, rr.Transform3D(translation=[0.0, offset, 0.0]), static=True)
+            if png is not None:  # the field's bar is logged frame by frame (FieldLegend)
+                self.stream.log(entity, rr.EncodedImage(contents=png, media_type="image/png"),
+                                static=True)
             offset += height + 8
+        self.field_legend = (FieldLegend(f"{LEGEND_ENTITY}/field",
+                                         field_label(self.plan, self.scales.axis),
+                                         self.plan.quantity) if self.plan.field else None)
+        """The field's colour bar, redrawn when the numbers of its scale change."""
         self.tracks: dict[str | None, Track] = {}
         self._last_enqueued: dict[str | None, float] = {}
         self._unsubscribers: list[Callable[[], None]] = []
@@ -229,6 +237,9 @@ class Recorder:
             self.stream, tree, model, self.plan, self.scales, field_scale=self.field_scale,
             exaggeration=self.exaggeration, jpeg_quality=self.options.jpeg_quality,
             raw_dtype=self.options.raw_dtype, modal_basis=self.modal_basis,
+            field_policy=self.field_policy,
+            on_field_scale=(self.field_legend.update if self.field_legend is not None
+                            and not self.tracks else None),
         )
         track.log_static()
         self.tracks[tree] = track

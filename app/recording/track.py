@@ -30,13 +30,16 @@ class Track:
     """The tree ``name`` (None: the root) of ``stream`` for a simulation of ``model``.
 
     scales: the recording's fixed colour scales; field_scale: the field's colour scale (m or
-    m/s); exaggeration: display scale of heights (3-D); modal_basis: the lattice's normal modes
+    m/s) to start from, on ``field_policy`` (``app.colours.SCALES``); ``on_field_scale(stream,
+    colour_scale)`` after each field frame (the colour bar follows it); exaggeration: display
+    scale of heights (3-D); modal_basis: the lattice's normal modes
     (mode energies only)."""
 
     def __init__(
         self, stream: rr.RecordingStream, name: str | None, model: Model, plan: LoggingPlan,
         scales: ColourScales, *, field_scale: float, exaggeration: float, jpeg_quality: int = 80,
-        raw_dtype: str = "float32", modal_basis: Any = None,
+        raw_dtype: str = "float32", modal_basis: Any = None, field_policy: str = "fixed",
+        on_field_scale: Any = None,
     ) -> None:
         self.stream = stream
         self.name = name
@@ -51,7 +54,11 @@ class Track:
         self.lattice = LatticeView(self.paths, model, plan, scales, exaggeration)
         self.energy = EnergyView(self.paths, name, driven=model.driven)
         self.field = (FieldView(self.paths.field, plan.field, plan.quantity, scales.axis,
-                                field_scale, jpeg_quality=jpeg_quality, raw_dtype=raw_dtype)
+                                field_scale, policy=field_policy, floor=1e-6 * model.spacing,
+                                scale_entity=self.paths.field_scale,
+                                on_scale=(None if on_field_scale is None
+                                          else lambda scale: on_field_scale(stream, scale)),
+                                jpeg_quality=jpeg_quality, raw_dtype=raw_dtype)
                       if plan.field else None)
         self.probes = (instruments.ProbeLog(self.paths, model, plan.probes)
                        if plan.probes else None)
@@ -94,7 +101,8 @@ class Track:
         if plan.positions_every and self.frames_logged % plan.positions_every == 0:
             self.lattice.log_frame(stream, frame.positions, frame.strains)
         if self.field is not None:
-            self.field.log_frame(stream, self.model, frame.positions, frame.velocities)
+            self.field.log_frame(stream, self.model, frame.positions, frame.velocities,
+                                 frame.time)
         if frame.error:
             self.event(frame.error, "ERROR")
         self.frames_logged += 1

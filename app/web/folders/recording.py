@@ -5,9 +5,11 @@ download a movie.
 chooses the file name; nothing the page sends names a file) until *Stop recording*; a recorder
 that fails (a full disk) is stopped and the folder says why.  *Download recording* hands the
 browser the ``.rrd`` just made (a running one is closed first) and its read-me (``.md``).
-*Download a movie* renders the scene's run from the current state to an MP4 in the background
-(``app.web.jobs``: frames encoded as drawn, progress shown, at most ``MOVIE_FRAME_LIMIT`` frames);
-while it runs the button cancels it, and a second request is refused with a sentence.
+*Download a movie* renders the scene's run from the current state in the background
+(``app.web.jobs``: frames encoded as drawn, progress shown, at most ``MOVIE_FRAME_LIMIT`` frames),
+as an MP4 or as one HTML page that plays the run in 3-D offline (``app.movie.html``), its frames
+labelled with the run's own time; while it runs the button cancels it, and a second request is
+refused with a sentence.
 """
 
 from __future__ import annotations
@@ -24,6 +26,10 @@ from app.web.inputs import as_html, from_user, ok_html
 from app.web.jobs import MOVIE_FRAME_LIMIT, JobBusy
 from app.web.widgets import download_name, say
 from sim.runtime.runner import Frame
+from sim.scenes.building import scene_from_simulation
+
+MOVIE_FORMATS = ("MP4 video", "HTML page (3-D, offline)")
+"""What "Download a movie" makes: an MP4, or one HTML page (``app.movie.html``)."""
 
 
 class RecordingFolder(Folder):
@@ -46,11 +52,16 @@ class RecordingFolder(Folder):
                 "Download recording", icon=viser.Icon.DOWNLOAD, disabled=not available,
                 hint="the .rrd just recorded (a running recording is stopped first) and its "
                 "read-me, to your computer; open it with rerun")
+            self.movie_format = gui.add_dropdown(
+                "Movie as", MOVIE_FORMATS, initial_value=MOVIE_FORMATS[0],
+                hint="MP4: a video for any player and slides; HTML page: one file that opens "
+                "offline in any browser and plays the run in 3-D (turn, zoom, scrub), with its "
+                "read-me")
             self.movie_button = gui.add_button(
                 "Download a movie", icon=viser.Icon.MOVIE,
                 hint="render the scene's run from the current state (its duration, at most "
-                f"{MOVIE_FRAME_LIMIT} frames) to an MP4 on your computer: title, time, colour "
-                "bar; plays in browsers and slides. Press again to cancel.")
+                f"{MOVIE_FRAME_LIMIT} frames) to an MP4 or an HTML page on your computer: title, "
+                "time, colour bar. Press again to cancel.")
             self.movie_text = gui.add_html("")
 
         @self.download_button.on_click
@@ -81,9 +92,13 @@ class RecordingFolder(Folder):
                     return
             client = event.client
             try:
-                scene = host.control.snapshot().result(timeout=30)
-                jobs.start("movie", lambda report: self._render(scene, report),
-                           lambda result, error: self._movie_done(client, scene, result, error))
+                scene, start = host.control.runner.post(
+                    lambda simulation: (scene_from_simulation(simulation),
+                                        float(simulation.time))).result(timeout=30)
+                suffix = ".html" if self.movie_format.value == MOVIE_FORMATS[1] else ".mp4"
+                jobs.start("movie", lambda report: self._render(scene, report, start, suffix),
+                           lambda result, error: self._movie_done(client, scene, result, error,
+                                                                  suffix))
             except JobBusy as busy:
                 say(self.movie_text, busy, "one at a time")
                 return
@@ -126,10 +141,12 @@ class RecordingFolder(Folder):
         else:
             self.record_text.content = ok_html(f"saved {path.name}" if path else "stopped")
 
-    def _render(self, scene: Any, report: Any) -> bytes:
-        """The movie of ``scene`` as MP4 bytes, made through a temporary file frame by frame;
-        the progress is shown about twice a second (also while the run is paused)."""
-        from app.movie import render_movie
+    def _render(self, scene: Any, report: Any, start: float = 0.0, suffix: str = ".mp4"
+                ) -> bytes:
+        """The movie of ``scene`` (the run's state at ``start`` s) as MP4 or HTML bytes, made
+        through a temporary file frame by frame; the progress is shown about twice a second
+        (also while the run is paused)."""
+        from app.movie import render_html, render_movie
 
         jobs = self.host.recordings.jobs
         shown = [0.0]
@@ -143,12 +160,18 @@ class RecordingFolder(Folder):
             return going_on
 
         with tempfile.TemporaryDirectory(prefix="page-movie-") as directory:
-            path = render_movie(scene, Path(directory) / "movie.mp4", progress=False,
-                                max_frames=MOVIE_FRAME_LIMIT, on_frame=on_frame)
+            if suffix == ".html":
+                path = render_html(scene, Path(directory) / "movie.html", progress=False,
+                                   max_frames=MOVIE_FRAME_LIMIT, on_frame=on_frame,
+                                   start_time=start).path
+            else:
+                path = render_movie(scene, Path(directory) / "movie.mp4", progress=False,
+                                    max_frames=MOVIE_FRAME_LIMIT, on_frame=on_frame,
+                                    start_time=start)
             return path.read_bytes()
 
     def _movie_done(self, client: viser.ClientHandle, scene: Any, content: bytes | None,
-                    error: BaseException | None) -> None:
+                    error: BaseException | None, suffix: str = ".mp4") -> None:
         self.movie_button.label = "Download a movie"
         self.movie_button.icon = viser.Icon.MOVIE
         jobs = self.host.recordings.jobs
@@ -157,7 +180,7 @@ class RecordingFolder(Folder):
         elif error is not None or content is None:
             say(self.movie_text, error or "no frames", "could not make the movie")
         else:
-            name = download_name(scene.name) + ".mp4"
+            name = download_name(scene.name) + suffix
             client.send_file_download(name, content, save_immediately=True)
             self.movie_text.content = ok_html(f"sent {name} ({len(content) / 1e6:.2g} MB)")
 

@@ -1,0 +1,94 @@
+"""A run as one HTML file: `oscillators movie SCENE -o NAME.html` writes a page that Chromium opens
+from file:// with every network request blocked; its 3-D view shows the lattice and plays (two
+screenshots seconds apart differ), its overlay's time follows viser's player (this notices when
+viser's player changes: ``app.movie.viser_page``), and its read-me panel says what the run is."""
+
+from __future__ import annotations
+
+import io
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.cli import main
+
+
+def open_offline(browser, path: Path, size: dict | None = None):
+    """A page at ``size`` that loads ``path`` from disk with every other request aborted;
+    returns (page, the list of aborted URLs)."""
+    page = browser.new_page(viewport=size or {"width": 1366, "height": 768})
+    aborted: list[str] = []
+
+    def route(request_route):
+        url = request_route.request.url
+        if url.startswith("file://"):
+            request_route.continue_()
+        else:
+            aborted.append(url)
+            request_route.abort()
+
+    page.route("**/*", route)
+    page.goto(path.as_uri())
+    page.wait_for_selector("canvas", timeout=60_000)
+    return page, aborted
+
+
+def canvas_picture(page) -> np.ndarray:
+    from PIL import Image
+
+    png = page.locator("canvas").first.screenshot(timeout=60_000)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+
+def check_plays(browser, path: Path, shots: str) -> tuple[np.ndarray, np.ndarray]:
+    page, aborted = open_offline(browser, path)
+    time.sleep(3)
+    early_time = page.locator("#co-time").text_content()
+    early = canvas_picture(page)
+    page.screenshot(path=f"{shots}-early.png")
+    time.sleep(4)
+    late_time = page.locator("#co-time").text_content()
+    late = canvas_picture(page)
+    page.screenshot(path=f"{shots}-late.png")
+    assert aborted == []  # it asked for nothing beyond the file
+    for picture in (early, late):  # the lattice, not one colour
+        flat = picture.reshape(-1, 3)
+        background = np.median(flat, axis=0)
+        assert (np.abs(flat - background).max(axis=1) > 60).mean() > 0.01
+    assert np.abs(early - late).max(axis=2).mean() > 0.5 or (
+        np.abs(early - late).max(axis=2) > 40).mean() > 0.002  # it plays
+    assert early_time != late_time and early_time.startswith("t = "), (early_time, late_time)
+    page.get_by_text("About this run").click()
+    readme = page.locator("#co-readme")
+    assert readme.is_visible()
+    text = readme.text_content()
+    for words in ("stiffness", "N/m", "oscillators movie", "How to read the colours",
+                  "Versions", "rerun-sdk"):
+        assert words in text, words
+    return early, late
+
+
+def test_the_grid_as_one_html_file_plays_offline(tmp_path, browser):
+    path = tmp_path / "grid.html"
+    assert main(["movie", "grid", "-o", str(path), "--duration", "10", "--quiet"]) == 0
+    assert path.stat().st_size < 3e6
+    document = path.read_text()
+    assert "grid" in document and "rk4, dt = 0.01 s" in document
+    check_plays(browser, path, str(tmp_path / "grid"))
+
+
+def test_a_page_refuses_other_names_and_says_its_length(tmp_path, capsys):
+    assert main(["movie", "grid", "-o", str(tmp_path / "grid.htm"), "--quiet"]) == 2
+    path = tmp_path / "short.html"
+    assert main(["movie", "grid", "-o", str(path), "--duration", "2", "--fps", "5"]) == 0
+    said = capsys.readouterr().out
+    assert "11 frames showing t = 0.00 s to 2.00 s" in said, said
+
+
+@pytest.mark.slow
+def test_a_short_flagship_run_as_one_html_file_plays_offline(tmp_path, browser):
+    path = tmp_path / "interference.html"
+    assert main(["movie", "interference", "-o", str(path), "--duration", "30", "--quiet"]) == 0
+    check_plays(browser, path, str(tmp_path / "interference"))
