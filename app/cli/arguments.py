@@ -159,7 +159,7 @@ def add_scene_arguments(parser: argparse.ArgumentParser, default_scene: str | No
     parser.add_argument(
         "--set", dest="overrides", action="append", metavar="KEY=VALUE",
         help="override a scene parameter: nx, ny, spacing, mass, stiffness, rest_length, damping, "
-        "drag, gravity (g or gx,gy[,gz]), linear, dim; repeatable",
+        "drag, gravity (g or gx,gy[,gz]), linear, dim, diagonal_stiffness; repeatable",
     )
 
 

@@ -34,6 +34,7 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "mass": (1e-9, 1e9),
     "damping": (0.0, 1e9),
     "drag": (0.0, 1e9),
+    "diagonal_stiffness": (0.0, 1e9),
     "gravity": (-1e6, 1e6),
 }
 """(smallest, largest) of each lattice parameter (SI units: m, N/m, kg, N s/m, m/s^2).  With

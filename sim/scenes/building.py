@@ -96,7 +96,7 @@ def _checked_array(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
 OVERRIDES = (
     "nx", "ny", "spacing", "mass", "stiffness", "rest_length", "damping", "drag", "gravity",
     "linear", "dim", "driver", "sources", "barriers", "boundary", "sponge_width", "sponge_strength",
-    "sponge_sides",
+    "sponge_sides", "diagonal_stiffness",
 )
 """Keywords accepted by ``build`` (plus ``integrator``, ``dt`` and ``precision``)."""
 

@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from sim.forces.diagonal import numpy_energy
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
 from sim.theory.modes import polarisations, second_difference_eigenvalues, stiffness_matrix
@@ -102,6 +103,15 @@ def strains(model: Model, positions: np.ndarray) -> np.ndarray:
 
 def spring_energy(model: Model, positions: np.ndarray) -> float:
     """Elastic energy stored in the springs, relative to the rest lattice (J)."""
+    positions = np.asarray(positions, dtype=float)
+    diagonal = 0.0
+    if model.diagonal_stiffness > 0:
+        diagonal = numpy_energy(positions, model.diagonal_stiffness, model.spacing, model.origin,
+                                model.row_ends, model.linear)
+    return _nearest_spring_energy(model, positions) + diagonal
+
+
+def _nearest_spring_energy(model: Model, positions: np.ndarray) -> float:
     k = model.stiffness
     if model.linear:
         horizontal, vertical = spring_differences(model, positions)
@@ -157,7 +167,7 @@ def energy(model: Model, state: State) -> Energy:
 
 
 def _compiled_energy_terms(model: Model, state: State) -> tuple[float, float]:
-    from sim.forces.springs import energy_terms
+    from sim.forces.energy import energy_terms
 
     position, velocity = state.positions, state.velocities
     z = position[2] if model.dim == 3 else None
