@@ -21,6 +21,7 @@ import numpy as np
 from sim.forces.diagonal import numpy_energy
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
+from sim.theory.lattice_waves import diagonal_mode_sample
 from sim.theory.modes import polarisations, second_difference_eigenvalues, stiffness_matrix
 
 
@@ -265,6 +266,8 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     ``_DENSE_LIMIT`` particles, else the top mode by Lanczos; damping rates are then estimated by
     the Rayleigh quotient of the damping matrix on each mode.
     """
+    if model.diagonal_stiffness:  # x and y coupled: plane waves bound the modes
+        return ModeSet(*diagonal_mode_sample(model))
     omega_squared: list[np.ndarray] = []
     damping_rate: list[np.ndarray] = []
     exact = True
