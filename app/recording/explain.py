@@ -27,7 +27,9 @@ PARAMETER_UNITS: dict[str, tuple[str, str, str]] = {
     "ny": ("n_y", "particles", "particles per column (rows)"),
     "dim": ("d", "dimensions", "2: motion in the plane; 3: also out of the plane (z)"),
     "spacing": ("a", "m", "lattice spacing, also the distance to the wall anchors"),
-    "stiffness": ("k", "N/m", "spring constant of every spring"),
+    "stiffness": ("k", "N/m", "spring constant of every nearest-neighbour spring"),
+    "diagonal_stiffness": ("k₂", "N/m", "spring constant of the diagonal springs (0: none); "
+                           "k₂ = k/2 makes an isotropic elastic solid"),
     "rest_length": ("L", "m", "spring rest length; L < a pre-tensions the lattice"),
     "damping": ("c", "N s/m", "dashpot beside every spring (relative velocity along it)"),
     "drag": ("b", "N s/m", "drag on every particle's absolute velocity"),
