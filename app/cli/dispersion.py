@@ -33,13 +33,24 @@ wavenumber q is compared with the discrete relation omega = 2 sqrt(k/m) |sin(q a
 continuum line omega = c q, c = a sqrt(k/m).  The wave speed is also measured directly by tracking
 the front of a wide pulse.  For the ionic chain (masses M and m alternating) the acoustic and
 optical branches and the gap between sqrt(2k/M) and sqrt(2k/m) are measured.
+
+With --diagonal-stiffness K2 > 0 the lattice is an elastic solid instead (nearest springs k,
+diagonal springs K2; isotropic at K2 = k/2): the P and S wave speeds are measured on the
+elastic-solid scene and compared with sqrt((lambda + 2 mu)/rho) and sqrt(mu/rho), and both
+in-plane branches along an axis are measured against the dispersion relation.
 """
 
 EPILOG = """\
 examples:
   oscillators dispersion --plot docs/images/dispersion.png
   oscillators dispersion --particles 2000 --json
+  oscillators dispersion --diagonal-stiffness 17.5
 """
+
+
+def _stiffness_or_zero(text: str) -> float:
+    """argparse type: 0 or a positive finite stiffness (N/m)."""
+    return 0.0 if text.strip() in ("0", "0.0") else positive_float(text)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -56,6 +67,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--mass", type=positive_float, default=1.0, help="m in kg (default 1)")
     parser.add_argument("--heavy", type=positive_float, default=4.0,
                         help="heavy mass M of the ionic chain in kg (default 4)")
+    parser.add_argument("--diagonal-stiffness", type=_stiffness_or_zero, default=0.0,
+                        help="k2 of diagonal springs in N/m (default 0: chains); > 0 measures "
+                        "the elastic solid's P and S waves and its two branches")
     add_output_arguments(parser)
     parser.set_defaults(handler=command_dispersion)
 
@@ -64,6 +78,8 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
     from app.study import dispersion
 
     check_plot_path(arguments)
+    if arguments.diagonal_stiffness > 0:
+        return _elastic_solid(arguments)
     lightest = min(arguments.mass, arguments.heavy)
     steps = DISPERSION_SAMPLES * math.ceil(2 * math.sqrt(arguments.stiffness / lightest))
     particles = arguments.particles
@@ -78,4 +94,24 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
     if arguments.plot:
         write_picture(arguments.plot, dispersion.plot_dispersion, study)
     emit(arguments, study.as_dict(), dispersion.format_report(study))
+    return 0
+
+
+def _elastic_solid(arguments: argparse.Namespace) -> int:
+    """The elastic solid's P and S speeds and its two branches (``app.study.elastic``)."""
+    import sim
+    from app.study import elastic
+
+    if arguments.plot:
+        raise ValueError("--plot draws the chains' study; the elastic solid is reported as text")
+    scene = sim.scenes.build("elastic-solid", stiffness=arguments.stiffness, mass=arguments.mass,
+                             diagonal_stiffness=arguments.diagonal_stiffness)
+    rows = arguments.particles
+    with progress_bar(None, arguments.quiet) as bar:
+        speeds = elastic.measure_speeds(scene, progress=advance(bar))
+        branches = elastic.measure_branches(rows, arguments.stiffness,
+                                            arguments.diagonal_stiffness, arguments.mass,
+                                            progress=advance(bar))
+    data = dict(speeds, branches=elastic.branch_checkpoints(branches))
+    emit(arguments, data, elastic.format_report(speeds, branches))
     return 0

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from sim.forces.springs import _spring_energy
+from sim.forces.energy import _spring_energy
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 

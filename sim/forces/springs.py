@@ -44,6 +44,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from sim.forces.diagonal import diagonal_net, diagonal_springs
+
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 class SpringParameters(NamedTuple):
@@ -72,13 +74,17 @@ class SpringParameters(NamedTuple):
     free_ends: object = None
     """True: the rows' end particles have no spring to the left and right walls (free ends);
     None: they do.  A compile-time choice."""
+    diagonal_stiffness: object = None
+    """k2 (N/m) of the diagonal springs (``sim.forces.diagonal``); None: none, compiled out."""
 
     def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
         """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
         scalar = np.dtype(dtype).type
         numbers = (scalar(value) for value in self[:7])
+        diagonal = None if self.diagonal_stiffness is None else scalar(self.diagonal_stiffness)
         return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate,
-                                periodic=self.periodic, free_ends=self.free_ends)
+                                periodic=self.periodic, free_ends=self.free_ends,
+                                diagonal_stiffness=diagonal)
 
 
 @njit(**_JIT)
@@ -195,15 +201,21 @@ def gravity_vector(gravity, zero):
 
 
 @njit(**_JIT)
-def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity):
+def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity,
+                          diagonal=None):
     """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
     ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends of its four
     springs) and of drag on its ``velocity`` (vx, vy, vz), times ``inverse_mass``, plus
-    ``gravity`` (gx, gy, gz) (``gravity_vector``).  ``drag`` None: no drag.  This is the one
-    place where the forces on a particle are summed."""
+    ``gravity`` (gx, gy, gz) (``gravity_vector``), ``diagonal`` the net force of the diagonal
+    springs (``sim.forces.diagonal.diagonal_net``).  ``drag``, ``diagonal`` None: none.  This is
+    the one place where the forces on a particle are summed."""
     fx = right[0] - left[0] + above[0] - below[0]
     fy = right[1] - left[1] + above[1] - below[1]
     fz = right[2] - left[2] + above[2] - below[2]
+    if diagonal is not None:
+        fx += diagonal[0]
+        fy += diagonal[1]
+        fz += diagonal[2]
     if drag is not None:
         fx -= drag * velocity[0]
         fy -= drag * velocity[1]
@@ -249,6 +261,7 @@ def _vertical_row(lower, upper, j, x, y, z, vx, vy, vz, linearised, parameters, 
 @njit(**_JIT)
 def _vertical_springs(j, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
     rows = x.shape[0]
+    diagonal_springs(parameters.diagonal_stiffness, j, ny, x, y, z, linearised, parameters, out)
     if j == 0:
         return _vertical_row(None, 0, j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out)
     if j == ny:
@@ -261,7 +274,8 @@ def _vertical_springs(j, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpo
 @njit(**_JIT)
 def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, out):
     """Forces (3, nx) on the lower ends of the springs between row j-1 and row j (j = 0: from
-    the bottom wall anchors; j = ny: from row ny-1 to the top anchors), written into ``out``.
+    the bottom wall anchors; j = ny: from row ny-1 to the top anchors), written into ``out``
+    (``sim.forces.diagonal.ROWS``, nx), the diagonal springs' net forces in its rows 3 .. 8.
 
     ``parameters`` is a ``SpringParameters`` record in the precision of the arrays.
     ``ny`` is the number of rows of the lattice; the arrays may hold fewer rows, as a ring buffer
@@ -348,6 +362,7 @@ def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse
                                 horizontal)
     zero = type(parameters.spacing)(0.0)
     pull = gravity_vector(gravity, zero)
+    k2 = parameters.diagonal_stiffness
     r = j % x.shape[0]
     for i in range(x.shape[1]):
         if uniform_inverse_mass is not None:
@@ -359,14 +374,14 @@ def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse
                 (horizontal[0, i], horizontal[1, i], zero),
                 (horizontal[0, i + 1], horizontal[1, i + 1], zero),
                 (below[0, i], below[1, i], zero), (above[0, i], above[1, i], zero),
-                (vx[r, i], vy[r, i], zero), w, drag, pull,
+                (vx[r, i], vy[r, i], zero), w, drag, pull, diagonal_net(k2, below, above, i),
             )
         else:
             ax, ay, out[2, i] = particle_acceleration(
                 (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
                 (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
                 (below[0, i], below[1, i], below[2, i]), (above[0, i], above[1, i], above[2, i]),
-                (vx[r, i], vy[r, i], vz[r, i]), w, drag, pull,
+                (vx[r, i], vy[r, i], vz[r, i]), w, drag, pull, diagonal_net(k2, below, above, i),
             )
         out[0, i] = ax
         out[1, i] = ay
@@ -398,98 +413,6 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, paramete
     return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
                               None, parameters, dashpot, drag, gravity, below, above, horizontal,
                               out)
-
-
-@njit(**_JIT)
-def _spring_energy(dx, dy, dz, axis, linear, stiffness, rest_length, tension_stiffness, spacing):
-    """Energy (J) of one spring with separation (dx, dy, dz) relative to the rest lattice;
-    ``axis`` 0 for a horizontal spring, 1 for a vertical one (used by the linearised law)."""
-    if linear:
-        if axis == 0:
-            stretch = dx - spacing
-            across = dy * dy + dz * dz
-        else:
-            stretch = dy - spacing
-            across = dx * dx + dz * dz
-        return 0.5 * stiffness * stretch * stretch + 0.5 * tension_stiffness * across
-    length = np.sqrt(dx * dx + dy * dy + dz * dz)
-    rest_stretch = spacing - rest_length
-    return 0.5 * stiffness * ((length - rest_length) ** 2 - rest_stretch * rest_stretch)
-
-
-@njit(**_JIT)
-def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
-    """(kinetic, spring) energy in J of a state, in one pass; (ny, nx) arrays, z/vz None in 2-D.
-
-    The spring energy is measured from the rest lattice.  A NaN or infinity anywhere in the
-    state makes the result non-finite, so this doubles as the blow-up check.
-    """
-    stiffness, rest_length = parameters.stiffness, parameters.rest_length
-    tension_stiffness, spacing = parameters.tension_stiffness, parameters.spacing
-    origin_x, origin_y = parameters.origin_x, parameters.origin_y
-    ny, nx = x.shape
-    kinetic = 0.0
-    spring = 0.0
-    dz = 0.0
-    for j in range(ny):
-        row_y_rest = origin_y + j * spacing
-        for i in range(nx):
-            speed_squared = vx[j, i] * vx[j, i] + vy[j, i] * vy[j, i]
-            if vz is not None:
-                speed_squared += vz[j, i] * vz[j, i]
-            kinetic += 0.5 * masses[j, i] * speed_squared
-            # the spring to the left neighbour (or the left wall anchor, or the ring's closing
-            # spring from the last particle of the row)
-            if i == 0 and parameters.periodic is not None:
-                dx = x[j, 0] - (x[j, nx - 1] - nx * spacing)
-                dy = y[j, 0] - y[j, nx - 1]
-                if z is not None:
-                    dz = z[j, 0] - z[j, nx - 1]
-            elif i == 0:
-                dx = x[j, 0] - (origin_x - spacing)
-                dy = y[j, 0] - row_y_rest
-                if z is not None:
-                    dz = z[j, 0]
-            else:
-                dx = x[j, i] - x[j, i - 1]
-                dy = y[j, i] - y[j, i - 1]
-                if z is not None:
-                    dz = z[j, i] - z[j, i - 1]
-            if i > 0 or parameters.free_ends is None:
-                spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
-                                         tension_stiffness, spacing)
-            if i > 0 and linear and parameters.free_ends is not None:
-                # the rest tension's work T (dx - a), which sums to zero between two walls
-                spring += tension_stiffness * spacing * (dx - spacing)
-            # the spring to the neighbour below (or the bottom wall anchor)
-            if j == 0:
-                dx = x[0, i] - (origin_x + i * spacing)
-                dy = y[0, i] - (origin_y - spacing)
-                if z is not None:
-                    dz = z[0, i]
-            else:
-                dx = x[j, i] - x[j - 1, i]
-                dy = y[j, i] - y[j - 1, i]
-                if z is not None:
-                    dz = z[j, i] - z[j - 1, i]
-            spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
-                                     tension_stiffness, spacing)
-        if parameters.periodic is None and parameters.free_ends is None:
-            # the spring from the last particle of the row to the right wall anchor
-            dx = (origin_x + nx * spacing) - x[j, nx - 1]
-            dy = row_y_rest - y[j, nx - 1]
-            if z is not None:
-                dz = -z[j, nx - 1]
-            spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
-                                     tension_stiffness, spacing)
-    for i in range(nx):  # the springs from the top row to the top wall anchors
-        dx = (origin_x + i * spacing) - x[ny - 1, i]
-        dy = (origin_y + ny * spacing) - y[ny - 1, i]
-        if z is not None:
-            dz = -z[ny - 1, i]
-        spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
-                                 tension_stiffness, spacing)
-    return kinetic, spring
 
 
 @njit(**_JIT)

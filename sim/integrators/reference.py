@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sim.forces.diagonal import numpy_forces
 from sim.model.lattice import Model
 
 
@@ -65,6 +66,9 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
     on_lower = spring_forces(vertical, vertical_velocity, 1)
     force += on_left[:, :, 1:] - on_left[:, :, :-1]
     force += on_lower[:, 1:, :] - on_lower[:, :-1, :]
+    if model.diagonal_stiffness > 0:
+        force += numpy_forces(positions, model.diagonal_stiffness, model.spacing, model.origin,
+                              model.row_ends, model.linear)
     if model.drag > 0:
         force -= model.drag * velocities
     acceleration = force / model.masses

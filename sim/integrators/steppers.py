@@ -156,9 +156,11 @@ class Verlet(Integrator):
     @classmethod
     def loop_family(cls, model: Model) -> str:
         """Undamped nonlinear springs: the steps between the first and the last run as fused
-        leapfrog sweeps over row blocks (one block per thread), the fastest loop shape."""
+        leapfrog sweeps over row blocks (one block per thread), the fastest loop shape; it has
+        no diagonal springs, which the row sweeps carry."""
         damped = model.damping > 0 or model.drag > 0
-        return "sweep" if damped or model.linear else "leapfrog"
+        plain = not (damped or model.linear or model.diagonal_stiffness)
+        return "leapfrog" if plain else "sweep"
 
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)

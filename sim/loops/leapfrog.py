@@ -146,6 +146,8 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
     kicks with, inside the sweep (``leapfrog_rows``); ``totals`` (blocks, 2) receives the
     drive's work and the layer's take (J).
     """
+    if parameters.diagonal_stiffness is not None:
+        raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
     ny = position.shape[1]
@@ -179,6 +181,8 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
     not take them inside a tuple; ``parameters`` are the same).  The loop bodies are
     functions of their own: numba's parallel transformation of the inlined 3-D body read stale
     out-of-plane components (runs differed from one thread and blew up)."""
+    if parameters.diagonal_stiffness is not None:
+        raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
     tension = 0.0
     if sponge is not None:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row
 from sim.forces.springs import row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
@@ -211,7 +212,7 @@ def runge_kutta_blocks(
     blocks = block_starts.size - 1
     count = stages(method)
     nx = position.shape[2]
-    vertical = np.empty((blocks, count, 2, 3, nx), position.dtype)
+    vertical = np.empty((blocks, count, 2, ROWS, nx), position.dtype)
     horizontal = np.empty((blocks, 3, nx + 1), position.dtype)
     row = np.empty((blocks, 3, nx), position.dtype)
     powers = np.zeros((blocks, count))

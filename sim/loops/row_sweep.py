@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from sim.forces.absorbing_layer import act_on
+from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row, drive_rows
 from sim.forces.springs import row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
@@ -95,7 +96,7 @@ def _runge_kutta_steps(
     ``drive_work[0]``."""
     nx = position.shape[2]
     count = stages(method)
-    vertical = np.empty((count, 2, 3, nx), position.dtype)  # (stage, below/above, component, column)
+    vertical = np.empty((count, 2, ROWS, nx), position.dtype)  # (stage, below/above, force, column)
     horizontal = np.empty((3, nx + 1), position.dtype)
     row = np.empty((3, nx), position.dtype)
     powers = np.zeros(count)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from sim.forces.diagonal import ROWS
 from sim.forces.springs import components, row_accelerations, vertical_springs
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -34,10 +35,10 @@ HEUN = True
 @njit(**_JIT)
 def sweep_buffers(position):
     """Scratch of one force sweep over the rows of ``position`` (dim, ny, nx): the forces of the
-    vertical springs below and above the current row (3, nx) each, of its horizontal springs
-    (3, nx + 1), and its accelerations (3, nx)."""
+    vertical (and diagonal) springs below and above the current row (``ROWS``, nx) each, of its
+    horizontal springs (3, nx + 1), and its accelerations (3, nx)."""
     nx = position.shape[2]
-    return (np.empty((3, nx), position.dtype), np.empty((3, nx), position.dtype),
+    return (np.empty((ROWS, nx), position.dtype), np.empty((ROWS, nx), position.dtype),
             np.empty((3, nx + 1), position.dtype), np.empty((3, nx), position.dtype))
 
 

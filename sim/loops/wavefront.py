@@ -99,7 +99,7 @@ def wavefront(
 
     Stage arrays ``stage_*``, ``sum_*`` (dim, rows, nx) are this block's ring buffers;
     ``deferred_*`` (dim, 2 halo + 2, nx) its deferred rows (unused when the block is the whole
-    lattice); ``vertical`` (stages, 2, 3, nx), ``horizontal`` (3, nx + 1) and ``row`` (3, nx)
+    lattice); ``vertical`` (stages, 2, ``ROWS``, nx), ``horizontal`` (3, nx + 1) and ``row`` (3, nx)
     scratch buffers.
     """
     count = stages(method)

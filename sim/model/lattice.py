@@ -81,9 +81,7 @@ def check_size(nx: int, ny: int, dim: int) -> None:
         if value > MAX_SIDE:
             raise ModelError(f"{name} must be at most {MAX_SIDE:,}, got {value:,}")
     if nx * ny > MAX_PARTICLES:
-        raise ModelError(
-            f"{nx}x{ny} = {nx * ny:,} particles is more than the {MAX_PARTICLES:,} allowed"
-        )
+        raise ModelError(f"{nx}x{ny} = {nx * ny:,} particles is more than the {MAX_PARTICLES:,} allowed")
     needed = estimated_bytes(nx, ny, dim)
     available = available_memory()
     if available is not None and needed > available:
@@ -139,7 +137,8 @@ class Model:
         dim: 2 (motion in the plane) or 3 (also out of the plane, z).
         spacing: lattice spacing a (m), also the distance to the wall anchors.
         masses: (ny, nx) particle masses (kg), read-only.
-        stiffness: spring constant k (N/m) of every spring.
+        stiffness: spring constant k (N/m) of every nearest-neighbour spring.
+        diagonal_stiffness: k2 (N/m) of the diagonal springs (``sim.forces.diagonal``), 0: none.
         rest_length: spring rest length L (m); L < a pre-tensions the lattice with T = k (a - L).
         damping: dashpot coefficient c (N s/m) beside every spring, on the along-spring velocity.
         drag: drag coefficient (N s/m) on every particle's absolute velocity.
@@ -174,6 +173,7 @@ class Model:
     sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH
     sponge_strength: float = boundaries.DEFAULT_LAYER_STRENGTH
     sponge_sides: tuple[str, ...] = ()
+    diagonal_stiffness: float = 0.0
 
     @classmethod
     def create(
@@ -197,6 +197,7 @@ class Model:
         sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH,
         sponge_strength: float | None = None,
         sponge_sides: Any = "auto",
+        diagonal_stiffness: float = 0.0,
     ) -> Model:
         """Validate the parameters and build a model.
 
@@ -214,6 +215,7 @@ class Model:
         rest_length = spacing if rest_length is None else _finite_positive("rest_length", rest_length)
         damping = _finite_positive("damping", damping, allow_zero=True)
         drag = _finite_positive("drag", drag, allow_zero=True)
+        diagonal_stiffness = _finite_positive("diagonal_stiffness", diagonal_stiffness, True)
         masses = _mass_array(mass, nx, ny)
         gravity_vector = _gravity_vector(gravity)
         linear = schema.flag(linear, "linear", error=ModelError)
@@ -243,6 +245,9 @@ class Model:
         if driver is not None and dim == 2 and driver.direction[2] != 0.0:
             raise ModelError("a planar (2-D) lattice cannot be driven out of the plane (z)")
         sides: tuple[str, ...] = ()
+        if boundaries.get(boundary).absorbing and diagonal_stiffness > 0:
+            raise ModelError("the absorbing layer has no diagonal springs yet; use fixed walls "
+                             "far away (boundary fixed) or diagonal_stiffness 0")
         if boundaries.get(boundary).absorbing:
             try:
                 if sponge_sides is None or (not isinstance(sponge_sides, str)
@@ -257,6 +262,7 @@ class Model:
             linear=bool(linear), driver=driver, sources=sources, barriers=barriers,
             boundary=boundary, sponge_width=sponge_width,
             sponge_strength=sponge_strength, sponge_sides=sides,
+            diagonal_stiffness=diagonal_stiffness,
         )
 
     def replace(self, **changes: Any) -> Model:
@@ -274,7 +280,7 @@ class Model:
             gravity=self.gravity, linear=self.linear, driver=self.driver, sources=self.sources,
             barriers=self.barriers, boundary=self.boundary,
             sponge_width=self.sponge_width, sponge_strength=self.sponge_strength,
-            sponge_sides=self.sponge_sides,
+            sponge_sides=self.sponge_sides, diagonal_stiffness=self.diagonal_stiffness,
         )
 
     @property
@@ -339,6 +345,7 @@ class Model:
             float(self.spacing), float(origin_x), float(origin_y),
             periodic=True if self.periodic else None,
             free_ends=True if self.walls.free_ends else None,
+            diagonal_stiffness=float(self.diagonal_stiffness) or None,
         )
 
     @property
@@ -428,6 +435,8 @@ class Model:
             extras.append(f"drag {self.drag:g}")
         if self.has_gravity:
             extras.append("gravity (" + ", ".join(f"{g:g}" for g in self.gravity[: self.dim]) + ")")
+        if self.diagonal_stiffness:
+            extras.append(f"diagonal springs k2={self.diagonal_stiffness:g}")
         if self.linear:
             extras.append("linearised springs")
         if self.periodic:
@@ -460,16 +469,13 @@ def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
     elif array.shape == (ny * nx,):
         array = array.reshape(ny, nx).copy()
     elif array.shape != (ny, nx):
-        raise ModelError(
-            f"mass array must have shape (ny, nx) = ({ny}, {nx}), got {array.shape}"
-        )
+        raise ModelError(f"mass array must have shape (ny, nx) = ({ny}, {nx}), got {array.shape}")
     else:
         array = array.copy()
     if not np.all(np.isfinite(array)):
         raise ModelError("every mass must be finite (found NaN or infinity)")
     if np.any(array <= 0):
-        worst = float(array.min())
-        raise ModelError(f"every mass must be positive, found {worst:g}")
+        raise ModelError(f"every mass must be positive, found {float(array.min()):g}")
     low, high = schema.BOUNDS["mass"]
     if array.min() < low or array.max() > high:
         raise ModelError(f"every mass must be in [{low:g}, {high:g}] kg, found "

@@ -94,8 +94,11 @@ for _row in (
               "lattice spacing, also the distance to the wall anchors", 1e-6, 1e6),
     Parameter("mass", "m", "kg", "Mass", "mass of every particle (a preset may vary it)",
               1e-9, 1e9),
-    Parameter("stiffness", "k", "N/m", "Stiffness", "spring constant of every spring",
-              1e-9, 1e9),
+    Parameter("stiffness", "k", "N/m", "Stiffness",
+              "spring constant of every nearest-neighbour spring", 1e-9, 1e9),
+    Parameter("diagonal_stiffness", "k₂", "N/m", "Diagonal springs",
+              "spring constant of the diagonal springs (0: none); k₂ = k/2 makes an isotropic "
+              "elastic solid", 0.0, 1e9),
     Parameter("rest_length", "L", "m", "Rest length",
               "spring rest length; L < a pre-tensions the lattice with T = k (a - L)", 1e-6, 1e6),
     Parameter("damping", "c", "N s/m", "Dashpot",

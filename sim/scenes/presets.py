@@ -19,6 +19,8 @@ interference-open the same behind absorbing walls
 resonance         a 12-particle chain driven at its third mode's frequency
 bandgap           an ionic chain driven inside its band gap
 membrane          24x24 drum skin in 3-D, pre-tensioned, a bump pushed out of the plane
+elastic-solid     160x160 with diagonal springs (isotropic, k2 = k/2): a pulse sends a P and an S
+                  wave
 two-sources       ripple tank (u_z of a membrane): two point sources, their nodal lines
 single-slit       ripple tank: a plane wave through one slit in a barrier
 double-slit       ripple tank: a plane wave through two slits in a barrier
@@ -101,6 +103,18 @@ def _two_sources(model: Model) -> list[tuple[int, tuple[float, ...]]]:
         (_index(model, inset, model.ny // 2), (0.0, 0.5 * model.spacing)),
         (_index(model, model.nx - 1 - inset, model.ny // 2), (0.0, -0.5 * model.spacing)),
     ]
+
+
+def elastic_pulse(model: Model, width: float = 3.0, amplitude: float = 0.05):
+    """A smooth pulse in the middle: every particle displaced along x by amplitude * a *
+    exp(-r^2 / (2 (width a)^2)), r its distance from the centre; released from rest it sends a
+    P wave along x and an S wave along y (``docs/continuum.md``)."""
+    positions, velocities = _rest(model)
+    rest = model.rest_positions
+    centre = rest[_centre(model), :2]
+    squared = ((rest[:, :2] - centre) ** 2).sum(axis=1) / (width * model.spacing) ** 2
+    positions[:, 0] += amplitude * model.spacing * np.exp(-0.5 * squared)
+    return positions, velocities
 
 
 def chain_mode_frequency(mode: int, particles: int, stiffness_across: float, mass: float) -> float:
@@ -216,6 +230,16 @@ PRESETS: dict[str, Preset] = {
             "(L = 0.9 a); a smooth bump in the middle is released and the membrane drums.",
             dict(nx=24, ny=24, dim=3, stiffness=PAPER_STIFFNESS, rest_length=0.9), "rk4", 0.02,
             _membrane_bump, duration=40.0,
+        ),
+        Preset(
+            "elastic-solid", "An elastic solid: 160x160 particles with nearest springs k and "
+            "diagonal springs k/2 (isotropic, Lame lambda = mu = k/2, unstressed).  A pulse in "
+            "the middle, pushed along x, sends a fast P wave along x (speed a sqrt(3k/2m)) and "
+            "a slower S wave along y (a sqrt(k/2m)).",
+            dict(nx=160, ny=160, stiffness=PAPER_STIFFNESS,
+                 diagonal_stiffness=PAPER_STIFFNESS / 2),
+            # the fronts reach the walls 80 a away near t = 11 s (P) and 19 s (S)
+            "verlet", 0.02, elastic_pulse, duration=16.0,
         ),
     ] + [
         # the ripple tank: waves cross the 190-column tank in about 70 s

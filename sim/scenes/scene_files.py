@@ -81,6 +81,8 @@ def _scene_document(scene: Scene, array_file_name: str) -> tuple[dict[str, Any],
         "gravity": [float(component) for component in model.gravity], "linear": bool(model.linear),
         "boundary": model.boundary,
     }
+    if model.diagonal_stiffness:
+        model_table["diagonal_stiffness"] = float(model.diagonal_stiffness)
     if model.walls.absorbing:
         model_table.update(sponge_width=int(model.sponge_width),
                            sponge_strength=float(model.sponge_strength),

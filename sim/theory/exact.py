@@ -29,6 +29,8 @@ from sim.theory.prediction import exact_modes
 
 def reason_not_applicable(model: Model) -> str | None:
     """Why the exact solver cannot run ``model`` (None: it can)."""
+    if model.diagonal_stiffness:
+        return "the exact solver follows one polarisation at a time; diagonal springs couple x and y"
     if model.has_forcing:
         return ("the exact solver follows the free normal modes; a driver or an absorbing "
                 "layer acts from outside them")

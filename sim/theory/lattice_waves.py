@@ -217,3 +217,82 @@ def polarisation(model: Model, component: str) -> Polarisation:
     across_columns, across_rows, _, _ = polarisations(model)[index]
     return Polarisation(float(across_columns), float(across_rows), float(masses.flat[0]),
                         float(model.spacing))
+
+
+# --- in-plane waves with diagonal springs: two coupled branches ---------------------------------
+
+
+def dynamical_matrix(model: Model, qx, qy, mass: float | None = None) -> np.ndarray:
+    """The in-plane dynamical matrix D(q) (rad^2/s^2), shaped (..., 2, 2), of a lattice of equal
+    masses: m D = sum over the springs' directions n of 2 (1 - cos q . d) (K_along n n^T +
+    K_across (1 - n n^T)), d the spring's rest vector; with nearest springs (k, T/a) and diagonal
+    ones (k2, 0):
+
+        m D_xx = 2 k (1 - cx) + 2 (T/a) (1 - cy) + 2 k2 (1 - cx cy)
+        m D_yy = 2 (T/a) (1 - cx) + 2 k (1 - cy) + 2 k2 (1 - cx cy)
+        m D_xy = 2 k2 sx sy,        cx = cos(qx a), sx = sin(qx a), likewise y.
+
+    Its eigenvalues are omega^2 of the two in-plane branches (``in_plane_omegas``).  ``mass``
+    (kg) defaults to the lattice's (equal) mass."""
+    qx, qy = np.broadcast_arrays(np.asarray(qx, dtype=float), np.asarray(qy, dtype=float))
+    a, k, tension, k2 = model.spacing, model.stiffness, model.tension_stiffness, \
+        model.diagonal_stiffness
+    cx, cy, sx, sy = np.cos(qx * a), np.cos(qy * a), np.sin(qx * a), np.sin(qy * a)
+    both = 2 * k2 * (1 - cx * cy)
+    matrix = np.empty(qx.shape + (2, 2))
+    matrix[..., 0, 0] = 2 * k * (1 - cx) + 2 * tension * (1 - cy) + both
+    matrix[..., 1, 1] = 2 * tension * (1 - cx) + 2 * k * (1 - cy) + both
+    matrix[..., 0, 1] = matrix[..., 1, 0] = 2 * k2 * sx * sy
+    return matrix / (float(np.asarray(model.masses).flat[0]) if mass is None else mass)
+
+
+def in_plane_omegas(model: Model, qx, qy) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) angular frequencies (rad/s) of the two in-plane branches at (qx, qy)
+    (rad/m); along an axis of an isotropic solid the lower is the S (transverse) wave and the
+    upper the P (longitudinal) one."""
+    values = np.linalg.eigvalsh(dynamical_matrix(model, qx, qy))
+    values = np.sqrt(np.maximum(values, 0.0))
+    return values[..., 0], values[..., 1]
+
+
+def elastic_constants(model: Model) -> dict[str, float]:
+    """The lattice's 2-D elastic constants (N/m) from its springs, and the long waves' speeds
+    (m/s) along x: C11 = k + k2, C12 = C44 = k2 (Lame lambda = C12, mu = C44, isotropic when
+    C11 - C12 = 2 C44, k2 = k / 2), the sheet's density rho = m / a^2 (kg/m^2),
+    P speed sqrt(C11 / rho), S speed sqrt((C44 + T/a) / rho) (the rest tension T of the nearest
+    springs stiffens shear like a string's)."""
+    k, k2, a = model.stiffness, model.diagonal_stiffness, model.spacing
+    rho = float(np.asarray(model.masses).flat[0]) / a**2
+    constants = dict(C11=k + k2, C12=k2, C44=k2, lame_lambda=k2, lame_mu=k2, density=rho,
+                     prestress=model.tension_stiffness)
+    constants["p_speed"] = math.sqrt(constants["C11"] / rho)
+    constants["s_speed"] = math.sqrt(max(k2 + model.tension_stiffness, 0.0) / rho)
+    return constants
+
+
+def diagonal_mode_sample(model: Model, sample: int = 144) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(omega^2 (rad^2/s^2), damping rates (1/s), exact) of plane waves sampling the zone, for
+    the stability limit of a lattice with diagonal springs: the in-plane branches (eigenvalues
+    of ``dynamical_matrix``, damping rates the Rayleigh quotients of the dashpots' and drag's
+    matrix on their eigenvectors) and, in 3-D, the out-of-plane waves (tension only).  The
+    walls' modes are not plane waves, but the lattice between fixed sites is a piece of the
+    infinite one, so no mode is higher than the zone's highest wave, which the sample includes
+    (q up to pi / a): omega_max is an upper bound, tight to O(1 / n^2).  Unequal masses: the
+    lightest one (a bound again); ``exact`` is False then, or when damped."""
+    a = model.spacing
+    mass = float(np.asarray(model.masses).min())
+    q = np.linspace(0.0, math.pi / a, min(max(model.nx, model.ny), sample) + 1)[1:]
+    qx, qy = np.meshgrid(q, q)
+    values, vectors = np.linalg.eigh(dynamical_matrix(model, qx, qy, mass))
+    cx, cy = np.cos(qx * a), np.cos(qy * a)
+    damping = np.zeros(qx.shape + (2, 2))
+    damping[..., 0, 0] = 2 * model.damping * (1 - cx) + model.drag
+    damping[..., 1, 1] = 2 * model.damping * (1 - cy) + model.drag
+    rates = np.einsum("...im,...ij,...jm->...m", vectors, damping, vectors) / mass
+    omega_squared, rate = [values.ravel()], [rates.ravel()]
+    if model.dim == 3:
+        tension = model.tension_stiffness
+        omega_squared.append((2 * tension * (2 - cx - cy) / mass).ravel())
+        rate.append(np.full(qx.size, model.drag / mass))
+    exact = model.uniform_mass and not model.is_damped
+    return np.concatenate(omega_squared), np.concatenate(rate), exact

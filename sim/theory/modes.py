@@ -97,6 +97,54 @@ def stiffness_matrix(nx: int, ny: int, across_columns: float, across_rows: float
     return matrix
 
 
+_SPRING_DIRECTIONS = ((1, 0), (0, 1), (1, 1), (-1, 1))
+"""Rest directions (columns, rows) of the springs: nearest along x and y, the two diagonals."""
+
+
+def in_plane_stiffness(nx: int, ny: int, stiffness: float, tension_stiffness: float,
+                       diagonal_stiffness: float, ends: str = "walls",
+                       row_ring: bool = False) -> np.ndarray:
+    """Dense (2n, 2n) stiffness (N/m) of the in-plane motion (x of particle p at 2p, y at
+    2p + 1, p = j nx + i), with diagonal springs, built spring by spring: each adds
+    K_s = K_along n n^T + K_across (1 - n n^T) between its ends (nearest: k along, T/a across;
+    diagonal: k2 along, nothing across).  Every site outside the lattice is a fixed wall site;
+    ``ends`` "ring" closes the rows, "free" drops every spring to the left and right walls;
+    ``row_ring`` also closes the columns (a torus, whose modes are plane waves)."""
+    n = nx * ny
+    matrix = np.zeros((2 * n, 2 * n))
+
+    def index(i: int, j: int) -> int | None:
+        if ends == "ring":
+            i %= nx
+        if row_ring:
+            j %= ny
+        return j * nx + i if 0 <= i < nx and 0 <= j < ny else None
+
+    for di, dj in _SPRING_DIRECTIONS:
+        diagonal = di != 0 and dj != 0
+        along, across = (diagonal_stiffness, 0.0) if diagonal else (stiffness, tension_stiffness)
+        direction = np.array([di, dj], dtype=float) / np.hypot(di, dj)
+        block = along * np.outer(direction, direction) + across * (
+            np.eye(2) - np.outer(direction, direction))
+        for j in range(-1, ny + 1):
+            for i in range(-1, nx + 1):
+                ends_columns = (i, i + di)
+                if (ends == "ring" or ends == "free") and not all(
+                        0 <= c < nx for c in ends_columns):
+                    if ends == "free" or not 0 <= i < nx:
+                        continue  # free: no wall spring; ring: each spring from its first end
+                if row_ring and not 0 <= j < ny:
+                    continue
+                first, second = index(i, j), index(i + di, j + dj)
+                for p in (first, second):
+                    if p is not None:
+                        matrix[2 * p:2 * p + 2, 2 * p:2 * p + 2] += block
+                if first is not None and second is not None:
+                    matrix[2 * first:2 * first + 2, 2 * second:2 * second + 2] -= block
+                    matrix[2 * second:2 * second + 2, 2 * first:2 * first + 2] -= block
+    return matrix
+
+
 @dataclasses.dataclass(frozen=True)
 class ModalBasis:
     """The modes of one model.  Per polarisation c: ``omega_squared[c]`` (rad^2/s^2) and
@@ -116,6 +164,10 @@ class ModalBasis:
     def of(cls, model: Model) -> ModalBasis:
         """The modes of ``model``; unequal masses above ``DENSE_PARTICLE_LIMIT`` raise ModelError."""
         nx, ny = model.nx, model.ny
+        if model.diagonal_stiffness:
+            raise ModelError("diagonal springs couple x and y, so the modes are not one "
+                             "polarisation at a time; the normal-mode solution (exact "
+                             "integrator, predicted errors) has no diagonal springs yet")
         if model.uniform_mass and model.row_ends == "walls":
             mass = float(model.masses.flat[0])
             columns = second_difference_eigenvalues(nx)[None, :]

@@ -18,8 +18,10 @@ import math
 
 import numpy as np
 
+from sim.forces.diagonal import numpy_energy
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
+from sim.theory.lattice_waves import diagonal_mode_sample
 from sim.theory.modes import polarisations, second_difference_eigenvalues, stiffness_matrix
 
 
@@ -102,6 +104,15 @@ def strains(model: Model, positions: np.ndarray) -> np.ndarray:
 
 def spring_energy(model: Model, positions: np.ndarray) -> float:
     """Elastic energy stored in the springs, relative to the rest lattice (J)."""
+    positions = np.asarray(positions, dtype=float)
+    diagonal = 0.0
+    if model.diagonal_stiffness > 0:
+        diagonal = numpy_energy(positions, model.diagonal_stiffness, model.spacing, model.origin,
+                                model.row_ends, model.linear)
+    return _nearest_spring_energy(model, positions) + diagonal
+
+
+def _nearest_spring_energy(model: Model, positions: np.ndarray) -> float:
     k = model.stiffness
     if model.linear:
         horizontal, vertical = spring_differences(model, positions)
@@ -157,7 +168,7 @@ def energy(model: Model, state: State) -> Energy:
 
 
 def _compiled_energy_terms(model: Model, state: State) -> tuple[float, float]:
-    from sim.forces.springs import energy_terms
+    from sim.forces.energy import energy_terms
 
     position, velocity = state.positions, state.velocities
     z = position[2] if model.dim == 3 else None
@@ -255,6 +266,8 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     ``_DENSE_LIMIT`` particles, else the top mode by Lanczos; damping rates are then estimated by
     the Rayleigh quotient of the damping matrix on each mode.
     """
+    if model.diagonal_stiffness:  # x and y coupled: plane waves bound the modes
+        return ModeSet(*diagonal_mode_sample(model))
     omega_squared: list[np.ndarray] = []
     damping_rate: list[np.ndarray] = []
     exact = True

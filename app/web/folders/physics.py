@@ -1,4 +1,5 @@
-"""The page's "Physics" folder: stiffness, rest length, damping, gravity, linearity and masses.
+"""The page's "Physics" folder: stiffness, diagonal springs, rest length, damping, gravity,
+linearity and masses.
 
 Each slider's value from the page is checked against the server's own limits (``Limits``), which
 widen when a loaded scene's value lies outside them, so that every value shown can be sent back.
@@ -53,6 +54,10 @@ class PhysicsFolder(Folder):
                 parameters.get("stiffness").caption(), 1.0, MAX_STIFFNESS, 1.0, 35.0,
                 hint="35 N/m is the paper's 35 % of maximum",
             )
+            self.diagonal = gui.add_slider(
+                parameters.get("diagonal_stiffness").caption(), 0.0, MAX_STIFFNESS, 0.5, 0.0,
+                hint="springs to the diagonal neighbours: an elastic solid (isotropic at k2 = k/2)",
+            )
             self.rest_ratio = gui.add_slider(
                 "Rest length L/a", 0.5, 1.2, 0.01, 1.0,
                 hint="below 1 the springs are pre-tensioned (transverse waves spread)",
@@ -72,10 +77,12 @@ class PhysicsFolder(Folder):
             self.message = gui.add_html("")
         # The server's own limits; show_scene widens them to show a scene's larger values.
         self.limits = Limits(
-            {"stiffness": (1.0, MAX_STIFFNESS), "rest_ratio": (0.5, 1.2), "damping": (0.0, 10.0),
+            {"stiffness": (1.0, MAX_STIFFNESS), "diagonal": (0.0, MAX_STIFFNESS),
+             "rest_ratio": (0.5, 1.2), "damping": (0.0, 10.0),
              "gravity": (0.0, 30.0), "heavy_mass": (0.1, 20.0)},
             low_open=("stiffness", "heavy_mass"),
-            sliders={"stiffness": self.stiffness, "rest_ratio": self.rest_ratio,
+            sliders={"stiffness": self.stiffness, "diagonal": self.diagonal,
+                     "rest_ratio": self.rest_ratio,
                      "damping": self.damping, "gravity": self.gravity,
                      "heavy_mass": self.heavy_mass},
         )
@@ -107,6 +114,8 @@ class PhysicsFolder(Folder):
 
         self.stiffness.on_update(physics_callback(lambda: control.set_stiffness(
             check("stiffness", self.stiffness, "stiffness (N/m)"))))
+        self.diagonal.on_update(physics_callback(lambda: control.set_parameters(
+            diagonal_stiffness=check("diagonal", self.diagonal, "diagonal k2 (N/m)"))))
         self.rest_ratio.on_update(physics_callback(lambda: control.set_rest_length_ratio(
             check("rest_ratio", self.rest_ratio, "L/a"))))
         damping = physics_callback(lambda: control.set_damping(
@@ -134,6 +143,7 @@ class PhysicsFolder(Folder):
         model = simulation.model
         show = self.limits.show
         show("stiffness", self.stiffness, float(model.stiffness))
+        show("diagonal", self.diagonal, float(model.diagonal_stiffness))
         show("rest_ratio", self.rest_ratio, float(model.rest_length / model.spacing))
         self.damping_on.value = model.damping > 0
         if model.damping > 0:
