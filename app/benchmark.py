@@ -218,14 +218,17 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
 
 
 def _rk4_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
-    """``run(steps)``: the compiled RK4 loop (``sim.loops.row_sweep.rk4_steps``) on ``common``."""
+    """``run(steps)``: the compiled Runge-Kutta loop (``sim.loops.row_sweep.runge_kutta_steps``)
+    with the classic RK4 table on ``common``."""
+    from sim.integrators.butcher import CLASSIC_RK4
     from sim.loops import row_sweep as stepping
 
     dim, _, nx = position.shape
-    work = [np.zeros((dim, 4, nx)) for _ in range(4)]
+    work = [np.zeros((dim, CLASSIC_RK4.stages, nx)) for _ in range(4)]
+    table = CLASSIC_RK4.coefficients
 
     def run(steps: int) -> None:
-        stepping.rk4_steps(steps, dt, *common, *work)
+        stepping.runge_kutta_steps(table, steps, dt, *common, *work)
 
     return run
 

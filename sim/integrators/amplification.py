@@ -7,7 +7,8 @@ one step of each method on the damped oscillator u'' + beta u' + omega^2 u = 0, 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -17,8 +18,15 @@ z_{n+1} = G z_n for u'' + beta u' + omega^2 u = 0, the integrator as implemented
 
 
 def taylor_amplification(terms: int) -> AmplificationFunction:
-    """G = sum_{k <= terms} (dt A)^k / k! on z = (u, u'): explicit Euler (1), Heun (2) and RK4 (4)
-    reduce to this on a linear system."""
+    """G = sum_{k <= terms} (dt A)^k / k! on z = (u, u'): explicit Euler (1), and a Runge-Kutta
+    method of as many stages as its order (up to 4) reduce to this on a linear system."""
+    return polynomial_amplification(tuple(1.0 / math.factorial(k) for k in range(terms + 1)))
+
+
+def polynomial_amplification(coefficients: Sequence[float]) -> AmplificationFunction:
+    """G = sum_k coefficients[k] (dt A)^k on z = (u, u'): one step of a Runge-Kutta method whose
+    stability polynomial has these coefficients (``sim.integrators.butcher``), on a linear system."""
+    coefficients = tuple(float(x) for x in coefficients)
 
     def amplification(omega_squared, damping_rate, dt: float) -> np.ndarray:
         omega_squared = np.asarray(omega_squared, dtype=float)
@@ -28,12 +36,11 @@ def taylor_amplification(terms: int) -> AmplificationFunction:
         system[:, 1, 0] = -omega_squared
         system[:, 1, 1] = -np.asarray(damping_rate, dtype=float)
         step = dt * system
-        identity = np.broadcast_to(np.eye(2), step.shape)
-        result = identity.copy()
-        power = identity.copy()
-        for order in range(1, terms + 1):
-            power = power @ step / order
-            result = result + power
+        power = np.broadcast_to(np.eye(2), step.shape).copy()
+        result = coefficients[0] * power
+        for coefficient in coefficients[1:]:
+            power = power @ step
+            result = result + coefficient * power
         return result
 
     return amplification

@@ -4,7 +4,9 @@ Written from the physics, independently of the numba kernels, for two uses: the 
 kernels against them, and ``oscillators bench`` measures how much faster the kernels are.  Arrays
 are (dim, ny, nx) as in ``sim.model.state``; the wall anchors are a ring of fixed points around the
 lattice (padding), which makes every spring an array slice.  ``METHODS`` holds one small
-function per integrator; ``step`` and ``run`` look the method up there.
+function per integrator written out by hand; any other Runge-Kutta method runs from its Butcher
+table in the textbook form (``runge_kutta``: every stage from the full matrix A, none of the
+compiled loops' low-storage bookkeeping).  ``step`` and ``run`` take a registry name or a table.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.forces.diagonal import numpy_forces
+from sim.integrators.butcher import ButcherTable
 from sim.model.lattice import Model
 
 
@@ -114,18 +117,50 @@ def _rk4(model: Model, x, v, dt: float, carried=None):
     )
 
 
+def runge_kutta(table: ButcherTable):
+    """The step of the explicit Runge-Kutta method of ``table``: k_i = f(y + dt sum_j a_ij k_j)
+    for i = 1 .. s with y = (x, v) and f(x, v) = (v, a(x, v)), then y + dt sum_i b_i k_i."""
+    a, b = table.matrix, np.array(table.b)
+
+    def method(model: Model, x, v, dt: float, carried=None):
+        slopes_x, slopes_v = [], []
+        for i in range(table.stages):
+            stage_x, stage_v = x.copy(), v.copy()
+            for j in range(i):
+                stage_x += dt * a[i, j] * slopes_x[j]
+                stage_v += dt * a[i, j] * slopes_v[j]
+            slopes_x.append(stage_v)
+            slopes_v.append(accelerations(model, stage_x, stage_v))
+        new_x, new_v = x.copy(), v.copy()
+        for i in range(table.stages):
+            new_x += dt * b[i] * slopes_x[i]
+            new_v += dt * b[i] * slopes_v[i]
+        return new_x, new_v, None
+
+    return method
+
+
 METHODS = {"euler": _euler, "heun": _heun, "verlet": _verlet, "rk4": _rk4}
-"""The numpy version of each compiled integrator, by its registry name."""
+"""The numpy version of each compiled integrator written out by hand, by its registry name."""
 
 
-def _method(integrator: str):
-    try:
+def _method(integrator: str | ButcherTable):
+    if isinstance(integrator, ButcherTable):
+        return runge_kutta(integrator)
+    if integrator in METHODS:
         return METHODS[integrator]
-    except KeyError:
-        raise ValueError(f"unknown integrator {integrator!r}") from None
+    from sim.integrators.registry import IntegratorError, describe
+
+    try:
+        table = describe(integrator).butcher
+    except (IntegratorError, KeyError):
+        table = None
+    if table is None:
+        raise ValueError(f"unknown integrator {integrator!r}")
+    return runge_kutta(table)
 
 
-def step(model: Model, integrator: str, positions, velocities, dt: float):
+def step(model: Model, integrator: str | ButcherTable, positions, velocities, dt: float):
     """One step of ``integrator`` in numpy; returns new (positions, velocities)."""
     x, v, _ = _method(integrator)(model, positions, velocities, dt)
     return x, v
@@ -140,7 +175,7 @@ def verlet_step(model: Model, positions, velocities, acceleration, dt: float):
     return x_new, v_half + dt / 2 * a_new, a_new
 
 
-def run(model: Model, integrator: str, positions, velocities, dt: float, steps: int):
+def run(model: Model, integrator: str | ButcherTable, positions, velocities, dt: float, steps: int):
     """``steps`` steps of ``integrator`` in numpy; returns the final (positions, velocities)."""
     method = _method(integrator)
     x, v, carried = positions.copy(), velocities.copy(), None

@@ -9,6 +9,9 @@ registry, so adding an integrator is one ``register(...)`` call (``docs/api.md``
 
 The compiled steppers that the descriptions name are in ``sim.integrators.steppers``, the amplification
 matrices in ``sim.integrators.amplification``; ``make_integrator`` builds a description's stepper.
+A Runge-Kutta method is its Butcher table (``sim.integrators.butcher``): ``runge_kutta(table)``
+gives its order, cost, stability factor, amplification matrices and stepper, so a new method is
+one table and one ``register(IntegratorDescription(..., **runge_kutta(table)))``.
 
 An integrator need not be a compiled kernel stepper (``kernel=False``, e.g. a normal-mode solver
 for linear scenes), and it may apply to some models only (``applies_to``): ``INTEGRATORS`` lists
@@ -19,14 +22,14 @@ the integrators that apply to every model, ``names(model)`` those that apply to 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Protocol
 
 import numpy as np
 
 from sim.integrators.amplification import AmplificationFunction, taylor_amplification, verlet_amplification
-from sim.integrators.steppers import Euler, Heun, RungeKutta4, Verlet
+from sim.integrators.butcher import CLASSIC_RK4, HEUN, RALSTON3, ButcherTable
+from sim.integrators.steppers import Euler, RungeKutta, Verlet
 from sim.model.lattice import Model
 from sim.model.state import State
 
@@ -83,6 +86,9 @@ class IntegratorDescription:
     drift_when_losing: str | None = None
     """Why it drifts downwards (energy lost although nothing in the physics removes it); None:
     the same words as upwards."""
+    butcher: ButcherTable | None = None
+    """The Butcher table of a Runge-Kutta method (``runge_kutta(table)`` fills the fields that
+    follow from it); None for the others."""
 
     def reason_not_applicable(self, model: Model) -> str | None:
         return None if self.applies_to is None else self.applies_to(model)
@@ -104,6 +110,15 @@ class IntegratorDescription:
 def estimated_seconds(steps: float, n_particles: int, integrator: str) -> float:
     """Rough wall time (s) of ``steps`` steps of ``integrator`` on ``n_particles`` particles."""
     return steps * describe(integrator).seconds_per_step(n_particles)
+
+
+def runge_kutta(table: ButcherTable) -> dict[str, Any]:
+    """The fields of an ``IntegratorDescription`` that follow from a Runge-Kutta method's table:
+    its order, force evaluations, stability factor, amplification matrices, its stepper, and
+    the table itself."""
+    return dict(order=table.order, force_evaluations=table.stages,
+                stability_factor=table.stability_factor, amplification=table.amplification,
+                stepper=RungeKutta.of(table), butcher=table)
 
 
 _REGISTRY: dict[str, IntegratorDescription] = {}
@@ -231,9 +246,8 @@ register(IntegratorDescription(
     ),
 ))
 register(IntegratorDescription(
-    name="heun", label="Heun (predictor-corrector)", short_label="Heun", order=2,
-    force_evaluations=2, stability_factor=None, stepper=Heun,
-    amplification=taylor_amplification(2), colour=(205, 120, 0), step_cost=(1.3e-6, 1 / 1.3e8),
+    name="heun", label="Heun (predictor-corrector)", short_label="Heun", **runge_kutta(HEUN),
+    colour=(205, 120, 0), step_cost=(1.3e-6, 1 / 1.3e8),
     bench_burst=10,
     drift_when_gaining="Heun's method slowly adds energy to every mode (by 1 + (ω·dt)⁴/4 per step).",
     drift_when_losing=(
@@ -253,13 +267,20 @@ register(IntegratorDescription(
     ),
 ))
 register(IntegratorDescription(
-    name="rk4", label="classic Runge-Kutta 4", short_label="RK4", order=4,
-    force_evaluations=4, stability_factor=2.0 * math.sqrt(2.0), stepper=RungeKutta4,
-    amplification=taylor_amplification(4), aliases=("runge-kutta",), colour=(40, 110, 235),
+    name="rk4", label="classic Runge-Kutta 4", short_label="RK4", **runge_kutta(CLASSIC_RK4),
+    aliases=("runge-kutta",), colour=(40, 110, 235),
     step_cost=(2.4e-6, 1 / 6.2e7),
     drift_when_losing=(
         "classic Runge-Kutta 4 damps the short waves numerically: energy leaks away although "
         "nothing in the physics removes it."
+    ),
+))
+register(IntegratorDescription(
+    name="ralston3", label="Ralston RK3", short_label="Ralston RK3", **runge_kutta(RALSTON3),
+    aliases=("ralston",), colour=(150, 60, 190),
+    drift_when_losing=(
+        "Ralston's third-order method damps the short waves numerically: energy leaks away "
+        "although nothing in the physics removes it."
     ),
 ))
 

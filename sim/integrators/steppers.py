@@ -18,9 +18,9 @@ import numpy as np
 
 from sim.forces import drive_table as instruments
 from sim.forces.springs import SpringParameters
+from sim.integrators.butcher import ButcherTable
 from sim.loops import host_tuning, leapfrog, row_blocks, wavefront
 from sim.loops import row_sweep as stepping
-from sim.loops.stage_updates import HEUN, RK4
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
 
@@ -269,23 +269,34 @@ class Verlet(Integrator):
         self._cached_for = (state.revision, state.time)
 
 
-class _RungeKutta(Integrator):
-    """Heun and RK4: one wavefront per step over the whole lattice on one thread; on several
-    threads one wavefront per row block (blocks of at least 2 (halo + 1) rows, one sweep per
-    step), or on lattices too thin for that one parallel phase per stage."""
+class RungeKutta(Integrator):
+    """A Runge-Kutta method given by its table (``sim.integrators.butcher``): one wavefront per step
+    over the whole lattice on one thread; on several threads one wavefront per row block (blocks
+    of at least 2 (halo + 1) rows, one sweep per step), or on lattices too thin for that one
+    parallel phase per stage.  ``RungeKutta.of(table)`` is the stepper class of one table."""
 
-    method: ClassVar[int]
-    halo: ClassVar[int]
+    table: ClassVar[ButcherTable]
+    work_arrays = 4
+
+    @classmethod
+    def of(cls, table: ButcherTable) -> type[RungeKutta]:
+        """The stepper class that runs ``table``."""
+        return type(f"RungeKutta[{table.label}]", (cls,), {
+            "table": table, "name": table.label, "ring_rows": table.stages,
+            "__doc__": f"{table.label}: {cls.__doc__}",
+        })
 
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
-        blocks = min(self.threads, model.ny // (2 * (self.halo + 1)))
+        self._coefficients = self.table.coefficients
+        halo = wavefront.halo_rows(self.table.stages)
+        blocks = min(self.threads, model.ny // (2 * (halo + 1)))
         self._blocks: np.ndarray | None = None
         self._block_work: list[np.ndarray] = []
         if blocks >= 2:
             self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
-            ring = (blocks, model.dim, wavefront.RK4_RING, model.nx)
-            edges = (blocks, model.dim, 2 * (self.halo + 1), model.nx)
+            ring = (blocks, model.dim, wavefront.block_ring(self.table.stages), model.nx)
+            edges = (blocks, model.dim, 2 * (halo + 1), model.nx)
             self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(4)] + [
                 np.zeros(edges, dtype=self.dtype) for _ in range(2)
             ]
@@ -294,49 +305,26 @@ class _RungeKutta(Integrator):
     def in_step(self) -> frozenset[str]:
         return frozenset(("drive",))
 
-    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
-        raise NotImplementedError
-
     def advance(self, state: State, n: int, dt: float) -> None:
         if self.parallel:
             self._start_threads()
         work = np.zeros(1)  # the drive's work (J)
         instruments_arguments = (state.time, self.drive, work)
+        table = self._coefficients
         if self.parallel and self._blocks is not None:
             state.dissipated += row_blocks.runge_kutta_blocks(
-                self.method, n, self._dt(dt), *self._common(state), *self._block_work,
+                table, n, self._dt(dt), *self._common(state), *self._block_work,
                 self._blocks, *instruments_arguments,
             )
         elif self.parallel:
             state.dissipated += row_blocks.runge_kutta_phases(
-                self.method, n, self._dt(dt), *self._common(state), *self._full_arrays(6),
+                table, n, self._dt(dt), *self._common(state), *self._full_arrays(6),
                 self._block_starts, *instruments_arguments,
             )
         else:
-            state.dissipated += self._one_thread(n, self._dt(dt), state, work)
+            state.dissipated += stepping.runge_kutta_steps(
+                table, n, self._dt(dt), *self._common(state), *self.work,
+                *instruments_arguments,
+            )
         state.driven += float(work[0])
         state.advance_clock(n, dt)
-
-
-class Heun(_RungeKutta):
-    name = "heun"
-    method = HEUN
-    halo = wavefront.HEUN_HALO
-    work_arrays = 3
-    ring_rows = 2
-
-    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
-        return stepping.heun_steps(n, dt, *self._common(state), *self.work, state.time,
-                                   self.drive, work)
-
-
-class RungeKutta4(_RungeKutta):
-    name = "rk4"
-    method = RK4
-    halo = wavefront.RK4_HALO
-    work_arrays = 4
-    ring_rows = 4
-
-    def _one_thread(self, n: int, dt: np.floating, state: State, work: np.ndarray) -> float:
-        return stepping.rk4_steps(n, dt, *self._common(state), *self.work, state.time,
-                                  self.drive, work)

@@ -1,8 +1,9 @@
 """Numba step loops on several threads: the lattice cut into row blocks, one block per thread.
 
-Heun and RK4 on lattices thick enough run one wavefront per block with halo rows
-(``runge_kutta_blocks``, see ``sim.loops.wavefront``): one parallel sweep per step.  The other loops
-(Euler, damped or linear Verlet, and Heun and RK4 on lattices too thin for halos) run each force
+The Runge-Kutta methods (any table, ``sim.integrators.butcher``) on lattices thick enough run one
+wavefront per block with halo rows (``runge_kutta_blocks``, see ``sim.loops.wavefront``): one
+parallel sweep per step.  The other loops (Euler, damped or linear Verlet, and the Runge-Kutta
+methods on lattices too thin for halos) run each force
 evaluation as one phase over all row blocks in parallel (``prange`` over blocks,
 ``numba.set_num_threads`` sets how many threads): a phase reads only arrays that no block writes
 during it and writes only its own rows, so the blocks need no synchronisation inside a phase.
@@ -30,12 +31,13 @@ from sim.loops.stage_updates import (
     dissipated_energy,
     euler_update,
     force_rows,
+    stage_time,
     stage_update,
     stages,
     sweep_buffers,
     verlet_drift,
 )
-from sim.loops.wavefront import stage_time, wavefront, write_deferred
+from sim.loops.wavefront import wavefront, write_deferred
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -123,11 +125,11 @@ def verlet_steps_parallel(
 
 
 @njit(**_JIT)
-def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
+def _stage_rows(table, stage, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
                 uniform_inverse_mass, parameters, dashpot, drag, gravity, source_position,
                 source_velocity, target_position, target_velocity, sum_position, sum_velocity,
                 time, drive, drive_power):
-    """One stage of ``method`` on rows j0 .. j1-1: the forces of the stage input (``source_*``,
+    """One stage of the method of ``table`` on rows j0 .. j1-1: the forces of the stage input (``source_*``,
     full arrays) and ``stage_update`` with the next input into ``target_*``.  Reads
     ``position``/``velocity`` of its own rows only, except as the input of stage 0.  Returns the
     dissipated power (W) as ``force_rows`` counts it; with a drive table the drives act at
@@ -146,7 +148,7 @@ def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, veloc
         if drive is not None:
             drive_power[0] += drive_row(j, time, drive, -1, row, vxs, vys, vzs, j)
         below, above = above, below
-        stage_update(method, stage, j, j, dt, position, velocity, row, source_velocity,
+        stage_update(table, stage, j, j, dt, position, velocity, row, source_velocity,
                      target_position, target_velocity, sum_position, sum_velocity, position,
                      velocity, j)
     return power
@@ -154,19 +156,19 @@ def _stage_rows(method, stage, j0, j1, dt, linear, out_of_plane, position, veloc
 
 @njit(parallel=True, **_JIT)
 def runge_kutta_phases(
-    method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    table, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, next_position,
     next_velocity, sum_position, sum_velocity, block_starts, time=0.0, drive=None,
     drive_work=None,
 ):
-    """n steps of ``method`` (``sim.loops.stage_updates.RK4`` or ``HEUN``) with each stage one parallel
-    phase over the row blocks.
+    """n steps of the method of ``table`` (``sim.integrators.butcher.StageCoefficients``) with
+    each stage one parallel phase over the row blocks.
 
     The work arrays are full (dim, ny, nx) arrays: stage inputs alternate between (``stage_*``)
-    and (``next_*``) so that no phase overwrites what another block still reads.  Heun keeps
-    a(x, v) in ``sum_velocity`` and needs neither ``next_*`` nor ``sum_position``."""
+    and (``next_*``) so that no phase overwrites what another block still reads (a 2-stage
+    method never uses ``next_*``)."""
     blocks = block_starts.size - 1
-    count = stages(method)
+    count = stages(table)
     powers = np.zeros((count, blocks))
     drive_powers = np.zeros((count, blocks, 1))
     dissipated = 0.0
@@ -182,35 +184,34 @@ def runge_kutta_phases(
                 target_p, target_v = stage_position, stage_velocity
             for b in prange(blocks):
                 powers[stage, b] = _stage_rows(
-                    method, stage, block_starts[b], block_starts[b + 1], dt, linear,
+                    table, stage, block_starts[b], block_starts[b + 1], dt, linear,
                     out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
                     parameters, dashpot, drag, gravity, source_p, source_v, target_p, target_v,
                     sum_position, sum_velocity,
-                    time + (step + stage_time(method, stage)) * float(dt), drive,
+                    time + (step + stage_time(table, stage)) * float(dt), drive,
                     drive_powers[stage, b],
                 )
-        dissipated += dissipated_energy(method, dt, powers.sum(axis=1))
+        dissipated += dissipated_energy(table, dt, powers.sum(axis=1))
         if drive is not None:
-            drive_work[0] += dissipated_energy(method, dt, drive_powers.sum(axis=1)[:, 0])
+            drive_work[0] += dissipated_energy(table, dt, drive_powers.sum(axis=1)[:, 0])
             drive_powers[:] = 0.0
     return dissipated
 
 
 @njit(parallel=True, **_JIT)
 def runge_kutta_blocks(
-    method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+    table, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
     sum_velocity, deferred_position, deferred_velocity, block_starts, time=0.0, drive=None,
     drive_work=None,
 ):
-    """n steps of ``method`` with each row block's wavefront (``sim.loops.wavefront``) on one of
+    """n steps of the method of ``table`` with each row block's wavefront (``sim.loops.wavefront``) on one of
     numba's threads: one parallel sweep per step plus the copy of the deferred edge rows.
 
-    Work arrays per block: ``stage_*``, ``sum_*`` (blocks, dim, RK4_RING, nx), ``deferred_*``
-    (blocks, dim, 2 * stages, nx).  Blocks need at least 2 * stages rows.  Heun keeps a(x, v) in
-    ``sum_velocity`` and does not use ``sum_position``."""
+    Work arrays per block: ``stage_*``, ``sum_*`` (blocks, dim, ``wavefront.block_ring(stages)``,
+    nx), ``deferred_*`` (blocks, dim, 2 * stages, nx).  Blocks need at least 2 * stages rows."""
     blocks = block_starts.size - 1
-    count = stages(method)
+    count = stages(table)
     nx = position.shape[2]
     vertical = np.empty((blocks, count, 2, ROWS, nx), position.dtype)
     horizontal = np.empty((blocks, 3, nx + 1), position.dtype)
@@ -220,7 +221,7 @@ def runge_kutta_blocks(
     dissipated = 0.0
     for step in range(n):
         for b in prange(blocks):
-            wavefront(method, block_starts[b], block_starts[b + 1], dt, linear, out_of_plane,
+            wavefront(table, block_starts[b], block_starts[b + 1], dt, linear, out_of_plane,
                       position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
                       drag, gravity, stage_position[b], stage_velocity[b], sum_position[b],
                       sum_velocity[b], deferred_position[b], deferred_velocity[b], vertical[b],
@@ -229,7 +230,7 @@ def runge_kutta_blocks(
         for b in prange(blocks):
             write_deferred(block_starts[b], block_starts[b + 1], count - 1, position, velocity,
                            deferred_position[b], deferred_velocity[b])
-        dissipated += dissipated_energy(method, dt, powers.sum(axis=0))
+        dissipated += dissipated_energy(table, dt, powers.sum(axis=0))
         if drive is not None:
-            drive_work[0] += dissipated_energy(method, dt, drive_powers.sum(axis=0))
+            drive_work[0] += dissipated_energy(table, dt, drive_powers.sum(axis=0))
     return dissipated

@@ -1,5 +1,5 @@
-"""Numba step loops of the four integrators on one thread: explicit Euler, Heun, velocity Verlet,
-classic RK4; and the force sweep ``accelerations``.
+"""Numba step loops of the integrators on one thread: explicit Euler, velocity Verlet, every
+Runge-Kutta method of a table (``sim.integrators.butcher``); and the force sweep ``accelerations``.
 
 Each ``*_steps`` function advances a state by ``n`` steps of size ``dt`` entirely in compiled code
 (no Python between steps) and returns the energy dissipated by dashpots and drag over those steps
@@ -9,8 +9,8 @@ conserved to the integrator's order.
 Every force evaluation is one sweep over the rows (``sim.forces.springs.row_accelerations``) with the
 integrator's update of each row (``sim.loops.stage_updates``) fused in right after that row's forces are
 known: a row that has been swept is never read again by the same sweep, so it may be overwritten
-in place.  Velocity Verlet also drifts each row just before its forces are needed; Heun and RK4
-run their stages as one wavefront (``sim.loops.wavefront``).  One sweep thus touches each array once,
+in place.  Velocity Verlet also drifts each row just before its forces are needed; a Runge-Kutta
+method runs its stages as one wavefront (``sim.loops.wavefront``).  One sweep thus touches each array once,
 which is what makes the step fast on large lattices.  The same updates on several threads are in
 ``sim.loops.row_blocks`` and ``sim.loops.leapfrog``.
 
@@ -32,8 +32,6 @@ from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row, drive_rows
 from sim.forces.springs import row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
-    HEUN,
-    RK4,
     components,
     dissipated_energy,
     euler_update,
@@ -86,16 +84,23 @@ def euler_steps(
 
 
 @njit(**_JIT)
-def _runge_kutta_steps(
-    method, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
+def runge_kutta_steps(
+    table, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
-    sum_velocity, time, drive, drive_work,
+    sum_velocity, time=0.0, drive=None, drive_work=None,
 ):
-    """n steps of ``method`` (RK4 or HEUN), each one wavefront over the whole lattice; with a
-    drive table (``sim.forces.drive_table``) from ``time`` (s), its work (J) added to
-    ``drive_work[0]``."""
+    """n steps of the Runge-Kutta method of ``table`` (``sim.integrators.butcher.StageCoefficients``)
+    on (x, v), each one wavefront over the whole lattice; with a drive table
+    (``sim.forces.drive_table``) from ``time`` (s), its work (J) added to ``drive_work[0]``.
+
+    The stages run as a wavefront over the rows (``sim.loops.wavefront``), so a step streams the
+    state through the cache once instead of once per stage, and the stage arrays only need to
+    hold as many rows as the method has stages: they are ring buffers of shape (dim, rows, nx)
+    (full (dim, ny, nx) arrays work too), row j being stored at index j % rows.  Numba compiles
+    this loop once per stage count; the table's numbers are ordinary arguments.
+    """
     nx = position.shape[2]
-    count = stages(method)
+    count = stages(table)
     vertical = np.empty((count, 2, ROWS, nx), position.dtype)  # (stage, below/above, force, column)
     horizontal = np.empty((3, nx + 1), position.dtype)
     row = np.empty((3, nx), position.dtype)
@@ -103,51 +108,14 @@ def _runge_kutta_steps(
     drive_powers = np.zeros(count)
     dissipated = 0.0
     for step in range(n):
-        wavefront(method, 0, position.shape[1], dt, linear, out_of_plane, position, velocity,
+        wavefront(table, 0, position.shape[1], dt, linear, out_of_plane, position, velocity,
                   inverse_mass, uniform_inverse_mass, parameters, dashpot, drag, gravity,
                   stage_position, stage_velocity, sum_position, sum_velocity, position, velocity,
                   vertical, horizontal, row, powers, time + step * float(dt), drive, drive_powers)
-        dissipated += dissipated_energy(method, dt, powers)
+        dissipated += dissipated_energy(table, dt, powers)
         if drive is not None:
-            drive_work[0] += dissipated_energy(method, dt, drive_powers)
+            drive_work[0] += dissipated_energy(table, dt, drive_powers)
     return dissipated
-
-
-@njit(**_JIT)
-def heun_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity, first_acceleration, stage_position, stage_velocity, time=0.0, drive=None,
-    drive_work=None,
-):
-    """Heun's predictor-corrector (explicit trapezoid): Euler predictor, trapezoidal corrector.
-
-    The two sweeps run as a wavefront: the corrector works on row j - 1 right after the predictor
-    has finished row j, so each step reads and writes the state once while it is in cache.  The
-    work arrays are ring buffers of at least 2 rows, (dim, 2, nx); row j is kept at j % rows.
-    """
-    return _runge_kutta_steps(HEUN, n, dt, linear, out_of_plane, position, velocity, inverse_mass,
-                              uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                              stage_position, stage_velocity, stage_position, first_acceleration,
-                              time, drive, drive_work)
-
-
-@njit(**_JIT)
-def rk4_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity, stage_position, stage_velocity, sum_position, sum_velocity, time=0.0,
-    drive=None, drive_work=None,
-):
-    """Classic fourth-order Runge-Kutta on (x, v).
-
-    The four stages run as a wavefront over the rows (``sim.loops.wavefront``), so a step streams the
-    state through the cache once instead of four times, and the stage arrays only need to hold
-    4 rows: they are ring buffers of shape (dim, 4, nx) (full (dim, ny, nx) arrays work too),
-    row j being stored at index j % rows.
-    """
-    return _runge_kutta_steps(RK4, n, dt, linear, out_of_plane, position, velocity, inverse_mass,
-                              uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                              stage_position, stage_velocity, sum_position, sum_velocity, time,
-                              drive, drive_work)
 
 
 @njit(**_JIT)

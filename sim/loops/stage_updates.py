@@ -24,14 +24,6 @@ _ROW_UPDATE = dict(_JIT, inline="always")
 """The row updates are inlined into their loops by numba itself: a call per row that passes a
 dozen arrays costs their reference counting, which the fused loops cannot afford."""
 
-RK4 = None
-"""``method`` of the classic fourth-order Runge-Kutta stages (4 stages).  The method is a
-compile-time choice like the optional terms: None or True, so that numba compiles one version of
-the loops per method."""
-HEUN = True
-"""``method`` of Heun's predictor-corrector (2 stages)."""
-
-
 @njit(**_JIT)
 def sweep_buffers(position):
     """Scratch of one force sweep over the rows of ``position`` (dim, ny, nx): the forces of the
@@ -123,123 +115,95 @@ def verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, da
             )
 
 
-# --- the stages of classic RK4 and Heun ---------------------------------------------------------
+# --- the stages of a Runge-Kutta method, from its table ---------------------------------------
 #
+# ``table`` is a ``sim.integrators.butcher.StageCoefficients`` record (c, sub-diagonal a, b).
 # Each stage reads the accelerations ``row`` of its input state at row j, and the velocity of
-# that input (``stage_velocity``) at ``slot``; it writes the next stage's input (``next_*``) and
-# the running sums (``sum_*``) at ``slot``, and the last stage writes the new state into row k of
-# ``new_position``/``new_velocity`` (the state itself with k = j, or rows kept aside).
+# that input (``stage_velocity``) at ``slot``; it adds its slopes times dt b_s to the running sums
+# (``sum_*``) and writes the next stage's input x0 + dt a_{s+1,s} k_s (``next_*``) at ``slot``;
+# the last stage writes the new state into row k of ``new_position``/``new_velocity`` (the state
+# itself with k = j, or rows kept aside).
 
 
 @njit(**_ROW_UPDATE)
-def _rk4_first(j, slot, dt, position, velocity, row, next_position, next_velocity, sum_position,
-               sum_velocity):
+def _first_stage(j, slot, weight, step_to_next, position, velocity, row, next_position,
+                 next_velocity, sum_position, sum_velocity):
     dim, _, nx = position.shape
-    sixth = dt / type(dt)(6.0)
-    half = type(dt)(0.5) * dt
     for c in range(dim):
         for i in range(nx):
             v = velocity[c, j, i]
-            sum_position[c, slot, i] = position[c, j, i] + sixth * v
-            sum_velocity[c, slot, i] = v + sixth * row[c, i]
-            next_position[c, slot, i] = position[c, j, i] + half * v
-            next_velocity[c, slot, i] = v + half * row[c, i]
+            sum_position[c, slot, i] = position[c, j, i] + weight * v
+            sum_velocity[c, slot, i] = v + weight * row[c, i]
+            next_position[c, slot, i] = position[c, j, i] + step_to_next * v
+            next_velocity[c, slot, i] = v + step_to_next * row[c, i]
 
 
 @njit(**_ROW_UPDATE)
-def _rk4_middle(j, slot, dt, step_to_next, position, velocity, row, stage_velocity, next_position,
-                next_velocity, sum_position, sum_velocity):
+def _middle_stage(j, slot, weight, step_to_next, position, velocity, row, stage_velocity,
+                  next_position, next_velocity, sum_position, sum_velocity):
     dim, _, nx = position.shape
-    third = dt / type(dt)(3.0)
     for c in range(dim):
         for i in range(nx):
             stage_v = stage_velocity[c, slot, i]
-            sum_position[c, slot, i] += third * stage_v
-            sum_velocity[c, slot, i] += third * row[c, i]
+            sum_position[c, slot, i] += weight * stage_v
+            sum_velocity[c, slot, i] += weight * row[c, i]
             next_position[c, slot, i] = position[c, j, i] + step_to_next * stage_v
             next_velocity[c, slot, i] = velocity[c, j, i] + step_to_next * row[c, i]
 
 
 @njit(**_ROW_UPDATE)
-def _rk4_last(slot, dt, row, stage_velocity, sum_position, sum_velocity, new_position,
-              new_velocity, k):
+def _last_stage(slot, weight, row, stage_velocity, sum_position, sum_velocity, new_position,
+                new_velocity, k):
     dim, _, nx = new_position.shape
-    sixth = dt / type(dt)(6.0)
     for c in range(dim):
         for i in range(nx):
-            new_position[c, k, i] = sum_position[c, slot, i] + sixth * stage_velocity[c, slot, i]
-            new_velocity[c, k, i] = sum_velocity[c, slot, i] + sixth * row[c, i]
-
-
-@njit(**_ROW_UPDATE)
-def _heun_predict(j, slot, dt, position, velocity, row, next_position, next_velocity,
-                  first_acceleration):
-    dim, _, nx = position.shape
-    for c in range(dim):
-        for i in range(nx):
-            first_acceleration[c, slot, i] = row[c, i]
-            next_position[c, slot, i] = position[c, j, i] + dt * velocity[c, j, i]
-            next_velocity[c, slot, i] = velocity[c, j, i] + dt * row[c, i]
-
-
-@njit(**_ROW_UPDATE)
-def _heun_correct(j, slot, dt, position, velocity, row, stage_velocity, first_acceleration,
-                  new_position, new_velocity, k):
-    dim, _, nx = position.shape
-    half = type(dt)(0.5) * dt
-    for c in range(dim):
-        for i in range(nx):
-            new_position[c, k, i] = position[c, j, i] + half * (
-                velocity[c, j, i] + stage_velocity[c, slot, i]
-            )
-            new_velocity[c, k, i] = velocity[c, j, i] + half * (
-                first_acceleration[c, slot, i] + row[c, i]
-            )
+            new_position[c, k, i] = sum_position[c, slot, i] + weight * stage_velocity[c, slot, i]
+            new_velocity[c, k, i] = sum_velocity[c, slot, i] + weight * row[c, i]
 
 
 @njit(**_JIT)
-def stages(method):
-    """Number of stages (force evaluations per step) of ``method`` (``RK4`` or ``HEUN``)."""
-    return 4 if method is None else 2
+def stages(table):
+    """Number of stages (force evaluations per step) of ``table``: a constant where numba
+    compiles, since the record's tuples have a fixed length."""
+    return len(table.b)
 
 
 @njit(**_ROW_UPDATE)
-def stage_update(method, stage, j, slot, dt, position, velocity, row, stage_velocity,
+def stage_update(table, stage, j, slot, dt, position, velocity, row, stage_velocity,
                  next_position, next_velocity, sum_position, sum_velocity, new_position,
                  new_velocity, k):
-    """The update of row j by stage ``stage`` of ``method``.
+    """The update of row j by stage ``stage`` of the method of ``table`` (at least 2 stages).
 
-    RK4: stage 0 starts the sums x + dt/6 v, v + dt/6 a and the next input x + dt/2 v,
-    v + dt/2 a; stages 1 and 2 add dt/3 of their slopes and form the next input (dt/2, then dt);
-    stage 3 writes x_new = sum + dt/6 v_3, v_new = sum + dt/6 a_3.  Heun: the predictor keeps
-    a(x, v) in ``sum_velocity`` and forms the Euler prediction; the corrector writes the
-    trapezoid x + dt/2 (v + v_p), v + dt/2 (a + a_p).  ``sum_position`` is unused by Heun.
+    Stage 0 starts the sums x + dt b_0 v, v + dt b_0 a from the state and forms the next input
+    x + dt a_{1,0} v, v + dt a_{1,0} a; each middle stage s adds dt b_s of its slopes (v_s, a_s)
+    and forms the next input x + dt a_{s+1,s} v_s, v + dt a_{s+1,s} a_s; the last stage writes
+    x_new = sum + dt b_last v_last, v_new = sum + dt b_last a_last.
     """
-    if method is None:  # RK4
-        if stage == 0:
-            _rk4_first(j, slot, dt, position, velocity, row, next_position, next_velocity,
-                       sum_position, sum_velocity)
-        elif stage < 3:
-            step_to_next = type(dt)(0.5) * dt if stage == 1 else dt
-            _rk4_middle(j, slot, dt, step_to_next, position, velocity, row, stage_velocity,
-                        next_position, next_velocity, sum_position, sum_velocity)
-        else:
-            _rk4_last(slot, dt, row, stage_velocity, sum_position, sum_velocity, new_position,
-                      new_velocity, k)
-    elif stage == 0:
-        _heun_predict(j, slot, dt, position, velocity, row, next_position, next_velocity,
-                      sum_velocity)
+    weight = type(dt)(table.b[stage]) * dt
+    if stage == stages(table) - 1:
+        _last_stage(slot, weight, row, stage_velocity, sum_position, sum_velocity, new_position,
+                    new_velocity, k)
+        return
+    step_to_next = type(dt)(table.a[stage]) * dt
+    if stage == 0:
+        _first_stage(j, slot, weight, step_to_next, position, velocity, row, next_position,
+                     next_velocity, sum_position, sum_velocity)
     else:
-        _heun_correct(j, slot, dt, position, velocity, row, stage_velocity, sum_velocity,
-                      new_position, new_velocity, k)
+        _middle_stage(j, slot, weight, step_to_next, position, velocity, row, stage_velocity,
+                      next_position, next_velocity, sum_position, sum_velocity)
 
 
 @njit(**_JIT)
-def dissipated_energy(method, dt, powers):
+def stage_time(table, stage):
+    """Time of stage ``stage``'s input in steps after the step's start: c_stage."""
+    return table.c[stage]
+
+
+@njit(**_JIT)
+def dissipated_energy(table, dt, powers):
     """Energy (J) dissipated over one step from the power of each stage (``powers``, W), with
-    the method's own quadrature weights (RK4: 1/6, 1/3, 1/3, 1/6; Heun: 1/2, 1/2)."""
-    if method is None:  # RK4
-        sixth = dt / type(dt)(6.0)
-        return sixth * (powers[0] + 2.0 * powers[1] + 2.0 * powers[2] + powers[3])
-    half = type(dt)(0.5) * dt
-    return half * (powers[0] + powers[1])
+    the method's weights b as the quadrature weights."""
+    total = 0.0
+    for stage in range(stages(table)):
+        total += table.b[stage] * powers[stage]
+    return float(dt) * total

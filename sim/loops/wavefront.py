@@ -1,4 +1,4 @@
-"""One step of RK4 or Heun over a block of rows, as a wavefront that streams the state once.
+"""One step of a Runge-Kutta method over a block of rows, as a wavefront that streams the state once.
 
 The stages run as a wavefront over the rows: at sweep position t, stage s works on row t - s,
 which needs rows t - s and t - s + 1 of its input, finished one iteration earlier by stage
@@ -7,8 +7,10 @@ longer needs it (``sim.loops.stage_updates.stage_update``), and the last stage w
 rows every stage has left behind.  So a step streams the state through the cache once instead
 of once per stage, and the stage arrays are ring buffers of a few rows, row j kept at j % rows.
 
-The whole lattice on one thread is the block of all rows.  A block of rows j0 .. j1-1 on one of
-several threads extends the wavefront by halo rows: stage s also runs on the ``stages - 1 - s``
+The method is its table (``sim.integrators.butcher.StageCoefficients``: stage times c, the
+sub-diagonal a, weights b); numba compiles the wavefront once per stage count.  The whole lattice
+on one thread is the block of all rows.  A block of rows j0 .. j1-1 on one of several threads
+extends the wavefront by ``stages - 1`` halo rows: stage s also runs on the ``stages - 1 - s``
 rows beyond each inner block edge, so the last stage has its inputs for the block's own rows
 without waiting for another block.  A block reads, never writes, the state within ``halo + 1``
 rows of an inner edge during the step: those rows' new state goes to the block's deferred rows
@@ -26,26 +28,24 @@ from numba import njit
 
 from sim.forces.drive_table import drive_row
 from sim.forces.springs import row_accelerations, vertical_springs
-from sim.loops.stage_updates import components, stage_update, stages
+from sim.loops.stage_updates import components, stage_time, stage_update, stages
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
-RK4_HALO = 3
-"""Rows beyond its own that a block's RK4 wavefront recomputes on each side (stage s on 3 - s)."""
-HEUN_HALO = 1
-"""Rows beyond its own that a block's Heun wavefront predicts on each side."""
-RK4_RING = 8
-"""Rows kept by a block's ring-buffer stage arrays (with halos, the wavefront needs 5 alive at
-once; the one block of a whole lattice needs the number of stages)."""
+BLOCK_RING = 8
+"""Rows kept by a block's ring-buffer stage arrays, at least ``2 * stages`` (``block_ring``); the
+one block of a whole lattice needs the number of stages."""
 
 
-@njit(**_JIT)
-def stage_time(method, stage):
-    """Time of stage ``stage``'s input in steps after the step's start (RK4: 0, 1/2, 1/2, 1;
-    Heun: 0, 1)."""
-    if stages(method) == 2:
-        return float(stage)
-    return (0.0, 0.5, 0.5, 1.0)[stage]
+def block_ring(stage_count: int) -> int:
+    """Rows of a block's ring-buffer stage arrays for a method of ``stage_count`` stages."""
+    return max(BLOCK_RING, 2 * stage_count)
+
+
+def halo_rows(stage_count: int) -> int:
+    """Rows beyond its own that a block's wavefront recomputes on each side (stage s on
+    ``stage_count - 1 - s`` of them)."""
+    return stage_count - 1
 
 
 @njit(**_JIT)
@@ -90,19 +90,20 @@ def _stage_forces(j, first, ny, x, y, z, vx, vy, vz, linear, inverse_mass, unifo
 
 @njit(**_JIT)
 def wavefront(
-    method, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
+    table, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
     uniform_inverse_mass, parameters, dashpot, drag, gravity, stage_position, stage_velocity,
     sum_position, sum_velocity, deferred_position, deferred_velocity, vertical, horizontal, row,
     powers, time=0.0, drive=None, drive_powers=None,
 ):
-    """One step of ``method`` (``sim.loops.stage_updates.RK4`` or ``HEUN``) on rows j0 .. j1-1.
+    """One step of the method of ``table`` (``sim.integrators.butcher.StageCoefficients``) on
+    rows j0 .. j1-1.
 
     Stage arrays ``stage_*``, ``sum_*`` (dim, rows, nx) are this block's ring buffers;
     ``deferred_*`` (dim, 2 halo + 2, nx) its deferred rows (unused when the block is the whole
     lattice); ``vertical`` (stages, 2, ``ROWS``, nx), ``horizontal`` (3, nx + 1) and ``row`` (3, nx)
     scratch buffers.
     """
-    count = stages(method)
+    count = stages(table)
     halo = count - 1
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
@@ -130,7 +131,7 @@ def wavefront(
                                   uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
                                   above, horizontal, row, powers, stage)
             if drive is not None:
-                at = time + stage_time(method, stage) * dt
+                at = time + stage_time(table, stage) * dt
                 if stage == 0:
                     q = drive_row(j, at, drive, -1, row, vx, vy, vz, j)
                 else:
@@ -141,10 +142,10 @@ def wavefront(
                 powers[stage] += p
             deferred = deferred_slot(j, j0, j1, ny, halo)
             if deferred < 0:
-                stage_update(method, stage, j, j % ring, dt, position, velocity, row,
+                stage_update(table, stage, j, j % ring, dt, position, velocity, row,
                              stage_velocity, stage_position, stage_velocity, sum_position,
                              sum_velocity, position, velocity, j)
             else:
-                stage_update(method, stage, j, j % ring, dt, position, velocity, row,
+                stage_update(table, stage, j, j % ring, dt, position, velocity, row,
                              stage_velocity, stage_position, stage_velocity, sum_position,
                              sum_velocity, deferred_position, deferred_velocity, deferred)
