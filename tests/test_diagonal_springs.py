@@ -210,3 +210,16 @@ def test_measured_p_and_s_speeds_match_the_lame_speeds():
     speeds = measure_speeds()
     assert abs(speeds["p_speed_relative_error"]) < 0.02
     assert abs(speeds["s_speed_relative_error"]) < 0.02
+
+
+@pytest.mark.slow
+def test_measured_branches_along_an_axis_follow_the_dispersion_relation():
+    """Both in-plane branches of a strip of ring rows (q_x = 0), measured from a run's
+    space-time spectrum, against the eigenvalues of the dynamical matrix."""
+    from app.study.elastic import measure_branches
+
+    branches = measure_branches(rows=100, duration=150.0)
+    resolved = branches["q"] * 1.0 / math.pi > 0.05
+    for name in ("p", "s"):
+        error = branches[f"{name}_measured"][resolved] / branches[f"{name}_theory"][resolved] - 1
+        assert np.abs(error).max() < 0.005

@@ -5,8 +5,9 @@ import pytest
 
 import sim
 
-LONG_SMOKE = ("interference-open", "single-slit")
-"""Presets whose 3000 steps take longest (a paper-sized lattice, absorbing layers on every wall):
+LONG_SMOKE = ("interference-open", "single-slit", "elastic-solid")
+"""Presets whose 3000 steps take longest (a paper-sized lattice, absorbing layers on every wall,
+the 160x160 solid's 20 s; its whole run is in ``test_accuracy_live``):
 with the slow tests.  ``double-slit`` keeps the absorbing ripple tank in the default run."""
 
 

@@ -49,8 +49,8 @@ def command_scenes(arguments: argparse.Namespace) -> int:
                                                            scene.duration)
             accuracy = f"predicted energy-balance error {100 * prediction.energy_error:+.2g} %"
             steps = prediction.steps
-        except ModelError:  # driven or absorbing: no free-mode prediction
-            accuracy = "driven or absorbing (no prediction)"
+        except ModelError:  # driven, absorbing or coupled x and y: no free-mode prediction
+            accuracy = "driven, absorbing or with diagonal springs (no prediction)"
         if arguments.measure:
             outcome = run_setting(RunTask(scene, scene.integrator, scene.dt, steps, "measure"))
             accuracy += (f", measured: blew up ({outcome.blew_up})" if outcome.blew_up else
