@@ -114,7 +114,7 @@ def test_membrane_drum_mode_frequency():
 @pytest.mark.parametrize(
     "integrator, steps",
     [("euler", (0.0005, 0.00025)), ("heun", (0.01, 0.005)), ("verlet", (0.01, 0.005)),
-     ("rk4", (0.04, 0.02))],
+     ("rk4", (0.04, 0.02)), ("ralston3", (0.02, 0.01))],
 )
 def test_observed_order_of_convergence(integrator, steps):
     nx, ny, final_time = 5, 1, 1.0
@@ -268,10 +268,10 @@ def _kernel_matrix() -> list:
     """Every integrator with every combination of terms, dimension and linearity: each is a kernel
     of its own (the flags are compile-time constants), so each costs a compilation on a cold cache.
     The default suite runs, for Verlet and RK4, one set that covers each term, each dimension and
-    both spring laws at least once, and for Euler and Heun (whose loops share RK4's stage
-    sweeps) the 2-D set; the full product is in the slow suite."""
+    both spring laws at least once, and for Euler and the other Runge-Kutta tables (whose loops
+    share RK4's stage sweeps) the 2-D set; the full product is in the slow suite."""
     covering = {(2, False, 3), (1, True, 2), (0, True, 3)}
-    shared_stages = {"euler", "heun"}
+    shared_stages = {"euler", "heun", "ralston3"}
     cases = []
     for integrator in sim.INTEGRATORS:
         for index, extras in enumerate(EXTRAS):
@@ -303,6 +303,55 @@ def test_steps_match_plain_numpy(dim, linear, extras, integrator):
     simulation.step(3)
     np.testing.assert_allclose(simulation.state.positions, positions, rtol=0, atol=1e-12)
     np.testing.assert_allclose(simulation.state.velocities, velocities, rtol=0, atol=1e-12)
+
+
+def _runge_kutta_tables() -> list:
+    from sim.integrators.butcher import MIDPOINT
+
+    tables = [(d.name, d.butcher) for d in sim.integrators.descriptions() if d.butcher is not None]
+    return [pytest.param(table, id=name) for name, table in [*tables, ("midpoint", MIDPOINT)]]
+
+
+LOOP_SHAPES = [
+    pytest.param(1, 16, False, id="row-sweep"),
+    pytest.param(2, 16, True, id="block-wavefronts"),
+    pytest.param(2, 6, False, id="stage-phases"),
+]
+"""(threads, ny, blocks): the whole lattice as one wavefront on one thread; on 2 threads, one
+wavefront with halos per row block (16 rows: blocks of 8, at least 2 stages each); one parallel
+phase per stage (6 rows: too thin for halos)."""
+
+
+@pytest.mark.parametrize("threads, ny, blocks", LOOP_SHAPES)
+@pytest.mark.parametrize("table", _runge_kutta_tables())
+def test_every_runge_kutta_table_matches_its_textbook_form_on_every_loop_shape(
+    request, table, threads, ny, blocks
+):
+    """The compiled low-storage stages of each table against the numpy Runge-Kutta step written
+    from the full matrix A (``sim.integrators.reference.runge_kutta``), with dashpots and unequal
+    masses so that the stage velocities and every weight matter.  On one thread each table runs
+    in the default suite (the same kernels as ``test_steps_match_plain_numpy``); on threads
+    Ralston's (the one stage count the other tests leave out), the rest in the slow suite."""
+    from sim.integrators import reference
+    from sim.integrators.steppers import RungeKutta
+
+    if threads > 1 and table.stages != 3:
+        request.applymarker(pytest.mark.slow)
+    model = Model.create(7, ny, dim=2, stiffness=K, rest_length=0.85, linear=True, damping=0.7,
+                         mass=np.linspace(1, 3, 7 * ny).reshape(ny, 7))
+    stepper = RungeKutta.of(table)(model, np.float64, threads)
+    assert stepper.parallel == (threads > 1)
+    assert (stepper._blocks is not None) == blocks
+    state = sim.State.at_rest(model)
+    rng = np.random.default_rng(1)
+    state.positions += 0.1 * rng.standard_normal(state.positions.shape)
+    state.velocities += 0.1 * rng.standard_normal(state.velocities.shape)
+    positions, velocities = reference.run(model, table, state.positions, state.velocities, 0.01, 3)
+    start = state.velocities.copy()
+    stepper.advance(state, 3, 0.01)
+    assert np.abs(state.velocities - start).max() > 1e-3  # the springs really acted
+    np.testing.assert_allclose(state.positions, positions, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(state.velocities, velocities, rtol=0, atol=1e-12)
 
 
 def test_squeezed_spring_gives_no_nan():

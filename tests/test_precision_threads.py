@@ -223,7 +223,7 @@ def test_float32_kernels_compute_in_float32():
     scene = sim.scenes.build("grid")
     simulation = sim.Simulation(scene, integrator="rk4", precision="float32")
     simulation.step(3)
-    signatures = [str(signature) for signature in stepping.rk4_steps.signatures]
+    signatures = [str(signature) for signature in stepping.runge_kutta_steps.signatures]
     assert any("float32" in signature and "float64, 3d" not in signature
                for signature in signatures), signatures
     assert simulation.state.velocities.dtype == np.float32
@@ -299,6 +299,50 @@ def test_a_fifth_integrator_is_one_registration():
     finally:
         integrators.unregister("symplectic-euler")
     assert "symplectic-euler" not in sim.INTEGRATORS
+
+
+def test_a_runge_kutta_table_knows_its_order_and_stability_limit():
+    """Order conditions and the stability polynomial against the textbook values: orders 4, 2,
+    3, 2; R(z) the Taylor polynomial of e^z to the order (s stages, order s); the largest stable
+    omega dt on the imaginary axis 2 sqrt 2 for RK4 (|R(iy)|^2 = 1 - y^6/72 + y^8/576) and
+    sqrt 3 for a third-order method (1 - y^4/12 + y^6/36), none for second order (1 + y^4/4)."""
+    from sim.integrators.butcher import CLASSIC_RK4, HEUN, MIDPOINT, RALSTON3
+
+    expected = {CLASSIC_RK4: (4, 2 * math.sqrt(2)), HEUN: (2, None), RALSTON3: (3, math.sqrt(3)),
+                MIDPOINT: (2, None)}
+    for table, (order, factor) in expected.items():
+        assert table.order == order, table.label
+        taylor = [1 / math.factorial(k) for k in range(order + 1)]
+        np.testing.assert_allclose(table.stability_polynomial, taylor, rtol=1e-15)
+        if factor is None:
+            assert table.stability_factor is None
+        else:
+            assert table.stability_factor == pytest.approx(factor, rel=1e-12)
+    ralston = integrators.describe("ralston3")
+    assert (ralston.order, ralston.force_evaluations, ralston.stability_factor) == (
+        3, 3, RALSTON3.stability_factor)
+    # the amplification matrix on the damped oscillator is R(dt M), M = [[0, 1], [-w^2, -beta]]
+    omega_squared, beta, dt = np.array([4.0, 9.0]), np.array([0.5, 0.0]), 0.1
+    matrices = ralston.amplification(omega_squared, beta, dt)
+    for g, w2, b in zip(matrices, omega_squared, beta, strict=True):
+        step = dt * np.array([[0.0, 1.0], [-w2, -b]])
+        expected_matrix = np.eye(2) + step + step @ step / 2 + step @ step @ step / 6
+        np.testing.assert_allclose(g, expected_matrix, rtol=1e-14)
+
+
+@pytest.mark.parametrize("a, b, c, message", [
+    (((0, 0, 0), (0.5, 0, 0), (-1, 2, 0)), (1 / 6, 2 / 3, 1 / 6), (0, 0.5, 1), "not low-storage"),
+    (((0.5, 0), (0.5, 0)), (0.5, 0.5), (0.5, 0.5), "implicit"),
+    (((0, 0), (1, 0)), (0.5, 0.6), (0, 1), "sum to 1"),
+    (((0, 0), (1, 0)), (0.5, 0.5), (0, 0.5), "sum of row 2"),
+    (((0,),), (1,), (0,), "at least 2 stages"),
+    (((0, 0), ("1/x", 0)), (0.5, 0.5), (0, 1), "number"),
+])
+def test_a_table_the_loops_cannot_run_is_refused_clearly(a, b, c, message):
+    from sim.integrators.butcher import ButcherTable, ButcherTableError
+
+    with pytest.raises(ButcherTableError, match=message):
+        ButcherTable(label="test table", a=a, b=b, c=c)
 
 
 def test_non_kernel_integrators_only_where_they_apply():

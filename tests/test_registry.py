@@ -2,7 +2,8 @@
 registered here and nowhere else, appears in the command line's ``--integrator`` choices, runs
 from the command line, is offered by the web page's Method menu and is measured by the accuracy
 sweep.  Its physics (bounded energy of a symplectic method) is checked in
-``tests/test_precision_threads.py``."""
+``tests/test_precision_threads.py``.  A Runge-Kutta method is its Butcher table and one
+registration: the accuracy sweep measures the order the table promises."""
 
 from __future__ import annotations
 
@@ -68,3 +69,28 @@ def test_the_accuracy_sweep_measures_a_new_integrator(throwaway):
     assert NAME in measured
     assert measured >= {"verlet", "rk4"}
     assert NAME in study.limits
+
+
+def test_a_runge_kutta_method_is_one_table_and_one_registration():
+    """The explicit midpoint method as a table, registered once: it runs from the command line
+    and the accuracy sweep on the linearised chain (exact normal-mode reference) measures its
+    order 2 (it shares Heun's compiled loops: two stages)."""
+    from app.study.accuracy import accuracy_study
+    from sim.integrators.butcher import ButcherTable
+
+    name = "throwaway-midpoint"
+    table = ButcherTable(label="throw-away midpoint", a=((0, 0), ("1/2", 0)), b=(0, 1),
+                         c=(0, "1/2"))
+    integrators.register(integrators.IntegratorDescription(
+        name=name, label=table.label, short_label="midpoint", **integrators.runge_kutta(table),
+    ))
+    try:
+        assert (sim.ORDERS[name], integrators.FORCE_EVALUATIONS[name]) == (2, 2)
+        assert main(["run", "chain", "--integrator", name, "--steps", "20", "--quiet"]) == 0
+        study = accuracy_study(sim.scenes.build("chain", linear=True), integrators=[name],
+                               dts=[0.004, 0.002, 0.001], until=1.0, refine=False,
+                               precisions=("float64",), minimum_seconds=0.0)
+        assert study.reference.kind == "exact normal modes"
+        assert study.orders[name] == pytest.approx(2.0, abs=0.1)
+    finally:
+        integrators.unregister(name)

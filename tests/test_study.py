@@ -26,6 +26,7 @@ CONVERGENCE_DTS = {
     "heun": [4e-3, 2e-3, 1e-3, 5e-4],
     "verlet": [1e-2, 5e-3, 2.5e-3, 1.25e-3],
     "rk4": [2e-2, 1e-2, 5e-3, 2.5e-3],
+    "ralston3": [1e-2, 5e-3, 2.5e-3, 1.25e-3],
 }
 
 
@@ -86,8 +87,10 @@ def test_measured_convergence_order_matches_theory(linear_grid_study, integrator
 # Heun:  R = 1 + ih - h^2/2, |R|^2 = 1 + h^4/4, arg error ~ h^3 -> phase dt^2, energy dt^3.
 # Verlet: symplectic, the energy oscillates with amplitude ~ h^2 -> phase dt^2, energy dt^2.
 # RK4: |R|^2 = 1 - h^6/72, arg error ~ h^5 -> phase dt^4, energy dt^5.
-PHASE_ORDERS = {"euler": 2, "heun": 2, "verlet": 2, "rk4": 4}
-ENERGY_ORDERS = {"euler": 1, "heun": 3, "verlet": 2, "rk4": 5}
+# Ralston RK3: R - e^(ih) = -h^4/24 + O(h^5), real: |R|^2 = 1 - h^4/12 + h^6/36 -> energy dt^3;
+#   arg error h^5/30 -> phase dt^4.
+PHASE_ORDERS = {"euler": 2, "heun": 2, "verlet": 2, "rk4": 4, "ralston3": 4}
+ENERGY_ORDERS = {"euler": 1, "heun": 3, "verlet": 2, "rk4": 5, "ralston3": 3}
 
 
 @pytest.mark.parametrize("integrator", sim.INTEGRATORS)
