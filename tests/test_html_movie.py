@@ -92,3 +92,22 @@ def test_a_short_flagship_run_as_one_html_file_plays_offline(tmp_path, browser):
     path = tmp_path / "interference.html"
     assert main(["movie", "interference", "-o", str(path), "--duration", "30", "--quiet"]) == 0
     check_plays(browser, path, str(tmp_path / "interference"))
+
+
+def test_the_viser_adapter_still_finds_what_it_uses():
+    """``app.movie.viser_page`` relies on viser's serializer, its page's head and body and its
+    embedded-data hook; the browser test above checks the player's time slider."""
+    from app.movie import viser_page
+
+    server = viser_page.start_server()
+    try:
+        serializer = server.get_scene_serializer()
+        server.scene.add_label("/probe", "probe")
+        serializer.insert_sleep(0.5)
+        document = viser_page.page(serializer, "<!--our head-->", "<!--our body-->")
+    finally:
+        viser_page.stop_server(server)
+    assert document.index("<!--our head-->") < document.index("</head>")
+    assert document.index("<!--our body-->") < document.rindex("</body>")
+    assert "__VISER_EMBED_DATA__" in document
+    assert viser_page.HIDDEN_NOTICES in document

@@ -10,8 +10,9 @@ frame, logged by ``app.recording.field.FieldView``.  Each frame is decoded
 float ``DepthImage``) one at a time, so memory holds the compressed samples and one picture.  A
 colour image gives each particle's value back by the nearest of the 256 colours of the map
 (``app.colours``) read on the frame's own scale (``ColourScale.values``): the movie shows the
-field at that resolution, 128 levels either side of zero, and the level next to zero is drawn as
-zero (compression noise of the video, not a wave).  Such a movie is drawn with the recording's
+field at that resolution, 128 levels either side of zero, and the level next to zero (on a log
+scale the three next to it) is drawn as zero (compression noise of the video and the rounding of
+the colour look-up, not a wave).  Such a movie is drawn with the recording's
 own policy unless asked for another (``scale_policy``): a recording that followed the field makes
 a movie that follows it, one on a fixed linear scale (where a scale that magnifies small values
 would magnify the video's noise) a movie on that scale.
@@ -26,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from app.colours import MAGNITUDE, SIGNED_FIELD, make_scale
+from app.colours import MAGNITUDE, SCALES, SIGNED_FIELD, make_scale
 from app.movie.frames import FrameSource, State
 from app.movie.options import MovieOptions
 from app.movie.recorded import (
@@ -196,10 +197,13 @@ class FieldRecordingSource:
         """Values of a decoded picture on the scale recorded frame ``index`` was drawn on."""
         levels = inverse[rgb[:, :, 0] >> 3, rgb[:, :, 1] >> 3, rgb[:, :, 2] >> 3].astype(
             np.float32)
+        # the levels next to zero are the codec's noise and the colour look-up's rounding (RGB
+        # read in steps of 8): a log scale would magnify them into a coloured background
+        dead = 3.5 if SCALES[self.policy].logarithmic else 1.5
         if not self.signed:
-            levels[levels <= 1] = 0.0
+            levels[levels <= dead - 0.5] = 0.0
         else:
-            levels[np.abs(levels - np.float32(127.5)) <= 1.5] = 127.5  # zero and the next level
+            levels[np.abs(levels - np.float32(127.5)) <= dead] = 127.5
         scale = make_scale(self.policy, self.limit_at(min(index, len(self._all) - 1)),
                            self.signed)
         return scale.values(levels * np.float32(1.0 / 255.0))

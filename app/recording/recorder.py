@@ -176,10 +176,12 @@ class Recorder:
         offset = 0.0
         for name, (png, height) in legends.items():
             entity = f"{LEGEND_ENTITY}/{name}"
-            self.stream.log(entity, rr.Transform3D(translation=[0.0, offset, 0.0]), static=True)
-            if png is not None:  # the field's bar is logged frame by frame (FieldLegend)
+            placed = rr.Transform3D(translation=[0.0, offset, 0.0])
+            if png is None:  # the field's bar is logged frame by frame (FieldLegend)
+                self.stream.log(entity, placed, static=True)
+            else:
                 self.stream.log(entity, rr.EncodedImage(contents=png, media_type="image/png"),
-                                static=True)
+                                placed, static=True)
             offset += height + 8
         self.field_legend = (FieldLegend(f"{LEGEND_ENTITY}/field",
                                          field_label(self.plan, self.scales.axis),
