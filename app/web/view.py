@@ -33,7 +33,13 @@ import numpy as np
 import viser
 
 from app import colours
-from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, ColourBar
+from app.web.colour_bar import (
+    BAR_ASPECT,
+    BAR_FRACTION,
+    OVERLAY_HEIGHT,
+    ColourBar,
+    phone_picture,
+)
 from app.web.equilibrium import sag
 from app.web.frames import DEFAULT_FPS, FieldImage, uses_image
 from sim.model import Model
@@ -310,9 +316,10 @@ class LatticeView:
         if shown == self._bar_shown or (self._bar_shown is not None
                                         and now - self._bar_time < 0.5):
             return
-        picture = colours.colour_bar(colours.scheme(mode), scale, self.colour_label(mode, model),
-                                     lines=True)
-        self.colour_bar.show(picture, model)
+        label = self.colour_label(mode, model)
+        picture = colours.colour_bar(colours.scheme(mode), scale, label, lines=True)
+        self.colour_bar.show(picture, model, phone_picture(colours.scheme(mode), scale, label,
+                                                           lines=True))
         self._bar_shown, self._bar_time = shown, now
 
     @staticmethod
@@ -359,6 +366,23 @@ NARROW = 700
 """Views narrower than this (phones): the panel floats over the lower part of the view."""
 PHONE_PANEL_SHARE = 0.6
 """Share of a narrow view's height the floating panel takes at most (viser's phone layout)."""
+
+
+def box_fit(left: float, right: float, bottom: float, top: float, fov: float, aspect: float,
+            covered_right: float = 0.0, covered_bottom: float = 0.0
+            ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """(position, look_at) of a camera looking straight down -z that shows the box
+    [left, right] x [bottom, top] (m, in the plane z = 0) with a small margin in the part of
+    the view a panel leaves: ``covered_right`` and ``covered_bottom`` are the fractions of the
+    view's width (right) and height (bottom) under it; ``fov`` vertical (radians), ``aspect``
+    width / height."""
+    free_x, free_y = max(0.2, 1.0 - covered_right), max(0.2, 1.0 - covered_bottom)
+    tangent = math.tan(fov / 2)
+    distance = max((right - left) / (2 * tangent * aspect * free_x),
+                   (top - bottom) / (2 * tangent * free_y)) / 0.9
+    x = (left + right) / 2 + distance * tangent * aspect * (1.0 - free_x)
+    y = (top + bottom) / 2 - distance * tangent * (1.0 - free_y)
+    return (x, y, distance), (x, y, 0.0)
 
 
 def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bottom: float = 0.0,
