@@ -53,6 +53,8 @@ PANEL_WIDTH = 320
 """CSS pixels of the page's control panel (viser's "medium" controls) at a laptop's right."""
 LABEL_HEIGHT = 0.1
 """Room (fractions of L0) above the top row for its label."""
+HEADING_GAP = 0.1
+"""The membrane's column headings stand this much (fractions of L0) above the top row's label."""
 
 
 class ContinuumPage:
@@ -146,7 +148,7 @@ class ContinuumPage:
                 size = 0.8 * ROW_HEIGHT * length
                 for text, x in (("lattice", 0.5 * size), ("continuum (reference)", 1.6 * size)):
                     scene.add_label(f"/continuum/heading/{text}", text, anchor="bottom-center",
-                                    position=(x, y + 0.55 * size, 0.0))
+                                    position=(x, y + (0.2 + HEADING_GAP) * length, 0.0))
             if self.body.kind == "string":
                 scene.add_line_segments(  # the fixed ends' line at rest, grey
                     f"/continuum/N{n:04d}/axis", np.array([[[0.0, y, -0.001], [length, y, -0.001]]]),
@@ -169,8 +171,10 @@ class ContinuumPage:
 
     def _fit(self, client) -> None:
         length = self.body.length
-        width = 2.3 * length if self.body.kind == "membrane" else 1.0 * length
-        top = 0.2 * length + LABEL_HEIGHT * length
+        membrane = self.body.kind == "membrane"
+        # a membrane's two images, each 0.8 ROW_HEIGHT wide, centred at 0.5 and 1.6 of that
+        width = (2.1 * 0.8 * ROW_HEIGHT if membrane else 1.0) * length
+        top = (0.2 + LABEL_HEIGHT + (HEADING_GAP if membrane else 0.0)) * length
         bottom = self._row_offset(len(self.particles) - 1) - 0.25 * length
         try:
             view_width, view_height = client.camera.image_width, client.camera.image_height
