@@ -25,13 +25,15 @@ import viser
 from app.web.equilibrium import sag
 from sim.model import Model
 
-BAR_FRACTION = 1.0
-"""Width of a phone's in-scene colour bar under the lattice, as a fraction of the lattice's
-width (the whole width: a phone shows the lattice about 250-370 CSS px wide)."""
 PHONE_BAR_WIDTH, PHONE_BAR_HEIGHT = 320, 124
 """Pixels of a phone's colour bar picture (``phone_picture``)."""
 BAR_ASPECT = PHONE_BAR_HEIGHT / PHONE_BAR_WIDTH
 """Height / width of a phone's colour bar picture."""
+PHONE_BAR_SPAN = 0.9 * 1.0 / (1.0 - 0.9 * 1.0 * BAR_ASPECT)
+"""A phone's bar is at least this many times as wide as the lattice and the gap above the bar
+are tall: then, in a free part of the view about as wide as tall (a phone's above its panel),
+the bar spans about 90 % of the view's width whatever the lattice's shape, so its text keeps
+its size on a tall lattice too."""
 PHONE_FONTS = (16, 14)
 """Pixel sizes of a phone's bar's title and of its numbers and caption: shown as wide as a
 lattice about 250 CSS px wide or more, they stay at least 11 CSS px."""
@@ -92,10 +94,18 @@ def phone_picture(scheme, scale, label: str, lines: bool = False) -> np.ndarray:
     return np.asarray(image)
 
 
+def bar_width(model: Model) -> float:
+    """Width (m) of a phone's in-scene bar: the lattice's, or ``PHONE_BAR_SPAN`` times the height
+    of the lattice (sagged) and the gap above the bar, whichever is larger."""
+    a = model.spacing
+    tall = (model.ny + 1) * a + sum(sag(model)[2:]) + 1.5 * a
+    return max((model.nx + 1) * a, PHONE_BAR_SPAN * tall)
+
+
 def bar_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
     """(centre (m), width (m), height (m)) of a phone's in-scene bar: centred under the
     lattice, 1.5 spacings below its lowest row (at its sagged equilibrium under gravity)."""
-    width = BAR_FRACTION * (model.nx + 1) * model.spacing
+    width = bar_width(model)
     height = width * BAR_ASPECT
     down = sag(model)[2]
     centre = (model.origin[0] + (model.nx - 1) * model.spacing / 2,

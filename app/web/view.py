@@ -35,9 +35,9 @@ import viser
 from app import colours
 from app.web.colour_bar import (
     BAR_ASPECT,
-    BAR_FRACTION,
     OVERLAY_HEIGHT,
     ColourBar,
+    bar_width,
     phone_picture,
 )
 from app.web.equilibrium import sag
@@ -395,16 +395,17 @@ def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bott
     ``right`` and ``bottom``: the fractions of the view's width
     (on the right) and height (at the bottom) under the panel (or the floating colour bar);
     ``fov``: the vertical field of view (radians); ``aspect``: width / height of the view.
-    Planar lattices are seen straight from above; 3-D ones from the front and above (about 40
-    degrees) so their out-of-plane motion shows."""
+    Planar lattices, and every lattice on a phone (where a tilted view would shrink it), are
+    seen straight from above; 3-D ones on a laptop from the front and above (about 40 degrees)
+    so their out-of-plane motion shows."""
     a = model.spacing
     left, right_sag, down, up = sag(model)
     width = (model.nx + 1) * a + left + right_sag
     top = (model.ny + 1) * a / 2 + up
     lowest = -(model.ny + 1) * a / 2 - down
     if bar_in_scene:
-        lowest = (-(model.ny - 1) * a / 2 - down - 1.5 * a
-                  - BAR_FRACTION * (model.nx + 1) * a * BAR_ASPECT)
+        lowest = -(model.ny - 1) * a / 2 - down - 1.5 * a - bar_width(model) * BAR_ASPECT
+        width = max(width, bar_width(model))
     free_x, free_y = max(0.2, 1.0 - right), max(0.2, 1.0 - bottom)
     tangent = math.tan(fov / 2)
     distance = max(width / (2 * tangent * aspect * free_x),
@@ -413,7 +414,7 @@ def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bott
     shift_x = distance * tangent * aspect * (1.0 - free_x) + (right_sag - left) / 2
     shift_y = -distance * tangent * (1.0 - free_y)
     centre = ((top + lowest) / 2 + shift_y, shift_x)
-    if model.dim == 3:
+    if model.dim == 3 and not bar_in_scene:
         distance *= 1.15
         return ((centre[1], centre[0] - 0.75 * distance, 0.65 * distance),
                 (centre[1], centre[0], 0.0), (0.0, 0.0, 1.0))
