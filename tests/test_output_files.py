@@ -186,3 +186,21 @@ def test_scene_files_and_pictures_go_through_the_same_writer(tmp_path):
     with pytest.raises(OutputError, match="does not exist"):
         sim.scenes.scene_files.save(scene, tmp_path / "missing" / "s.toml")
     assert sim.scenes.scene_files.save(scene, tmp_path / "t.toml").is_file()
+
+
+@pytest.mark.parametrize("command", ["accuracy", "slits", "reflection", "response"])
+def test_a_study_picture_without_plot_goes_to_the_pictures_folder_not_the_current_one(
+        command, tmp_path, monkeypatch, capsys):
+    import argparse
+
+    from app.cli import study_output
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    assert f"{study_output.DEFAULT_PICTURES_DIR}/" in " ".join(capsys.readouterr().out.split())
+    arguments = argparse.Namespace(plot=None, no_plot=False)
+    study_output.default_plot(arguments, "grid-x.png")
+    assert arguments.plot == os.path.join("pictures", "grid-x.png")
+    assert (tmp_path / "pictures").is_dir()
+    assert not list(tmp_path.glob("*.png"))

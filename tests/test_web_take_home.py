@@ -12,7 +12,14 @@ import numpy as np
 import pytest
 
 import sim
-from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, bar_pose
+from app.web.colour_bar import (
+    BAR_ASPECT,
+    OVERLAY_HEIGHT,
+    PHONE_BAR_WIDTH,
+    PHONE_FONTS,
+    bar_pose,
+    bar_width,
+)
 from app.web.view import NARROW, PANEL_WIDTH, PHONE_PANEL_SHARE, camera_fit, laptop_fit
 from tests.helpers import wait_for
 from tests.test_web_safety import PageClient, press
@@ -106,8 +113,9 @@ def test_camera_fits_lattice_and_colour_bar_in_the_free_part(scene, size):
     else:
         right, bottom = 0.0, PHONE_PANEL_SHARE
         position, look_at, _ = camera_fit(model, fov, aspect, bottom=bottom)
-        lowest = -(model.ny - 1) * a / 2 - 1.5 * a - BAR_FRACTION * width * BAR_ASPECT
+        lowest = -(model.ny - 1) * a / 2 - 1.5 * a - bar_width(model) * BAR_ASPECT
         assert lowest < bar_pose(model)[0][1] - bar_pose(model)[2] / 2 + 1e-9
+        width = max(width, bar_width(model))
     assert position[:2] == look_at[:2]
     half_h = position[2] * math.tan(fov / 2)
     half_w = half_h * aspect
@@ -145,3 +153,21 @@ def test_the_pages_movie_as_one_html_file_starts_at_the_runs_time(web_app):
     data = json.loads(re.search(r"const CO = (\{.*?\});", page).group(1))
     assert abs(data["start"] - started_at) < 1e-6 and data["times"][0] == 0.0
     assert "__VISER_EMBED_DATA__" in page and "About this run" in page
+
+
+@pytest.mark.parametrize("preset", sorted(sim.scenes.presets.PRESETS))
+def test_a_phone_shows_every_presets_colour_bar_text_at_least_11_pixels(preset):
+    """The in-scene bar's picture as wide as a phone (414x896) draws it: its smallest text at
+    least 11 CSS px, and the bar in the part of the view above the panel."""
+    from app.web.view import VIEW_FOV
+
+    model = sim.scenes.build(preset).model
+    width, height = 414, 896
+    position, _, _ = camera_fit(model, VIEW_FOV, width / height, bottom=PHONE_PANEL_SHARE)
+    half_w = position[2] * math.tan(VIEW_FOV / 2) * width / height
+    centre, bar, bar_height = bar_pose(model)
+    shown = bar / (2 * half_w) * width  # CSS px
+    assert min(PHONE_FONTS) * shown / PHONE_BAR_WIDTH >= 11.0, shown
+    half_h = position[2] * math.tan(VIEW_FOV / 2)
+    low = 0.5 - (centre[1] - bar_height / 2 - position[1]) / half_h / 2
+    assert low <= 1 - PHONE_PANEL_SHARE + 1e-9

@@ -31,7 +31,7 @@ the axis, which pulls the bright fringes toward it (docs/instruments.md, "Source
 
 EPILOG = """\
 examples:
-  oscillators slits double-slit                     # table + double-slit-screen.png
+  oscillators slits double-slit                     # table + pictures/double-slit-screen.png
   oscillators slits single-slit --screen 150 --json
   oscillators slits double-slit --set sources="column=22,row=all,direction=z,frequency=0.4,amplitude=0.01"
 

@@ -1,7 +1,8 @@
 """What the study commands (accuracy, stability, dispersion, response, reflection) share: the
-output options (--json, --plot PATH.png, --quiet and, where a picture is saved by default,
---no-plot), the check of the picture's path before a long study runs, the progress bar on stderr
-and printing the report (a table, or JSON).
+output options (--json, --plot PATH.png, --quiet and, where a picture is saved by default (in
+the folder ``pictures``, never the current folder itself), --no-plot), the check of the
+picture's path before a long study runs, the progress bar on stderr and printing the report (a
+table, or JSON).
 """
 
 from __future__ import annotations
@@ -16,6 +17,10 @@ from typing import Any
 from sim.model.schema import printable
 from sim.storage.files import AtomicFile, safe_name
 
+DEFAULT_PICTURES_DIR = Path("pictures")
+"""Where a study's picture goes without --plot (made when missing): its own folder, never the
+current one itself."""
+
 
 def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = None) -> None:
     """--json, --plot, --quiet; with ``picture`` (the default file name, as the help shows it,
@@ -25,22 +30,25 @@ def add_output_arguments(parser: argparse.ArgumentParser, picture: str | None = 
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     if picture is not None:
         parser.add_argument("--no-plot", action="store_true",
-                            help=f"do not save the picture (by default it goes to {picture} "
-                            "here, or to --plot)")
+                            help=f"do not save the picture (by default it goes to "
+                            f"{DEFAULT_PICTURES_DIR / picture}, the folder made when missing, "
+                            "or to --plot)")
 
 
 def scene_picture(scene: Any, kind: str) -> str:
-    """The default picture of a study of ``scene``: ``grid-response.png`` here (a scene file's
-    name without its suffix)."""
+    """The default picture's name of a study of ``scene``: ``grid-response.png`` (a scene file's
+    name without its suffix), in ``DEFAULT_PICTURES_DIR``."""
     return f"{safe_name(Path(str(scene.name)).stem)}-{kind}.png"
 
 
 def default_plot(arguments: argparse.Namespace, name: str) -> None:
-    """The picture goes to --plot, or to ``name`` here unless --no-plot; checked."""
+    """The picture goes to --plot, or to ``name`` in ``DEFAULT_PICTURES_DIR`` (made when
+    missing) unless --no-plot; checked."""
     if arguments.no_plot:
         arguments.plot = None
     elif not arguments.plot:
-        arguments.plot = name
+        DEFAULT_PICTURES_DIR.mkdir(exist_ok=True)
+        arguments.plot = str(DEFAULT_PICTURES_DIR / name)
     check_plot_path(arguments)
 
 

@@ -25,11 +25,18 @@ import viser
 from app.web.equilibrium import sag
 from sim.model.lattice import Model
 
-BAR_FRACTION = 0.6
-"""Width of a phone's in-scene colour bar under the lattice, as a fraction of the lattice's
-width."""
-BAR_ASPECT = 84 / 480
-"""Height / width of the colour bar's picture (``app.colours.colour_bar``'s default size)."""
+PHONE_BAR_WIDTH, PHONE_BAR_HEIGHT = 320, 124
+"""Pixels of a phone's colour bar picture (``phone_picture``)."""
+BAR_ASPECT = PHONE_BAR_HEIGHT / PHONE_BAR_WIDTH
+"""Height / width of a phone's colour bar picture."""
+PHONE_BAR_SPAN = 0.9 * 1.0 / (1.0 - 0.9 * 1.0 * BAR_ASPECT)
+"""A phone's bar is at least this many times as wide as the lattice and the gap above the bar
+are tall: then, in a free part of the view about as wide as tall (a phone's above its panel),
+the bar spans about 90 % of the view's width whatever the lattice's shape, so its text keeps
+its size on a tall lattice too."""
+PHONE_FONTS = (16, 14)
+"""Pixel sizes of a phone's bar's title and of its numbers and caption: shown as wide as a
+lattice about 250 CSS px wide or more, they stay at least 11 CSS px."""
 OVERLAY_WIDTH = 400
 """CSS pixels of the floating colour bar's window."""
 OVERLAY_HEIGHT = 130
@@ -39,10 +46,66 @@ OVERLAY_MARGIN = 12
 """CSS pixels between the floating window and the view's left and bottom edges."""
 
 
+def _wrapped(draw, text: str, font, width: float, lines: int) -> list[str]:
+    """``text`` in at most ``lines`` lines no wider than ``width`` px (words kept whole)."""
+    rows: list[str] = []
+    for word in text.split():
+        if rows and draw.textlength(f"{rows[-1]} {word}", font=font) <= width:
+            rows[-1] = f"{rows[-1]} {word}"
+        else:
+            rows.append(word)
+    return rows[:lines]
+
+
+def phone_picture(scheme, scale, label: str, lines: bool = False) -> np.ndarray:
+    """A colour bar for a phone as a (``PHONE_BAR_HEIGHT``, ``PHONE_BAR_WIDTH``, 3) uint8 RGB
+    picture on white: the title (``label``) and the scale in words wrapped in two lines each,
+    in ``PHONE_FONTS`` (large for its width, so readable when a phone draws it under the
+    lattice), the map and the numbers of ``scale`` at its ticks."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    big, small = (ImageFont.load_default(size=size) for size in PHONE_FONTS)
+    width, height = PHONE_BAR_WIDTH, PHONE_BAR_HEIGHT
+    image = Image.new("RGB", (width, height), (255, 255, 255))
+    draw = ImageDraw.Draw(image)
+    margin, text = 6, (30, 30, 30)
+    y = 3
+    for row in _wrapped(draw, label, big, width - 2 * margin, 2):
+        draw.text((margin, y), row, fill=text, font=big)
+        y += PHONE_FONTS[0] + 3
+    bar_top, bar_height, bar_width = 2 * (PHONE_FONTS[0] + 3) + 5, 16, width - 2 * margin
+    table = (scheme.lines if lines else scheme.field).table()
+    pixels = np.asarray(image).copy()
+    pixels[bar_top : bar_top + bar_height, margin : margin + bar_width] = \
+        table[np.linspace(0, 255, bar_width).round().astype(int)][None]
+    image = Image.fromarray(pixels)
+    draw = ImageDraw.Draw(image)
+    marks = scale.ticks()
+    for k, (position, value) in enumerate(marks):
+        x = margin + position * (bar_width - 1)
+        draw.line([(x, bar_top + bar_height), (x, bar_top + bar_height + 3)], fill=text)
+        anchor = "la" if k == 0 else "ra" if k == len(marks) - 1 else "ma"
+        draw.text((x, bar_top + bar_height + 4), f"{value:.2g}" if value else "0", fill=text,
+                  font=small, anchor=anchor)
+    y = bar_top + bar_height + 6 + PHONE_FONTS[1]
+    for row in _wrapped(draw, scale.describe(), small, width - 2 * margin, 2):
+        draw.text((margin, y), row, fill=(90, 90, 90), font=small)
+        y += PHONE_FONTS[1] + 2
+    return np.asarray(image)
+
+
+def bar_width(model: Model) -> float:
+    """Width (m) of a phone's in-scene bar: the lattice's, or ``PHONE_BAR_SPAN`` times the height
+    of the lattice (sagged) and the gap above the bar, whichever is larger."""
+    a = model.spacing
+    tall = (model.ny + 1) * a + sum(sag(model)[2:]) + 1.5 * a
+    return max((model.nx + 1) * a, PHONE_BAR_SPAN * tall)
+
+
 def bar_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
     """(centre (m), width (m), height (m)) of a phone's in-scene bar: centred under the
     lattice, 1.5 spacings below its lowest row (at its sagged equilibrium under gravity)."""
-    width = BAR_FRACTION * (model.nx + 1) * model.spacing
+    width = bar_width(model)
     height = width * BAR_ASPECT
     down = sag(model)[2]
     centre = (model.origin[0] + (model.nx - 1) * model.spacing / 2,
@@ -61,16 +124,20 @@ class ColourBar:
         self._image: viser.GuiImageHandle | None = None
         self.picture: np.ndarray | None = None
         """The bar shown now (height, width, 3) uint8, or None."""
+        self.phone: np.ndarray | None = None
+        """The bar phones show now in their scenes, or None."""
         self._model: Model | None = None
         self._phones: dict[int, tuple[viser.ClientHandle, viser.ImageHandle | None]] = {}
         self.updates = 0
         """How many bars were sent (for tests)."""
 
-    def show(self, picture: np.ndarray, model: Model) -> None:
-        """Show ``picture`` (an ``app.colours.colour_bar``) for a lattice ``model``."""
+    def show(self, picture: np.ndarray, model: Model, phone: np.ndarray | None = None) -> None:
+        """Show ``picture`` (an ``app.colours.colour_bar``) for a lattice ``model``, and on
+        phones ``phone`` (a ``phone_picture``; default ``picture``)."""
         with self._lock:
             new_lattice = model is not self._model
             self.picture, self._model = picture, model
+            self.phone = picture if phone is None else phone
             if self._panel is None:
                 self._panel = self.server.gui.add_panel(order=-1)
                 with self._panel.add_tab("Colours"):
@@ -88,7 +155,7 @@ class ColourBar:
         with self._lock:
             if self._panel is not None:
                 self._panel.remove()
-            self._panel = self._image = self.picture = None
+            self._panel = self._image = self.picture = self.phone = None
             for client_id, (client, handle) in list(self._phones.items()):
                 if handle is not None:
                     handle.remove()
@@ -113,9 +180,9 @@ class ColourBar:
 
     def _draw_in_scene(self, client_id: int, new_lattice: bool) -> None:
         client, handle = self._phones[client_id]
-        if self.picture is None or self._model is None:
+        if self.phone is None or self._model is None:
             return
-        picture = np.ascontiguousarray(self.picture[::-1])  # image rows run along -y
+        picture = np.ascontiguousarray(self.phone[::-1])  # image rows run along -y
         if handle is not None and not new_lattice:
             handle.image = picture
             return

@@ -31,6 +31,7 @@ from app.colours import get as colour_map
 from app.recording.continuum import CURVE_POINTS, BodyRun, drawn_exaggeration
 from app.web.inputs import InputRefused, as_html, from_user, number
 from app.web.security import AccessPolicy, checked_server
+from app.web.view import NARROW, PHONE_PANEL_SHARE, VIEW_FOV, box_fit
 from sim.scenes.bodies import Body
 from sim.scenes.continuum import ContinuumSolution
 
@@ -48,6 +49,12 @@ IMAGE_PIXELS = 256
 """A membrane image is enlarged (each particle a block of pixels) to about this many pixels."""
 ROW_HEIGHT = 0.45
 """Height of one row (fractions of L0)."""
+PANEL_WIDTH = 320
+"""CSS pixels of the page's control panel (viser's "medium" controls) at a laptop's right."""
+LABEL_HEIGHT = 0.1
+"""Room (fractions of L0) above the top row for its label."""
+HEADING_GAP = 0.1
+"""The membrane's column headings stand this much (fractions of L0) above the top row's label."""
 
 
 class ContinuumPage:
@@ -134,14 +141,14 @@ class ContinuumPage:
         self.labels = []
         for index, n in enumerate(self.particles):
             y = self._row_offset(index)
-            self.labels.append(scene.add_label(
-                f"/continuum/N{n:04d}/label", f"N = {n}", position=(-0.02 * length, y + 0.2 * length, 0.0),
-                anchor="top-right"))
+            self.labels.append(scene.add_label(  # over the row's left end: never cut at the left
+                f"/continuum/N{n:04d}/label", f"N = {n}", position=(0.0, y + 0.2 * length, 0.0),
+                anchor="bottom-left"))
             if self.body.kind == "membrane" and index == 0:
                 size = 0.8 * ROW_HEIGHT * length
                 for text, x in (("lattice", 0.5 * size), ("continuum (reference)", 1.6 * size)):
                     scene.add_label(f"/continuum/heading/{text}", text, anchor="bottom-center",
-                                    position=(x, y + 0.55 * size, 0.0))
+                                    position=(x, y + (0.2 + HEADING_GAP) * length, 0.0))
             if self.body.kind == "string":
                 scene.add_line_segments(  # the fixed ends' line at rest, grey
                     f"/continuum/N{n:04d}/axis", np.array([[[0.0, y, -0.001], [length, y, -0.001]]]),
@@ -149,15 +156,42 @@ class ContinuumPage:
         self._draw()
 
     def _frame_camera(self, client) -> None:
+        """Fit ``client``'s camera to every row and its label in the part of its view the panel
+        leaves (left of it on a laptop, above it on a phone), and again when the page reports
+        its size."""
+        self._fit(client)
+        sizes: dict[str, tuple] = {"seen": (0, 0)}
+
+        @client.camera.on_update
+        def _(camera) -> None:
+            size = (camera.image_width, camera.image_height)
+            if size != sizes["seen"] and all(size):
+                sizes["seen"] = size
+                self._fit(client)
+
+    def _fit(self, client) -> None:
         length = self.body.length
-        width = 2.3 * length if self.body.kind == "membrane" else 1.0 * length
-        middle_y = self._row_offset(len(self.particles) - 1) / 2 + 0.05 * length
-        height = ROW_HEIGHT * length * (len(self.particles) + 0.3)
-        distance = max(0.85 * height, 0.75 * width)  # viser's field of view is 75 degrees
+        membrane = self.body.kind == "membrane"
+        # a membrane's two images, each 0.8 ROW_HEIGHT wide, centred at 0.5 and 1.6 of that
+        width = (2.1 * 0.8 * ROW_HEIGHT if membrane else 1.0) * length
+        top = (0.2 + LABEL_HEIGHT + (HEADING_GAP if membrane else 0.0)) * length
+        bottom = self._row_offset(len(self.particles) - 1) - 0.25 * length
+        try:
+            view_width, view_height = client.camera.image_width, client.camera.image_height
+        except AssertionError:  # the page has not reported its view yet
+            view_width, view_height = 0, 0
+        view_width, view_height = view_width or 1366, view_height or 768
+        narrow = view_width < NARROW
+        position, look_at = box_fit(
+            -0.02 * length, width, bottom, top, VIEW_FOV, view_width / view_height,
+            covered_right=0.0 if narrow else min(0.5, PANEL_WIDTH / view_width),
+            covered_bottom=PHONE_PANEL_SHARE if narrow else 0.0)
         with client.atomic():
+            client.camera.fov = VIEW_FOV
             client.camera.up_direction = (0.0, 1.0, 0.0)
-            client.camera.position = (0.42 * width, middle_y, distance)
-            client.camera.look_at = (0.42 * width, middle_y, 0.0)
+            client.camera.position = position
+            client.camera.look_at = look_at
+            client.camera.far = max(1000.0, 10.0 * position[2])
 
     def _draw(self) -> None:
         scene = self.server.scene

@@ -33,7 +33,13 @@ import numpy as np
 import viser
 
 from app import colours
-from app.web.colour_bar import BAR_ASPECT, BAR_FRACTION, OVERLAY_HEIGHT, ColourBar
+from app.web.colour_bar import (
+    BAR_ASPECT,
+    OVERLAY_HEIGHT,
+    ColourBar,
+    bar_width,
+    phone_picture,
+)
 from app.web.equilibrium import sag
 from app.web.frames import DEFAULT_FPS, FieldImage, uses_image
 from sim.model.lattice import Model
@@ -317,9 +323,10 @@ class LatticeView:
         if shown == self._bar_shown or (self._bar_shown is not None
                                         and now - self._bar_time < 0.5):
             return
-        picture = colours.colour_bar(colours.scheme(mode), scale, self.colour_label(mode, model),
-                                     lines=True)
-        self.colour_bar.show(picture, model)
+        label = self.colour_label(mode, model)
+        picture = colours.colour_bar(colours.scheme(mode), scale, label, lines=True)
+        self.colour_bar.show(picture, model, phone_picture(colours.scheme(mode), scale, label,
+                                                           lines=True))
         self._bar_shown, self._bar_time = shown, now
 
     @staticmethod
@@ -368,6 +375,23 @@ PHONE_PANEL_SHARE = 0.6
 """Share of a narrow view's height the floating panel takes at most (viser's phone layout)."""
 
 
+def box_fit(left: float, right: float, bottom: float, top: float, fov: float, aspect: float,
+            covered_right: float = 0.0, covered_bottom: float = 0.0
+            ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """(position, look_at) of a camera looking straight down -z that shows the box
+    [left, right] x [bottom, top] (m, in the plane z = 0) with a small margin in the part of
+    the view a panel leaves: ``covered_right`` and ``covered_bottom`` are the fractions of the
+    view's width (right) and height (bottom) under it; ``fov`` vertical (radians), ``aspect``
+    width / height."""
+    free_x, free_y = max(0.2, 1.0 - covered_right), max(0.2, 1.0 - covered_bottom)
+    tangent = math.tan(fov / 2)
+    distance = max((right - left) / (2 * tangent * aspect * free_x),
+                   (top - bottom) / (2 * tangent * free_y)) / 0.9
+    x = (left + right) / 2 + distance * tangent * aspect * (1.0 - free_x)
+    y = (top + bottom) / 2 - distance * tangent * (1.0 - free_y)
+    return (x, y, distance), (x, y, 0.0)
+
+
 def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bottom: float = 0.0,
                bar_in_scene: bool = True
                ) -> tuple[tuple[float, float, float], tuple[float, float, float],
@@ -378,16 +402,17 @@ def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bott
     ``right`` and ``bottom``: the fractions of the view's width
     (on the right) and height (at the bottom) under the panel (or the floating colour bar);
     ``fov``: the vertical field of view (radians); ``aspect``: width / height of the view.
-    Planar lattices are seen straight from above; 3-D ones from the front and above (about 40
-    degrees) so their out-of-plane motion shows."""
+    Planar lattices, and every lattice on a phone (where a tilted view would shrink it), are
+    seen straight from above; 3-D ones on a laptop from the front and above (about 40 degrees)
+    so their out-of-plane motion shows."""
     a = model.spacing
     left, right_sag, down, up = sag(model)
     width = (model.nx + 1) * a + left + right_sag
     top = (model.ny + 1) * a / 2 + up
     lowest = -(model.ny + 1) * a / 2 - down
     if bar_in_scene:
-        lowest = (-(model.ny - 1) * a / 2 - down - 1.5 * a
-                  - BAR_FRACTION * (model.nx + 1) * a * BAR_ASPECT)
+        lowest = -(model.ny - 1) * a / 2 - down - 1.5 * a - bar_width(model) * BAR_ASPECT
+        width = max(width, bar_width(model))
     free_x, free_y = max(0.2, 1.0 - right), max(0.2, 1.0 - bottom)
     tangent = math.tan(fov / 2)
     distance = max(width / (2 * tangent * aspect * free_x),
@@ -396,7 +421,7 @@ def camera_fit(model: Model, fov: float, aspect: float, right: float = 0.0, bott
     shift_x = distance * tangent * aspect * (1.0 - free_x) + (right_sag - left) / 2
     shift_y = -distance * tangent * (1.0 - free_y)
     centre = ((top + lowest) / 2 + shift_y, shift_x)
-    if model.dim == 3:
+    if model.dim == 3 and not bar_in_scene:
         distance *= 1.15
         return ((centre[1], centre[0] - 0.75 * distance, 0.65 * distance),
                 (centre[1], centre[0], 0.0), (0.0, 0.0, 1.0))

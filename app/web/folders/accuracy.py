@@ -92,7 +92,7 @@ class AccuracyFolder(Folder):
                 gui, folder,
                 ({"label": "t (s)"},
                  {"label": "energy-balance error", "stroke": "#c0392b", "width": 1.5}),
-                PlotAxis("energy-balance error", "", "simulated time t (s)", RATIO_UNITS),
+                PlotAxis("error", "", "simulated time t (s)", RATIO_UNITS),
                 aspect=2.2)
             self.predicted = gui.add_html("")
             self.tolerance = gui.add_number(

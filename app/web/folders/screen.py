@@ -317,7 +317,7 @@ class ScreenFolder(Folder):
                            else [{"order": f.order, "kind": f.kind, "theory_y": f.y,
                                   "measured_y": None, "difference": None} for f in theory])
                 self.shown_fringes = fringes
-                rows = "" if whole or intensity is None else ", rows the wave has reached"
+                rows = "" if whole or intensity is None else ", rows reached"
                 title = f"screen at column {self._watching[-1] if self._watching else '-'}: " \
                         f"<u²> over {periods} whole period{'s' if periods != 1 else ''}{rows}"
                 self.picture.image = render_screen(y, intensity, fringes, title, waiting)
