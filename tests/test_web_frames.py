@@ -182,24 +182,3 @@ def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
         server.stop()
     assert len(set(requests)) == 2
     assert model.n_particles >= frames.IMAGE_LIMIT
-
-
-def test_a_long_frame_is_previewed_in_pieces_with_the_same_steps():
-    """When a frame's steps take longer than the preview interval, the page's view is handed
-    the state between pieces; the steps are the same as in one piece."""
-    from app.web.control import LatticeRunner
-
-    whole = sim.Simulation(sim.scenes.build("grid"))
-    pieces = sim.Simulation(sim.scenes.build("grid"))
-    for simulation in (whole, pieces):
-        simulation.positions[5, 1] += 0.2 * simulation.model.spacing
-    runner = LatticeRunner(pieces, steps_per_frame=40)
-    previews: list[int] = []
-    runner.preview = lambda frame: previews.append(frame.step)
-    runner.preview_interval = 1e-9  # every piece
-    runner.guarded_step(1)  # times a step
-    runner.guarded_step(40)
-    whole.step(41)
-    assert previews and all(1 < step < 41 for step in previews)
-    assert pieces.step_count == 41
-    np.testing.assert_array_equal(pieces.positions, whole.positions)

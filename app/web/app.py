@@ -93,16 +93,6 @@ def runner_pacing(simulation: sim.Simulation) -> tuple[int, float, float]:
     return max(1, math.ceil(1.0 / (60.0 * simulation.dt) - 1e-9)), 60.0, 90.0
 
 
-LARGE_LATTICE_PREVIEWS = 10.0
-"""Pictures per second a large lattice's page is offered at least while a frame's steps take
-longer (a busy computer): the state between pieces of the frame (``LatticeRunner.preview``)."""
-
-
-def preview_interval(simulation: sim.Simulation) -> float:
-    """Seconds between two previews of the state within a frame: large lattices only."""
-    return 1.0 / LARGE_LATTICE_PREVIEWS if simulation.model.n_particles >= LARGE_LATTICE else 0.0
-
-
 class WebApp:
     """The web app around one simulation.  ``start()`` then browse ``url``; ``stop()`` to end.
 
@@ -121,8 +111,6 @@ class WebApp:
                  teacher_token: str | None = None) -> None:
         steps_per_frame, sim_fps, self.render_fps = runner_pacing(simulation)
         self.runner = LatticeRunner(simulation, steps_per_frame=steps_per_frame, max_fps=sim_fps)
-        self.runner.preview = self._receive
-        self.runner.preview_interval = preview_interval(simulation)
         self.control = SimulationControl(self.runner)
         self.scene_files = SceneDirectory(scenes_dir)
         self.recordings = WebRecordings(self.runner, recordings_dir)
@@ -212,7 +200,6 @@ class WebApp:
         steps, sim_fps, render_fps = runner_pacing(simulation)
         self.runner.steps_per_frame = steps
         self.runner.max_fps = sim_fps
-        self.runner.preview_interval = preview_interval(simulation)
         self.render_fps = render_fps
         self.scene_source = source
         self.panel.show_scene(simulation)

@@ -7,11 +7,7 @@ callers that care) can wait for it.
 
 ``LatticeRunner`` is ``sim.runner.Runner`` plus *pins*: particles held at a position while a
 browser drags them.  Pins belong to an owner (a client id), so a browser that disconnects
-mid-drag is released with ``release(owner)`` and nothing stays stuck.  And plus *previews*: when
-a frame's steps take longer than ``preview_interval`` (a large lattice on a busy computer), the
-steps run in pieces and the page's view (``preview``, not the other subscribers: recordings keep
-their frames) is handed the state between pieces, so pictures keep coming while the frame's
-steps go on.
+mid-drag is released with ``release(owner)`` and nothing stays stuck.
 
 Drive and boundary commands (``drive``, ``stop_driving``, ``set_boundary``) build the changed
 model first and refuse (raising, changing nothing) when the running integrator cannot run it, e.g.
@@ -22,15 +18,14 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
-import time
-from collections.abc import Callable, Hashable, Sequence
+from collections.abc import Hashable, Sequence
 from typing import Any
 
 import numpy as np
 
 import sim
 from sim.forcing import Driver
-from sim.runner import Frame, Runner
+from sim.runner import Runner
 
 MASS_PATTERNS = ("uniform", "ionic")
 """Mass patterns the page offers: one mass everywhere, or a heavy/light checkerboard."""
@@ -53,41 +48,6 @@ class LatticeRunner(Runner):
                  max_fps: float = 60.0) -> None:
         super().__init__(simulation, steps_per_frame=steps_per_frame, max_fps=max_fps)
         self.pins: dict[Hashable, dict[int, np.ndarray]] = {}
-        self.preview: Callable[[Frame], Any] | None = None
-        """Handed the state between pieces of a long frame (the page's view), or None."""
-        self.preview_interval = 0.0
-        """Seconds between two previews (0: none)."""
-        self._step_seconds = 0.0
-        self._last_preview = 0.0
-
-    def guarded_step(self, steps: int) -> bool:
-        """``Runner.guarded_step``; with a ``preview``, in pieces of about ``preview_interval``
-        seconds each, the state handed to ``preview`` between pieces."""
-        preview, interval = self.preview, self.preview_interval
-        if preview is None or interval <= 0 or self.before_step is not None or steps <= 1:
-            return self._timed_steps(steps)
-        left = steps
-        while left > 0:
-            piece = left
-            if self._step_seconds > 0:
-                piece = min(left, max(1, int(interval / self._step_seconds)))
-            if not self._timed_steps(piece):
-                return False
-            left -= piece
-            now = time.perf_counter()
-            if left > 0 and now - self._last_preview >= interval:
-                self._last_preview = now
-                preview(self.make_frame(None))
-        return True
-
-    def _timed_steps(self, steps: int) -> bool:
-        started = time.perf_counter()
-        ran = super().guarded_step(steps)
-        if ran:
-            seconds = (time.perf_counter() - started) / max(1, steps)
-            self._step_seconds = (seconds if self._step_seconds == 0
-                                  else 0.7 * self._step_seconds + 0.3 * seconds)
-        return ran
 
     def pinned_particles(self) -> dict[int, np.ndarray]:
         """Every held particle index -> its target position (dim,) in m (later owners win)."""
