@@ -132,6 +132,7 @@ class WebApp:
         self.hold_while_dragging = True
         self._latest: Frame | None = None
         self._frame_ready = threading.Event()
+        self.view.picture_wanted = self._frame_ready.set  # a page is ready: picture the newest
         self._pumping = False
         self._pump: threading.Thread | None = None
         self._unsubscribe: Any = None

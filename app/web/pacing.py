@@ -79,8 +79,12 @@ class PicturePacer:
 
     def __init__(self, server: viser.ViserServer, make_node: Callable[[Any, bytes], Any],
                  max_fps: Callable[[], float] = lambda: MAX_FPS,
-                 budget: float = BYTES_PER_SECOND) -> None:
+                 budget: float = BYTES_PER_SECOND,
+                 on_ready: Callable[[], Any] | None = None) -> None:
         self.server = server
+        self.on_ready = on_ready
+        """Called when a page that has the newest picture becomes ready for another (the app
+        then pictures its newest frame without waiting for the next one)."""
         self.make_node = make_node
         self.max_fps = max_fps
         self.budget = budget
@@ -219,4 +223,7 @@ class PicturePacer:
                     return
             page.waiting = None
             page.acknowledged += 1
+            has_newest = page.serial >= self.serial
         self._offer(client_id, time.monotonic())
+        if has_newest and self.on_ready is not None:
+            self.on_ready()
