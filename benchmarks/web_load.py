@@ -8,10 +8,16 @@ received per second and the lattice frames per second (windows that update
 simulation's step counter from the page's status line (so one sees whether the simulation slows
 down with more clients).  ``--slow K`` adds K clients that read like a page on a 1 Mbit/s link,
 ``--stalled K`` K clients that stop reading after two seconds (the server's log then says it
-disconnected them), ``--browsers K`` K real Chromium pages (bytes received only).
+disconnected them), ``--drawing K`` K clients that take 0.25 s to "draw" each picture (a page
+without graphics acceleration), ``--browsers K`` K real Chromium pages (bytes received only).
+
+Every client acknowledges each picture as viser's page does once it has drawn it (the server
+asks for a local-storage value after each picture; the page's reply is what lets the next
+picture go to that page, ``app/web/pacing.py``); stalled clients never do.
 
     .venv/bin/python benchmarks/web_load.py                        # 1 and 20 clients, 15 s each
     .venv/bin/python benchmarks/web_load.py --clients 1 20 30 --seconds 20 --slow 2 --stalled 1
+    .venv/bin/python benchmarks/web_load.py --clients 20 --drawing 2
     .venv/bin/python benchmarks/web_load.py --clients 19 --browsers 1   # 20 pages, one a browser
 """
 
@@ -45,6 +51,8 @@ SLOW_BYTES_PER_SECOND = 125_000
 CHROMIUM = "/usr/bin/chromium"
 STALL_AFTER = 2.0
 """Seconds after which a ``--stalled`` client stops reading."""
+DRAWING_SECONDS = 0.25
+"""Seconds a ``--drawing`` client takes before it acknowledges a picture."""
 
 
 @dataclass
@@ -62,6 +70,14 @@ def decode_window(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[
     compressed_size = int.from_bytes(raw[8:16], "little")
     payload = decompressor.decompress(raw[16 : 16 + compressed_size], max_output_size=inner_size)
     return msgspec.msgpack.decode(payload)["messages"]
+
+
+def acknowledgements(messages: list[dict]) -> list[bytes]:
+    """viser's page's replies to the server's requests for local-storage values in a window (it
+    sends them when it applies the window, in its render loop)."""
+    return [msgspec.msgpack.encode({"type": "LocalStorageGetItemResponseMessage", "value": None,
+                                    "error": None, "request_uuid": message["request_uuid"]})
+            for message in messages if message.get("type") == "LocalStorageGetItemRequestMessage"]
 
 
 def status_step(messages: list[dict]) -> int | None:
@@ -98,13 +114,18 @@ async def run_client(url: str, client: Client, warm_up: float, seconds: float) -
                 messages = decode_window(raw, decompressor)
                 if client.kind == "slow":
                     await asyncio.sleep(len(raw) / SLOW_BYTES_PER_SECOND)
+                for request in acknowledgements(messages):
+                    if client.kind == "drawing":
+                        await asyncio.sleep(DRAWING_SECONDS)
+                    await connection.send(request)
                 step = status_step(messages)
                 if step is not None:
                     client.steps.append((time.perf_counter(), step))
                 if time.perf_counter() < counting_from:
                     continue
                 client.bytes += len(raw)
-                if any(message.get("name") == PARTICLES_NODE for message in messages):
+                if any(message.get("name") == PARTICLES_NODE
+                       and "_data" in (message.get("updates") or {}) for message in messages):
                     client.frames += 1
                     client.frame_bytes += len(raw)
     except websockets.exceptions.ConnectionClosed:
@@ -155,8 +176,9 @@ async def run_browsers(url: str, clients: list[Client], warm_up: float, seconds:
 
 
 async def phase(url: str, process: psutil.Process, count: int, slow: int, stalled: int,
-                browsers: int, warm_up: float, seconds: float) -> tuple[list[Client], int]:
-    kinds = ["normal"] * count + ["slow"] * slow + ["stalled"] * stalled
+                browsers: int, warm_up: float, seconds: float,
+                drawing: int = 0) -> tuple[list[Client], int]:
+    kinds = ["normal"] * count + ["slow"] * slow + ["stalled"] * stalled + ["drawing"] * drawing
     clients = [Client(kind=kind) for kind in kinds]
     pages = [Client(kind="Chromium") for _ in range(browsers)]
     stop = asyncio.Event()
@@ -184,13 +206,13 @@ def report(count: int, clients: list[Client], rss: int, seconds: float) -> None:
     frame_rates = sorted(c.frame_bytes / seconds / 1e3 for c in normal)
     fps = sorted(c.frames / seconds for c in normal)
     print(f"{count:3d} clients: per client MB/s median {statistics.median(rates):.3f} "
-          f"(min {rates[0]:.3f}, max {rates[-1]:.3f}); frame kB/s min {frame_rates[0]:.0f}; "
-          f"frames/s median {statistics.median(fps):.1f} (min {fps[0]:.1f}); "
+          f"(min {rates[0]:.3f}, max {rates[-1]:.3f}); picture kB/s min {frame_rates[0]:.0f}; "
+          f"pictures/s median {statistics.median(fps):.1f} (min {fps[0]:.1f}); "
           f"all clients {sum(c.bytes for c in clients) / seconds / 1e6:.2f} MB/s; "
           f"server RSS peak {rss / 1e6:.0f} MB; simulation {steps_per_second(clients):.0f} steps/s")
-    for kind in ("slow", "stalled", "Chromium"):
+    for kind in ("slow", "drawing", "stalled", "Chromium"):
         for c in (c for c in clients if c.kind == kind):
-            frames = f", {c.frames / seconds:.1f} frames/s" if kind != "Chromium" else ""
+            frames = f", {c.frames / seconds:.1f} pictures/s" if kind != "Chromium" else ""
             print(f"    a {kind} client: {c.bytes / seconds / 1e3:.0f} kB/s{frames}")
 
 
@@ -216,6 +238,8 @@ def main() -> None:
     parser.add_argument("--warm-up", type=float, default=5.0, help="seconds before counting")
     parser.add_argument("--slow", type=int, default=0, help="clients reading at 1 Mbit/s")
     parser.add_argument("--stalled", type=int, default=0, help="clients that stop reading")
+    parser.add_argument("--drawing", type=int, default=0,
+                        help=f"clients that take {DRAWING_SECONDS} s to draw each picture")
     parser.add_argument("--browsers", type=int, default=0,
                         help="real Chromium pages (/usr/bin/chromium) besides the clients")
     parser.add_argument("--scene", default="interference")
@@ -231,7 +255,8 @@ def main() -> None:
         for count in arguments.clients:
             clients, rss = asyncio.run(phase(url, process, count, arguments.slow,
                                              arguments.stalled, arguments.browsers,
-                                             arguments.warm_up, arguments.seconds))
+                                             arguments.warm_up, arguments.seconds,
+                                             arguments.drawing))
             report(count, clients, rss, arguments.seconds)
             dropped = [line for line in log.read_text().splitlines() if "disconnected page" in line]
             print(f"    server log: {len(dropped)} page(s) disconnected for not reading so far")

@@ -162,12 +162,16 @@ def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
             pacer.publish(b"second")
             pacer.publish(b"third")  # no reply yet: nothing more is sent
             assert sent == [b"first"] and not pacer.wanted()
-            await connection.send(acknowledgement(first))
+            await connection.send(acknowledgement(first))  # taken in
+            again = await next_request()  # asked again: answered once the page drew a frame
+            assert sent == [b"first"]
+            await connection.send(acknowledgement(again))
             second = await next_request()  # the reply brought the newest picture
             assert sent == [b"first", b"third"]
-            requests += [first["request_uuid"], second["request_uuid"]]
+            requests += [first["request_uuid"], again["request_uuid"], second["request_uuid"]]
             pacer.budget = 1.0  # one byte a second: the next picture waits for the budget
             await connection.send(acknowledgement(second))
+            await connection.send(acknowledgement(await next_request()))
             await asyncio.to_thread(wait_for, lambda: pacer.pages[next(iter(pacer.pages))]
                                     .acknowledged == 2, 10)
             pacer.publish(b"fourth")
@@ -180,5 +184,5 @@ def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
     finally:
         pacer.remove()
         server.stop()
-    assert len(set(requests)) == 2
+    assert len(set(requests)) == 3
     assert model.n_particles >= frames.IMAGE_LIMIT

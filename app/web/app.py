@@ -65,6 +65,11 @@ needs to answer clicks.  A frame at the scene's duration always reaches the pane
 the run there)."""
 
 
+IDLE_REDRAW = 2.0
+"""Seconds between two redraws of an unchanged frame (a paused run): each redraw updates the
+panel's plots in every page, work a page without graphics acceleration does on its only
+thread."""
+
 REFIT_SECONDS = 20.0
 """Seconds after a page connects during which its camera is fitted again if it leaves the fit
 (a loading page resets its camera to the scene's initial one when that reaches it late)."""
@@ -133,6 +138,7 @@ class WebApp:
         self._latest: Frame | None = None
         self._drawn: Frame | None = None
         self._frame_ready = threading.Event()
+        self.view.picture_wanted = self._frame_ready.set  # a page is ready: picture the newest
         self._pumping = False
         self._pump: threading.Thread | None = None
         self._unsubscribe: Any = None
@@ -240,12 +246,16 @@ class WebApp:
 
     def _pump_frames(self) -> None:
         last = 0.0
+        shown: Frame | None = None
         while self._pumping:
-            self._frame_ready.wait(0.25)
+            woke = self._frame_ready.wait(0.25)
             self._frame_ready.clear()
             frame = self._latest
             if not self._pumping or frame is None:
                 continue
+            if not woke and frame is shown and time.perf_counter() - last < IDLE_REDRAW:
+                continue  # nothing new (paused): the pages' panels and plots stay as they are
+            shown = frame
             wait = 1.0 / self.render_fps - (time.perf_counter() - last)
             if wait > 0:
                 time.sleep(wait)

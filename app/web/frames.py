@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import io
 import time
+from collections.abc import Callable
 
 import numpy as np
 import viser
@@ -91,12 +92,14 @@ class FieldImage:
     hands it to the pacer."""
 
     def __init__(self, server: viser.ViserServer, model: Model, colours: np.ndarray,
-                 name: str = "/lattice/particles") -> None:
+                 name: str = "/lattice/particles",
+                 on_ready: Callable[[], object] | None = None) -> None:
         self.model = model
         self.name = name
         self.max_fps = DEFAULT_FPS
         """The View folder's choice of pictures per second (the most, for every page)."""
-        self.pacer = PicturePacer(server, self._make_node, max_fps=lambda: self.max_fps)
+        self.pacer = PicturePacer(server, self._make_node, max_fps=lambda: self.max_fps,
+                                  on_ready=on_ready)
         self.sent = 0
         self.bytes_sent = 0
         self.last_bytes = 0

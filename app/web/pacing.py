@@ -7,11 +7,13 @@ pace it can show them:
 * **the page's acknowledgement.**  After each picture the server asks that page for a value of
   its local storage (viser's ``LocalStorageGetItemRequestMessage``).  viser's page applies every
   message that touches its 3-D scene inside its render loop, in order, so the reply comes back
-  when the page has taken the picture into a drawn frame: a page drawing a frame in 5 ms replies
-  at once, a page without graphics acceleration (0.1-0.2 s a frame in software) replies when
-  its frame is done.  Only then is that page sent the next picture (the newest one, encoded by
-  then), so a page never holds more than one picture it has not drawn, and a slow page gets
-  fewer pictures while the others go on;
+  when the page has taken the picture in, at the start of a drawn frame; the server then asks
+  once more, and that reply comes from the page's next frame, by which time the picture (decoded
+  in between) is on the screen.  A page drawing a frame in 5 ms replies at once; a page without
+  graphics acceleration (0.1-0.2 s a frame in software) replies as its frames get done.  Only
+  then is that page sent the next picture (the newest one, encoded by then), so a page never
+  holds a picture it has not drawn (viser's page drops a picture still being decoded when the
+  next one comes), and a slow page gets fewer pictures while the others go on;
 * **at most** ``MAX_FPS`` pictures a second per page and ``BYTES_PER_SECOND`` of pictures per
   page (a class on one Wi-Fi network), whatever the page could take;
 * a page that does not reply within ``ACK_TIMEOUT`` seconds (a program speaking viser's protocol
@@ -64,6 +66,8 @@ class PageState:
     acknowledged: int = 0
     scheduled: bool = False
     """A delayed send (byte budget) is already scheduled on the event loop."""
+    confirming: bool = False
+    """The page took the picture in; the reply awaited now says it drew a frame since."""
 
 
 class PicturePacer:
@@ -75,8 +79,12 @@ class PicturePacer:
 
     def __init__(self, server: viser.ViserServer, make_node: Callable[[Any, bytes], Any],
                  max_fps: Callable[[], float] = lambda: MAX_FPS,
-                 budget: float = BYTES_PER_SECOND) -> None:
+                 budget: float = BYTES_PER_SECOND,
+                 on_ready: Callable[[], Any] | None = None) -> None:
         self.server = server
+        self.on_ready = on_ready
+        """Called when a page that has the newest picture becomes ready for another (the app
+        then pictures its newest frame without waiting for the next one)."""
         self.make_node = make_node
         self.max_fps = max_fps
         self.budget = budget
@@ -170,6 +178,7 @@ class PicturePacer:
             page.sent_at, page.last_bytes = now, len(data)
             page.sent += 1
             page.bytes_sent += len(data)
+            page.confirming = False
             self._ask(client, page)
 
     def _ask(self, client: Any, page: PageState) -> None:
@@ -206,6 +215,15 @@ class PicturePacer:
             page = self.pages.get(client_id)
             if page is None or page.waiting != request:
                 return
+            if not page.confirming:  # taken in: ask again, answered after the next frame
+                client = self.server.get_clients().get(client_id)
+                if client is not None:
+                    page.confirming = True
+                    self._ask(client, page)
+                    return
             page.waiting = None
             page.acknowledged += 1
+            has_newest = page.serial >= self.serial
         self._offer(client_id, time.monotonic())
+        if has_newest and self.on_ready is not None:
+            self.on_ready()

@@ -28,6 +28,7 @@ import dataclasses
 import math
 import threading
 import time
+from collections.abc import Callable
 
 import numpy as np
 import viser
@@ -137,6 +138,13 @@ class LatticeView:
         self.frames_drawn = 0
         self.last_positions: np.ndarray | None = None
         self.model: Model | None = None
+        self.picture_wanted: Callable[[], object] | None = None
+        """Called (from viser's event loop) when a page is ready for a picture newer than the
+        last one made: the app draws its newest frame again."""
+
+    def _picture_wanted(self) -> None:
+        if self.picture_wanted is not None:
+            self.picture_wanted()
 
     # --- settings --------------------------------------------------------------------------------
 
@@ -204,7 +212,8 @@ class LatticeView:
             )
         else:
             if uses_image(model, self.settings.points_move(model)):
-                self._image = FieldImage(self.server, model, self._particle_colors(frame))
+                self._image = FieldImage(self.server, model, self._particle_colors(frame),
+                                         on_ready=self._picture_wanted)
                 self._image.frame = frame
             else:
                 shown = xyz if self.settings.points_move(model) else to_xyz(model.rest_positions)
