@@ -16,12 +16,11 @@ from app.web.folders.files import SceneFileControls
 from app.web.folders.walls import WallsControls
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, whole_number
+from app.web.scene_files import MAX_PAGE_PARTICLES
 from app.web.widgets import ERRORS, say
 
 MAX_SIDE = 2_000
 """Largest nx or ny the page builds (and deepest sponge layer it accepts)."""
-MAX_PAGE_PARTICLES = 1_000_000
-"""Largest lattice (nx * ny) the page builds; bigger ones: the command line."""
 FALLBACK_PRESET = "grid"
 """Preset shown when the running scene is not a preset."""
 
