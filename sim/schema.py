@@ -35,8 +35,11 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "damping": (0.0, 1e9),
     "drag": (0.0, 1e9),
     "gravity": (-1e6, 1e6),
+    "dt": (0.0, 1e6),
+    "amplitude": (0.0, 1e6),
 }
-"""(smallest, largest) of each lattice parameter (SI units: m, N/m, kg, N s/m, m/s^2).  With
+"""(smallest, largest) of each lattice parameter (SI units: m, N/m, kg, N s/m, m/s^2), of a time
+step (s, the smallest excluded) and of a driver's amplitude (m).  With
 these, the largest energy scale, stiffness x (spacing x particles)^2 ~ 1e9 x 1e22, stays far below
 float64's 1e308."""
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from sim import observables
+from sim import observables, schema
 from sim.blowup import BlowUpRule
 from sim.integrators import (
     LABELS,
@@ -50,11 +50,13 @@ class BlowUpError(RuntimeError):
         self.time = time
         self.stable_dt = stable_dt
         self.reason = reason
-        limit = (
-            f"the stability limit is dt = {stable_dt:.6g} s"
-            if stable_dt is not None
-            else "this integrator has no stable step on this lattice"
-        )
+        if stable_dt is None:
+            limit = "this integrator has no stable step on this lattice"
+        else:  # the theory about the rest lattice; a sag or large motion lowers the real one
+            limit = f"the small-amplitude stability limit is dt = {stable_dt:.6g} s"
+            if dt <= stable_dt:
+                limit += (", above this dt: large displacements or a sag under gravity stiffen "
+                          "the springs and lower the limit of this run")
         super().__init__(
             f"{LABELS.get(integrator, integrator)} blew up at step {step} (t = {time:.6g} s, "
             f"dt = {dt:.6g} s): {reason}; {limit}. The state before that step is kept."
@@ -68,7 +70,7 @@ def _check_dt(dt: Any) -> float:
         raise ModelError(f"dt must be a number, got {dt!r}") from None
     if not math.isfinite(value) or value <= 0:
         raise ModelError(f"dt must be a positive finite number of seconds, got {dt!r}")
-    return value
+    return schema.number(value, "dt (s)", *schema.BOUNDS["dt"], low_open=True, error=ModelError)
 
 
 class _ParticleView:

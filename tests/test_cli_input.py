@@ -59,6 +59,18 @@ def test_run_refuses_a_plan_too_long_and_says_how_long(capsys, arguments):
     assert any(unit in line for unit in ("years", "days", "hours"))
 
 
+@pytest.mark.parametrize(
+    "arguments, fragment",
+    [(["--dt", "1e300"], "dt (s) must be in (0, 1e+06]"),
+     (["--set", "driver=column=0,frequency=0.6,amplitude=1e300,kind=force"],
+      "driver amplitude (m) must be in [0, 1e+06]"),
+     (["--threads", "100000"], "threads must be at most")],
+)
+def test_run_refuses_values_beyond_what_can_run_before_running(capsys, arguments, fragment):
+    line = assert_refused(capsys, ["run", "chain", *arguments], fragment)
+    assert "ran " not in capsys.readouterr().out, line
+
+
 def test_run_still_accepts_sensible_input(capsys):
     assert run_cli(["run", "chain", "--dt", "0.01", "--duration", "0.5", "--quiet"]) == 0
     assert "ran 50 steps" in capsys.readouterr().out
