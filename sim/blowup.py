@@ -78,12 +78,10 @@ class BlowUpRule:
         """The rule for a run that starts from a state with this energy account."""
         floor = 0.5 * model.stiffness * (1e-3 * model.spacing) ** 2 * model.n_particles
         release = spring_release(model)
-        weight = float(model.masses.sum()) * float(np.linalg.norm(model.gravity[: model.dim]))
-        size = (max(model.nx, model.ny) + 1) * model.spacing + weight / model.stiffness
         return cls(
             motion=_motion(energy, release), gravity=float(energy.gravity),
             driven=float(energy.driven), dissipated=float(energy.dissipated), floor=floor,
-            bound=COORDINATE_FACTOR * size, release=release,
+            bound=reach(model), release=release,
         )
 
     def supply(self, energy: Energy) -> float:
@@ -111,6 +109,14 @@ class BlowUpRule:
                 f"{self.bound:.3g} m ({COORDINATE_FACTOR:g} times the lattice's size and sag)"
             )
         return None
+
+
+def reach(model: Model) -> float:
+    """The largest distance (m) of a particle from its rest position that is not a blow-up:
+    ``COORDINATE_FACTOR`` times the lattice's size plus its sag under its whole weight."""
+    weight = float(model.masses.sum()) * float(np.linalg.norm(model.gravity[: model.dim]))
+    size = (max(model.nx, model.ny) + 1) * model.spacing + weight / model.stiffness
+    return COORDINATE_FACTOR * size
 
 
 def spring_release(model: Model) -> float:

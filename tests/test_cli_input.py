@@ -323,3 +323,18 @@ def test_the_accuracy_library_still_refuses_a_reference_beyond_the_rk4_limit():
 
     with pytest.raises(ValueError, match="too long for a numerical reference"):
         accuracy_study(sim.scenes.build("chain"), integrators=["verlet"], dts=[1.0], until=1e12)
+
+
+def test_serve_refuses_a_recordings_dir_that_does_not_exist_and_creates_nothing(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    missing = tmp_path / "a" / "b" / "c"
+    result = subprocess.run(
+        [sys.executable, "-m", "app.cli", "serve", "chain", "--port", "0", "--recordings-dir",
+         str(missing)], capture_output=True, text=True, timeout=120,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)})
+    assert result.returncode == 2
+    assert f"--recordings-dir {missing} is not an existing directory" in result.stderr
+    assert not (tmp_path / "a").exists()

@@ -16,11 +16,12 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import psutil
 import pytest
 import websockets
 
-from tests.helpers import free_port
+from tests.helpers import free_port, wait_for
 from tests.page_client import Page
 
 REPO = Path(__file__).resolve().parent.parent
@@ -256,3 +257,34 @@ def test_a_page_over_the_message_rate_is_throttled_then_disconnected(web_app):
     assert run(scenario())
     assert gate.dropped.get("over the rate", 0) > 1000
     assert gate.disconnected == 1
+
+
+def test_gizmo_positions_beyond_reach_or_not_finite_are_refused(web_app):
+    """A drag of the selection's gizmo to (1e300, -1e300), (-1e300, 1e300) or NaN moves nothing
+    (the energy stays finite); a drag within reach still moves the particle."""
+    particle = 3 * web_app.runner.simulation.model.nx + 5
+    web_app.set_selection(np.array([particle]))
+    assert wait_for(lambda: web_app._gizmo is not None)
+    rest = tuple(float(v) for v in web_app.runner.simulation.positions[particle])
+
+    async def drag(position: tuple) -> None:
+        async with Page(web_app.server.get_port()) as page:
+            await page.camera()
+            await page.listen(1.0)
+            gizmo = {"name": "/selection_gizmo", "owner": ""}
+            await page.send(type="TransformControlsDragStartMessage", **gizmo)
+            await page.send(type="TransformControlsUpdateMessage", wxyz=(1.0, 0.0, 0.0, 0.0),
+                            position=position, **gizmo)
+            await page.send(type="TransformControlsDragEndMessage", **gizmo)
+            await page.listen(1.0)
+
+    for position in ((1e300, -1e300, 0.0), (-1e300, 1e300, 0.0), (math.nan, 0.0, 0.0)):
+        run(drag(position))
+        web_app.runner.post(lambda simulation: None).result(timeout=10)
+        positions = web_app.runner.simulation.positions
+        assert np.isfinite(positions).all()
+        assert tuple(positions[particle]) == pytest.approx(rest), position
+        assert math.isfinite(web_app.runner.simulation.energy().total)
+    run(drag((rest[0] + 0.3, rest[1], 0.0)))
+    web_app.runner.post(lambda simulation: None).result(timeout=10)
+    assert web_app.runner.simulation.positions[particle][0] == pytest.approx(rest[0] + 0.3)
