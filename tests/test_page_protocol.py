@@ -288,3 +288,33 @@ def test_gizmo_positions_beyond_reach_or_not_finite_are_refused(web_app):
     run(drag((rest[0] + 0.3, rest[1], 0.0)))
     web_app.runner.post(lambda simulation: None).result(timeout=10)
     assert web_app.runner.simulation.positions[particle][0] == pytest.approx(rest[0] + 0.3)
+
+
+def test_a_vector_value_outside_its_bounds_is_set_back_on_every_page(web_app):
+    vector = web_app.server.gui.add_vector2("Bounded pair", (1, 2), min=(0, 0), max=(10, 5),
+                                            step=1)
+
+    async def scenario() -> tuple[Page, Page]:
+        async with Page(web_app.server.get_port()) as sender, \
+                Page(web_app.server.get_port()) as watcher:
+            await sender.camera()
+            await watcher.camera()
+            await sender.listen(1.5)
+            await watcher.listen(0.5)
+            await sender.set("Bounded pair", {"value": [999, 999]})
+            await sender.set("Bounded pair", {"value": [3, -1]})
+            await sender.listen(1.0)
+            await watcher.listen(0.5)
+            await sender.set("Bounded pair", {"value": [4, 5]})  # within bounds: taken
+            await sender.listen(1.0)
+            await watcher.listen(0.5)
+            return sender, watcher
+
+    sender, watcher = run(scenario())
+    assert tuple(vector.value) == (4, 5)
+    restored = [tuple(update["updates"]["value"]) for update in sender.updates
+                if update["uuid"] == sender.uuid("Bounded pair")]
+    assert restored and restored[0] == (1, 2), restored  # the sender is shown the value in use
+    assert tuple(watcher.value("Bounded pair")) == (4, 5)
+    assert (999, 999) not in [tuple(update["updates"].get("value", ())) for update in
+                              watcher.updates]
