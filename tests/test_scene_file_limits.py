@@ -77,3 +77,44 @@ def test_the_page_refuses_a_listed_file_larger_than_its_particle_limit(tmp_path)
     (tmp_path / "large.toml").write_text(LARGE)
     with pytest.raises(sim.SceneError, match="particles, more than the 1,000,000"):
         SceneDirectory(tmp_path).load("large.toml")
+
+
+def test_quick_preset_and_build_presses_end_on_the_last_preset_whole(web_app, monkeypatch):
+    """40 Preset + Build presses at 10 a second, each handled on its own thread as viser does,
+    with builds that take 0-0.4 s (as large lattices do): one build at a time, the last press
+    wins, and the scene is the preset at its own size."""
+    import random
+    import threading
+    import time
+
+    from tests.test_web_safety import press, settle
+
+    build = sim.scenes.build
+    delays = random.Random(7)
+
+    def slow_build(*arguments, **overrides):
+        time.sleep(0.4 * delays.random())
+        return build(*arguments, **overrides)
+
+    monkeypatch.setattr(sim.scenes, "build", slow_build)
+    panel = web_app.panel.scene
+    names = ["chain", "square", "grid", "single"]
+    threads = []
+    for index in range(40):
+        name = names[index % len(names)]
+        for action in (lambda name=name: send(panel.preset, name),
+                       lambda: press(panel.build_button)):
+            thread = threading.Thread(target=action)
+            thread.start()
+            threads.append(thread)
+            time.sleep(0.05)
+    for thread in threads:
+        thread.join(timeout=120)
+    settle(web_app)
+    last = names[39 % len(names)]
+    expected = sim.scenes.build(last)
+    model = web_app.runner.simulation.model
+    assert web_app.runner.simulation.scene.name == last
+    assert (model.nx, model.ny) == (expected.model.nx, expected.model.ny)
+    assert (panel.nx.value, panel.ny.value) == (model.nx, model.ny)
+    assert panel.preset.value == last
