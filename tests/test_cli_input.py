@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import os
 import shutil
 from pathlib import Path
 
@@ -326,7 +327,6 @@ def test_the_accuracy_library_still_refuses_a_reference_beyond_the_rk4_limit():
 
 
 def test_serve_refuses_a_recordings_dir_that_does_not_exist_and_creates_nothing(tmp_path):
-    import os
     import subprocess
     import sys
 
@@ -338,3 +338,47 @@ def test_serve_refuses_a_recordings_dir_that_does_not_exist_and_creates_nothing(
     assert result.returncode == 2
     assert f"--recordings-dir {missing} is not an existing directory" in result.stderr
     assert not (tmp_path / "a").exists()
+
+
+def test_an_error_entry_cut_by_a_full_disk_is_cut_back_to_the_last_whole_message(
+    tmp_path, monkeypatch
+):
+    """A recording whose writer failed mid-message on a full disk is ended by
+    ``end_readably``; when its ERROR entry is written only in part (a full disk), the file is
+    cut back to its last whole message, so it still reads back with what came before."""
+    import types
+
+    import rerun as rr
+
+    import app.recording.destination as destination
+
+    path = tmp_path / "full.rrd"
+    stream = rr.RecordingStream("full-disk", recording_id="r", send_properties=False)
+    stream.save(str(path))
+    for step in range(30):
+        stream.set_time("step", sequence=step)
+        stream.log("/energy/total", rr.Scalars(float(step)))
+    stream.disconnect()
+    whole = destination.readable_part(path)
+    assert whole.complete
+    data = path.read_bytes()
+    path.write_bytes(data[: whole.readable_bytes - 40])  # cut inside its last messages
+
+    real_pwrite = os.pwrite
+
+    def half_pwrite(descriptor, payload, offset):
+        real_pwrite(descriptor, payload[: len(payload) // 2], offset)
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(destination.os, "pwrite", half_pwrite)
+    descriptor = os.open(path, os.O_RDWR)
+    try:
+        output = types.SimpleNamespace(library_path=str(path), descriptor=descriptor)
+        destination.end_readably(output, "full-disk", "r", "recording stopped: disk full",
+                                 [("/log", 29, 0.29)])
+    finally:
+        os.close(descriptor)
+    part = destination.readable_part(path)
+    assert part.readable_bytes == part.total_bytes and part.messages > 0
+    steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
+    assert 0 < len(steps) <= 30
