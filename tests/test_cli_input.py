@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import os
 import shutil
 from pathlib import Path
 
@@ -57,6 +58,18 @@ def test_run_refuses_non_positive_or_non_finite_numbers(capsys, option, value):
 def test_run_refuses_a_plan_too_long_and_says_how_long(capsys, arguments):
     line = assert_refused(capsys, ["run", "chain", *arguments, "--quiet"], "about", "limit")
     assert any(unit in line for unit in ("years", "days", "hours"))
+
+
+@pytest.mark.parametrize(
+    "arguments, fragment",
+    [(["--dt", "1e300"], "dt (s) must be in (0, 1e+06]"),
+     (["--set", "driver=column=0,frequency=0.6,amplitude=1e300,kind=force"],
+      "driver amplitude (m) must be in [0, 1e+06]"),
+     (["--threads", "100000"], "threads must be at most")],
+)
+def test_run_refuses_values_beyond_what_can_run_before_running(capsys, arguments, fragment):
+    line = assert_refused(capsys, ["run", "chain", *arguments], fragment)
+    assert "ran " not in capsys.readouterr().out, line
 
 
 def test_run_still_accepts_sensible_input(capsys):
@@ -311,3 +324,61 @@ def test_the_accuracy_library_still_refuses_a_reference_beyond_the_rk4_limit():
 
     with pytest.raises(ValueError, match="too long for a numerical reference"):
         accuracy_study(sim.scenes.build("chain"), integrators=["verlet"], dts=[1.0], until=1e12)
+
+
+def test_serve_refuses_a_recordings_dir_that_does_not_exist_and_creates_nothing(tmp_path):
+    import subprocess
+    import sys
+
+    missing = tmp_path / "a" / "b" / "c"
+    result = subprocess.run(
+        [sys.executable, "-m", "app.cli", "serve", "chain", "--port", "0", "--recordings-dir",
+         str(missing)], capture_output=True, text=True, timeout=120,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)})
+    assert result.returncode == 2
+    assert f"--recordings-dir {missing} is not an existing directory" in result.stderr
+    assert not (tmp_path / "a").exists()
+
+
+def test_an_error_entry_cut_by_a_full_disk_is_cut_back_to_the_last_whole_message(
+    tmp_path, monkeypatch
+):
+    """A recording whose writer failed mid-message on a full disk is ended by
+    ``end_readably``; when its ERROR entry is written only in part (a full disk), the file is
+    cut back to its last whole message, so it still reads back with what came before."""
+    import types
+
+    import rerun as rr
+
+    import app.recording.destination as destination
+
+    path = tmp_path / "full.rrd"
+    stream = rr.RecordingStream("full-disk", recording_id="r", send_properties=False)
+    stream.save(str(path))
+    for step in range(30):
+        stream.set_time("step", sequence=step)
+        stream.log("/energy/total", rr.Scalars(float(step)))
+    stream.disconnect()
+    whole = destination.readable_part(path)
+    assert whole.complete
+    data = path.read_bytes()
+    path.write_bytes(data[: whole.readable_bytes - 40])  # cut inside its last messages
+
+    real_pwrite = os.pwrite
+
+    def half_pwrite(descriptor, payload, offset):
+        real_pwrite(descriptor, payload[: len(payload) // 2], offset)
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(destination.os, "pwrite", half_pwrite)
+    descriptor = os.open(path, os.O_RDWR)
+    try:
+        output = types.SimpleNamespace(library_path=str(path), descriptor=descriptor)
+        destination.end_readably(output, "full-disk", "r", "recording stopped: disk full",
+                                 [("/log", 29, 0.29)])
+    finally:
+        os.close(descriptor)
+    part = destination.readable_part(path)
+    assert part.readable_bytes == part.total_bytes and part.messages > 0
+    steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
+    assert 0 < len(steps) <= 30

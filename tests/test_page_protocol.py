@@ -16,82 +16,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-import msgspec
+import numpy as np
 import psutil
 import pytest
-import viser
 import websockets
-import zstandard
 
-from tests.helpers import free_port
+from tests.helpers import free_port, wait_for
+from tests.page_client import Page
 
 REPO = Path(__file__).resolve().parent.parent
-
-
-def decode_window(raw: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
-    """The messages of one viser websocket window (see benchmarks/web_speed.py)."""
-    inner_size = int.from_bytes(raw[:8], "little")
-    compressed_size = int.from_bytes(raw[8:16], "little")
-    payload = decompressor.decompress(raw[16: 16 + compressed_size], max_output_size=inner_size)
-    return msgspec.msgpack.decode(payload)["messages"]
-
-
-class Page:
-    """A websocket client speaking viser's protocol: ``state`` holds each control's creation
-    message by label and every update it received since, in order."""
-
-    def __init__(self, port: int) -> None:
-        self.port = port
-        self.controls: dict[str, dict] = {}
-        self.updates: list[dict] = []
-
-    async def __aenter__(self) -> Page:
-        self.connection = await websockets.connect(
-            f"ws://127.0.0.1:{self.port}", subprotocols=[f"viser-v{viser.__version__}"],
-            max_size=None)
-        self.decompressor = zstandard.ZstdDecompressor()
-        return self
-
-    async def __aexit__(self, *_: Any) -> None:
-        await self.connection.close()
-
-    async def listen(self, seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            try:
-                raw = await asyncio.wait_for(self.connection.recv(), end - time.monotonic())
-            except TimeoutError:
-                return
-            for message in decode_window(raw, self.decompressor):
-                label = message.get("props", {}).get("label") if isinstance(
-                    message.get("props"), dict) else None
-                if message.get("type", "").startswith("Gui") and label:
-                    self.controls[label] = message
-                elif message.get("type") == "GuiUpdateMessage":
-                    self.updates.append(message)
-
-    def uuid(self, label: str) -> str:
-        return self.controls[label]["uuid"]
-
-    def value(self, label: str) -> Any:
-        """The value this page shows: the creation message, then the updates in order."""
-        value = self.controls[label].get("value")
-        for update in self.updates:
-            if update["uuid"] == self.uuid(label) and "value" in update["updates"]:
-                value = update["updates"]["value"]
-        return value
-
-    async def send(self, **message: Any) -> None:
-        await self.connection.send(msgspec.msgpack.encode(message))
-
-    async def set(self, label: str, updates: dict) -> None:
-        await self.send(type="GuiUpdateMessage", uuid=self.uuid(label), updates=updates)
-
-    async def camera(self) -> None:
-        await self.send(type="ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0),
-                        position=(0.0, 0.0, -5.0), fov=0.9, near=0.01, far=100.0,
-                        image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
-                        up_direction=(0.0, 1.0, 0.0))
 
 
 @pytest.fixture(scope="module")
@@ -324,3 +257,64 @@ def test_a_page_over_the_message_rate_is_throttled_then_disconnected(web_app):
     assert run(scenario())
     assert gate.dropped.get("over the rate", 0) > 1000
     assert gate.disconnected == 1
+
+
+def test_gizmo_positions_beyond_reach_or_not_finite_are_refused(web_app):
+    """A drag of the selection's gizmo to (1e300, -1e300), (-1e300, 1e300) or NaN moves nothing
+    (the energy stays finite); a drag within reach still moves the particle."""
+    particle = 3 * web_app.runner.simulation.model.nx + 5
+    web_app.set_selection(np.array([particle]))
+    assert wait_for(lambda: web_app._gizmo is not None)
+    rest = tuple(float(v) for v in web_app.runner.simulation.positions[particle])
+
+    async def drag(position: tuple) -> None:
+        async with Page(web_app.server.get_port()) as page:
+            await page.camera()
+            await page.listen(1.0)
+            gizmo = {"name": "/selection_gizmo", "owner": ""}
+            await page.send(type="TransformControlsDragStartMessage", **gizmo)
+            await page.send(type="TransformControlsUpdateMessage", wxyz=(1.0, 0.0, 0.0, 0.0),
+                            position=position, **gizmo)
+            await page.send(type="TransformControlsDragEndMessage", **gizmo)
+            await page.listen(1.0)
+
+    for position in ((1e300, -1e300, 0.0), (-1e300, 1e300, 0.0), (math.nan, 0.0, 0.0)):
+        run(drag(position))
+        web_app.runner.post(lambda simulation: None).result(timeout=10)
+        positions = web_app.runner.simulation.positions
+        assert np.isfinite(positions).all()
+        assert tuple(positions[particle]) == pytest.approx(rest), position
+        assert math.isfinite(web_app.runner.simulation.energy().total)
+    run(drag((rest[0] + 0.3, rest[1], 0.0)))
+    web_app.runner.post(lambda simulation: None).result(timeout=10)
+    assert web_app.runner.simulation.positions[particle][0] == pytest.approx(rest[0] + 0.3)
+
+
+def test_a_vector_value_outside_its_bounds_is_set_back_on_every_page(web_app):
+    vector = web_app.server.gui.add_vector2("Bounded pair", (1, 2), min=(0, 0), max=(10, 5),
+                                            step=1)
+
+    async def scenario() -> tuple[Page, Page]:
+        async with Page(web_app.server.get_port()) as sender, \
+                Page(web_app.server.get_port()) as watcher:
+            await sender.camera()
+            await watcher.camera()
+            await sender.listen(1.5)
+            await watcher.listen(0.5)
+            await sender.set("Bounded pair", {"value": [999, 999]})
+            await sender.set("Bounded pair", {"value": [3, -1]})
+            await sender.listen(1.0)
+            await watcher.listen(0.5)
+            await sender.set("Bounded pair", {"value": [4, 5]})  # within bounds: taken
+            await sender.listen(1.0)
+            await watcher.listen(0.5)
+            return sender, watcher
+
+    sender, watcher = run(scenario())
+    assert tuple(vector.value) == (4, 5)
+    restored = [tuple(update["updates"]["value"]) for update in sender.updates
+                if update["uuid"] == sender.uuid("Bounded pair")]
+    assert restored and restored[0] == (1, 2), restored  # the sender is shown the value in use
+    assert tuple(watcher.value("Bounded pair")) == (4, 5)
+    assert (999, 999) not in [tuple(update["updates"].get("value", ())) for update in
+                              watcher.updates]

@@ -64,9 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--scenes-dir", default="scenes", metavar="DIR",
                         help="directory whose .toml scene files the page offers by name "
                         "(default ./scenes; nothing outside it is ever opened)")
-    parser.add_argument("--recordings-dir", default="recordings", metavar="DIR",
-                        help="where recordings started in the page are written "
-                        "(default ./recordings)")
+    parser.add_argument("--recordings-dir", metavar="DIR",
+                        help="an existing directory where recordings started in the page are "
+                        "written (default ./recordings, made at the first recording)")
     parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
                         help="also let pages from ORIGIN (http://name:port) drive the app, or "
                         "'*' for any page (repeatable; default: only this server's own page)")
@@ -154,6 +154,11 @@ def command_serve(arguments: argparse.Namespace) -> int:
     scenes_dir = Path(arguments.scenes_dir)
     if scenes_dir.exists() and not scenes_dir.is_dir():
         raise ValueError(f"--scenes-dir {scenes_dir} is not a directory")
+    if arguments.recordings_dir is None:
+        arguments.recordings_dir = "recordings"
+    elif not Path(arguments.recordings_dir).is_dir():
+        raise ValueError(f"--recordings-dir {arguments.recordings_dir} is not an existing "
+                         "directory; make it first (the server creates no folders)")
     simulation = simulation_from_arguments(arguments)
     app = WebApp(simulation, host=arguments.host, port=arguments.port, play=arguments.play,
                  scenes_dir=scenes_dir, recordings_dir=arguments.recordings_dir,

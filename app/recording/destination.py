@@ -186,7 +186,9 @@ def end_readably(output: AtomicFile, application_id: str, recording_id: str, tex
                  entries: Sequence[tuple[str, int | None, float | None]]) -> None:
     """Make a recording whose writer failed readable: cut it after its last whole message and,
     if it has no end message, append ``text`` as an ERROR entry at each of ``entries``
-    (entity, step, sim_time), encoded by rerun as messages of the same recording."""
+    (entity, step, sim_time), encoded by rerun as messages of the same recording.  When the
+    entry does not fit (a full disk, a short write), the file is cut back to its last whole
+    message again: it always ends readably, without the entry."""
     part = readable_part(output.library_path)
     if part.complete:
         return
@@ -201,4 +203,10 @@ def end_readably(output: AtomicFile, application_id: str, recording_id: str, tex
         stream.log(entity, rr.TextLog(text, level="ERROR"))
     data = encoded.read(flush=True) or b""
     stream.disconnect()
-    os.pwrite(output.descriptor, _messages(data), part.readable_bytes)
+    payload = _messages(data)
+    try:
+        written = os.pwrite(output.descriptor, payload, part.readable_bytes)
+    except OSError:  # a full disk: the entry does not fit
+        written = -1
+    if written != len(payload):  # never leave a cut message: end at the last whole one
+        os.truncate(output.descriptor, part.readable_bytes)

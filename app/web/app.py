@@ -26,6 +26,7 @@ in one directory (``app.web.scene_files``) and records only into one directory
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import time
 from collections.abc import Sequence
@@ -465,9 +466,13 @@ class WebApp:
             self._drag = {"owner": owner, "offsets": offsets, "indices": selection.copy()}
         drag = self._drag
         targets = np.asarray(gizmo_position, dtype=float)[:dim] + drag["offsets"]
-        self.control.move_particles(
-            drag["indices"], targets, owner=owner, pin=self.hold_while_dragging and phase != "end"
-        )
+        try:
+            self.control.move_particles(
+                drag["indices"], targets, owner=owner,
+                pin=self.hold_while_dragging and phase != "end")
+        except (ValueError, IndexError) as error:  # a position no drag can reach: not applied
+            self.last_error = f"gizmo drag refused: {error}"
+            print(f"web page: {self.last_error}", file=sys.stderr)
         if phase == "end":
             self.control.release(owner)
             self._drag = None

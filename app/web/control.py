@@ -25,6 +25,7 @@ import numpy as np
 
 import sim
 from sim.model.forcing import Driver
+from sim.runtime.blowup import reach as blowup_reach
 from sim.runtime.runner import Runner
 from sim.runtime.warming import KernelPreparer, shared_preparer
 
@@ -85,6 +86,19 @@ class LatticeRunner(Runner):
         positions = simulation.positions
         positions[indices] = targets
         simulation.velocities[indices] = 0.0
+
+
+def check_targets(model: sim.Model, indices: np.ndarray, targets: np.ndarray) -> None:
+    """Refuse (ValueError) targets for particles ``indices`` that are not finite or lie further
+    from the particles' rest positions than a run may move them (``sim.runtime.blowup.reach``)."""
+    where = targets[:, : model.dim]
+    if not np.all(np.isfinite(where)):
+        raise ValueError("target positions must be finite")
+    if indices.size and (indices.min() < 0 or indices.max() >= model.n_particles):
+        raise IndexError("particle index out of range")
+    reach = blowup_reach(model)
+    if indices.size and np.max(np.abs(where - model.rest_positions[indices])) > reach:
+        raise ValueError(f"a particle may be moved at most {reach:.3g} m from its rest position")
 
 
 class SimulationControl:
@@ -306,6 +320,7 @@ class SimulationControl:
         """
         chosen = np.asarray(list(indices), dtype=np.int64)
         targets = np.asarray(targets, dtype=float).reshape(len(chosen), -1)
+        check_targets(self.runner.simulation.model, chosen, targets)
 
         def command(simulation: sim.Simulation) -> None:
             dim = simulation.model.dim

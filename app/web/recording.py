@@ -80,7 +80,7 @@ class WebRecordings:
                 raise RecordingBusy("the server is stopping")
             if self._recorder is not None:
                 raise RecordingBusy("a recording is already running; stop it first")
-            self.directory.mkdir(parents=True, exist_ok=True)
+            self.directory.mkdir(exist_ok=True)  # only the folder itself, never its parents
             path = self._free_name(scene.name)
             recorder = Recorder(path, scene, integrator=scene.integrator, dt=scene.dt)
             recorder.attach(self.runner, snapshot=True)

@@ -17,6 +17,9 @@ from pathlib import Path
 import sim
 
 MAX_LISTED = 500
+MAX_PAGE_PARTICLES = 1_000_000
+"""Largest lattice (nx * ny) the page builds or opens (a preset, a listed file or an upload);
+bigger ones: the command line."""
 """At most this many scene files are offered (sorted by name)."""
 
 
@@ -73,4 +76,4 @@ class SceneDirectory:
             )
         root = self._resolved_root()
         assert root is not None  # names() found it
-        return sim.scenes.scene_files.load(root / name, within=root)
+        return sim.scenes.scene_files.load(root / name, within=root, max_particles=MAX_PAGE_PARTICLES)

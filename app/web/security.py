@@ -192,6 +192,14 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+@dataclass(frozen=True)
+class _Bounds:
+    """The range of one component of a vector control (its ``min`` / ``max`` at that index)."""
+
+    min: float | None
+    max: float | None
+
+
 def _type_refusal(current: Any, value: Any, props: Any) -> str | None:
     """Why ``value`` cannot be a control's value whose value in use is ``current``, or None."""
     if isinstance(current, bool):
@@ -215,8 +223,11 @@ def _type_refusal(current: Any, value: Any, props: Any) -> str | None:
     if isinstance(current, tuple):
         if not isinstance(value, (list, tuple)) or len(value) != len(current):
             return f"wants {len(current)} values, got {value!r:.40}"
-        for old, new in zip(current, value, strict=True):
-            reason = _type_refusal(old, new, None)
+        low, high = getattr(props, "min", None), getattr(props, "max", None)
+        for index, (old, new) in enumerate(zip(current, value, strict=True)):
+            bounds = _Bounds(low[index] if isinstance(low, (tuple, list)) else None,
+                             high[index] if isinstance(high, (tuple, list)) else None)
+            reason = _type_refusal(old, new, bounds)
             if reason is not None:
                 return reason
         return None

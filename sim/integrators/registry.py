@@ -295,10 +295,21 @@ def check_precision(precision: Any) -> type[np.floating]:
     return PRECISIONS[key]
 
 
+def max_threads() -> int:
+    """The most threads a run may ask for: the threads numba may run (``NUMBA_NUM_THREADS``, by
+    default this machine's cores); more would only cut the rows into more blocks."""
+    import numba
+
+    return max(1, int(numba.config.NUMBA_NUM_THREADS))
+
+
 def check_threads(threads: Any) -> int:
-    """A thread count: a whole number >= 1, or raise ``IntegratorError``."""
+    """A thread count: a whole number from 1 to ``max_threads()``, or raise ``IntegratorError``."""
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
         raise IntegratorError(f"threads must be a whole number >= 1, got {threads!r}")
+    if threads > max_threads():
+        raise IntegratorError(f"threads must be at most {max_threads()} (the threads numba runs "
+                              f"on this machine, NUMBA_NUM_THREADS), got {threads}")
     return int(threads)
 
 

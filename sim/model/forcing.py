@@ -121,7 +121,9 @@ class Driver:
         return cls(
             column=int(merged["column"]), row=merged["row"],
             direction=_unit_vector(merged["direction"]),
-            amplitude=_number("amplitude", merged["amplitude"], positive=True),
+            amplitude=schema.number(_number("amplitude", merged["amplitude"], positive=True),
+                                    "driver amplitude (m)", *schema.BOUNDS["amplitude"],
+                                    error=ForcingError),
             frequency=_number("frequency", merged["frequency"], positive=True, allow_zero=False),
             kind=kind,
             start=_number("start", merged["start"], positive=True),

@@ -29,9 +29,11 @@ class Refused(ValueError):
     """A value from outside was refused (the message says which and why, in one line)."""
 
 
-BOUNDS: dict[str, tuple[float, float]] = parameters.bounds()
-"""(smallest, largest) of each number parameter (SI units), read from the parameter table
-(``sim.model.parameters``)."""
+BOUNDS: dict[str, tuple[float, float]] = {
+    **parameters.bounds(), "dt": (0.0, 1e6), "amplitude": (0.0, 1e6)}
+"""(smallest, largest) of each number parameter of a scene (SI units, read from the parameter
+table ``sim.model.parameters``), of a time step (s, the smallest excluded) and of a driver's
+amplitude (m)."""
 
 
 def _is_number(value: Any) -> bool:

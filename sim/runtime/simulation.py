@@ -26,6 +26,7 @@ from sim.integrators.registry import (
     check_threads,
     make_integrator,
 )
+from sim.model import schema
 from sim.model.lattice import Model, ModelError
 from sim.model.state import State
 from sim.runtime.blowup import BlowUpRule
@@ -50,11 +51,13 @@ class BlowUpError(RuntimeError):
         self.time = time
         self.stable_dt = stable_dt
         self.reason = reason
-        limit = (
-            f"the stability limit is dt = {stable_dt:.6g} s"
-            if stable_dt is not None
-            else "this integrator has no stable step on this lattice"
-        )
+        if stable_dt is None:
+            limit = "this integrator has no stable step on this lattice"
+        else:  # the theory about the rest lattice; a sag or large motion lowers the real one
+            limit = f"the small-amplitude stability limit is dt = {stable_dt:.6g} s"
+            if dt <= stable_dt:
+                limit += (", above this dt: large displacements or a sag under gravity stiffen "
+                          "the springs and lower the limit of this run")
         super().__init__(
             f"{LABELS.get(integrator, integrator)} blew up at step {step} (t = {time:.6g} s, "
             f"dt = {dt:.6g} s): {reason}; {limit}. The state before that step is kept."
@@ -68,7 +71,7 @@ def _check_dt(dt: Any) -> float:
         raise ModelError(f"dt must be a number, got {dt!r}") from None
     if not math.isfinite(value) or value <= 0:
         raise ModelError(f"dt must be a positive finite number of seconds, got {dt!r}")
-    return value
+    return schema.number(value, "dt (s)", *schema.BOUNDS["dt"], low_open=True, error=ModelError)
 
 
 class _ParticleView:

@@ -283,7 +283,8 @@ def _npy_header(member: Any, label: str) -> tuple[tuple[int, ...], np.dtype]:
     return tuple(int(size) for size in shape), np.dtype(dtype)
 
 
-def load(path: str | Path, *, within: str | Path | None = None) -> Scene:
+def load(path: str | Path, *, within: str | Path | None = None,
+         max_particles: int | None = None) -> Scene:
     """Read a scene file written by ``save`` (or by hand).  Raises ``SceneError`` saying what is
     wrong (missing file, not a regular file, too large, bad TOML, missing or invalid parameter,
     bad array file).
@@ -292,6 +293,7 @@ def load(path: str | Path, *, within: str | Path | None = None) -> Scene:
     followed), for callers that take names from users.  The ``[arrays] file`` entry must be a
     bare file name beside the TOML in any case.  Sizes: the TOML at most
     ``MAX_SCENE_FILE_BYTES``; the ``.npz`` is checked member by member (``read_arrays``).
+    ``max_particles``: a lattice larger than this is refused before anything is built.
     """
     path = Path(path)
     root = Path(within).resolve() if within is not None else None
@@ -308,26 +310,28 @@ def load(path: str | Path, *, within: str | Path | None = None) -> Scene:
         content = _read_regular_file(array_path, limit, "array file")
         return read_arrays(io.BytesIO(content), nx, ny, dim, str(array_path))
 
-    return _scene_from_document(document, str(path), path.stem, arrays_for)
+    return _scene_from_document(document, str(path), path.stem, arrays_for, max_particles)
 
 
-def load_file(path: str | Path) -> Scene:
+def load_file(path: str | Path, *, max_particles: int | None = None) -> Scene:
     """A scene file of either kind: a ``.toml`` (``load``) or the ``.zip`` that ``to_bytes``
     makes (read as a regular file of at most ``MAX_UPLOAD_BYTES``, then ``from_bytes``)."""
     path = Path(path)
     if path.suffix.lower() == ".zip":
-        return from_bytes(_read_regular_file(path, MAX_UPLOAD_BYTES, "scene archive"), path.name)
-    return load(path)
+        return from_bytes(_read_regular_file(path, MAX_UPLOAD_BYTES, "scene archive"), path.name,
+                          max_particles=max_particles)
+    return load(path, max_particles=max_particles)
 
 
-def from_bytes(data: bytes, filename: str) -> Scene:
+def from_bytes(data: bytes, filename: str, *, max_particles: int | None = None) -> Scene:
     """A scene from the content of an uploaded file: a TOML scene (UTF-8 text) or the ``.zip``
     that ``to_bytes`` makes (decided by the content, not by ``filename``, which only names the
     scene when the TOML has no name).
 
     The same checks as ``load``: at most ``MAX_UPLOAD_BYTES`` in all and ``MAX_SCENE_FILE_BYTES``
     of TOML; a zip holds exactly one ``.toml`` member and at most one ``.npz`` member, both bare
-    names (no directories), their uncompressed sizes checked in the zip directory before reading;
+    names (no directories), their sizes checked in the zip directory and again while they are
+    inflated (a running count, ``_read_member``);
     the TOML's ``[arrays] file`` names the ``.npz`` member; the arrays are checked as by
     ``read_arrays``.  Nothing is written to disk.
     """
@@ -342,7 +346,7 @@ def from_bytes(data: bytes, filename: str) -> Scene:
             raise SceneError(f"{label} names an array file; upload the .zip of the scene "
                              "(its TOML and .npz together)")
 
-        return _scene_from_document(document, label, Path(label).stem, no_arrays)
+        return _scene_from_document(document, label, Path(label).stem, no_arrays, max_particles)
     try:
         with zipfile.ZipFile(io.BytesIO(data)) as archive:
             members = archive.infolist()
@@ -361,8 +365,9 @@ def from_bytes(data: bytes, filename: str) -> Scene:
             if npzs and npzs[0].file_size > MAX_UPLOAD_BYTES:
                 raise SceneError(f"{label}: {npzs[0].filename} is larger than the "
                                  f"{MAX_UPLOAD_BYTES:,} bytes allowed")
-            document = _parse_toml(archive.read(tomls[0]), f"{label}: {tomls[0].filename}")
-            npz = archive.read(npzs[0]) if npzs else None
+            document = _parse_toml(_read_member(archive, tomls[0], MAX_SCENE_FILE_BYTES, label),
+                                   f"{label}: {tomls[0].filename}")
+            npz = _read_member(archive, npzs[0], MAX_UPLOAD_BYTES, label) if npzs else None
     except SceneError:
         raise
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile) as error:
@@ -374,7 +379,26 @@ def from_bytes(data: bytes, filename: str) -> Scene:
             raise SceneError(f"{label}: the array file {name!r} is not in the zip")
         return read_arrays(io.BytesIO(npz), nx, ny, dim, f"{label}: {name}")
 
-    return _scene_from_document(document, label, Path(tomls[0].filename).stem, arrays_in_zip)
+    return _scene_from_document(document, label, Path(tomls[0].filename).stem, arrays_in_zip,
+                                max_particles)
+
+
+_INFLATE_CHUNK = 2**16
+
+
+def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, limit: int, label: str) -> bytes:
+    """A zip member inflated a chunk at a time with a running count, refused the moment it
+    passes ``limit`` bytes: neither the directory's stated size nor a single large inflate is
+    trusted (``ZipFile.read`` inflates a member in one call, as large as the data makes it)."""
+    chunks, total = [], 0
+    with archive.open(info) as member:
+        while chunk := member.read(_INFLATE_CHUNK):
+            total += len(chunk)
+            if total > limit:
+                raise SceneError(f"{label}: {info.filename} unpacks to more than the "
+                                 f"{limit:,} bytes allowed")
+            chunks.append(chunk)
+    return b"".join(chunks)
 
 
 def _limited(data: bytes, limit: int, label: str) -> bytes:
@@ -402,9 +426,11 @@ def _parse_toml(content: bytes, label: str) -> dict[str, Any]:
 def _scene_from_document(
     document: dict[str, Any], label: str, default_name: str,
     arrays_for: Callable[[int, int, int], dict[str, np.ndarray]],
+    max_particles: int | None = None,
 ) -> Scene:
     """Build the scene a parsed TOML document describes; ``arrays_for(nx, ny, dim)`` reads the
-    array file it names (called only if it names one)."""
+    array file it names (called only if it names one).  A lattice of more than
+    ``max_particles`` is refused before anything is built."""
     if document.get("format", FORMAT_VERSION) != FORMAT_VERSION:
         raise SceneError(
             f"{label} has format {document['format']!r}; this version reads format {FORMAT_VERSION}"
@@ -415,9 +441,14 @@ def _scene_from_document(
     unknown = set(model_table) - set(OVERRIDES)
     if unknown:
         raise SceneError(f"{label}: unknown [model] key(s) {', '.join(sorted(unknown))}")
+    nx, ny, dim = _lattice_shape(model_table, label)
+    if max_particles is not None and nx * ny > max_particles:
+        raise SceneError(f"{label}: {nx}x{ny} = {nx * ny:,} particles, more than the "
+                         f"{max_particles:,} allowed here (larger lattices run from the command "
+                         "line, `oscillators run`)")
     arrays: dict[str, np.ndarray] = {}
     if "arrays" in document:
-        arrays = arrays_for(*_lattice_shape(model_table, label))
+        arrays = arrays_for(nx, ny, dim)
     if isinstance(model_table.get("mass"), str):
         key = model_table["mass"].removeprefix("arrays:")
         if key not in arrays:
@@ -447,7 +478,7 @@ def _scene_from_document(
                       for v in row[1:]]
             positions[index, : len(values)] += values
         velocities = arrays.get("velocities")
-        dt = schema.number(document.get("dt", 0.01), "dt", 0.0, 1e6, low_open=True,
+        dt = schema.number(document.get("dt", 0.01), "dt", *schema.BOUNDS["dt"], low_open=True,
                            error=SceneError)
         duration = schema.number(document.get("duration", 20.0), "duration", 0.0, 1e12,
                                  low_open=True, error=SceneError)

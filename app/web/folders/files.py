@@ -16,6 +16,7 @@ import viser
 import sim
 from app.web.host import PanelHost
 from app.web.inputs import InputRefused, from_user, ok_html
+from app.web.scene_files import MAX_PAGE_PARTICLES
 from app.web.widgets import ERRORS, download_name, say
 
 NONE_LISTED = "(none)"
@@ -71,7 +72,8 @@ class SceneFileControls:
                 limit = sim.scenes.scene_files.MAX_UPLOAD_BYTES
                 if len(upload.content) > limit:
                     raise InputRefused(f"the file is larger than {limit / 1e6:g} MB")
-                scene = sim.scenes.scene_files.from_bytes(bytes(upload.content), name)
+                scene = sim.scenes.scene_files.from_bytes(bytes(upload.content), name,
+                                                   max_particles=MAX_PAGE_PARTICLES)
                 host.replace_scene(scene, source=f"upload {name}")
             except ERRORS as error:
                 say(message(), error, f"could not open {name}")

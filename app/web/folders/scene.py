@@ -2,12 +2,17 @@
 
 The folder shows the scene's name, source, size and parameters.  *Build scene* replaces the
 lattice by a preset (``sim.scenes.building``) with its own parameters at the chosen nx x ny (up to
-``MAX_PAGE_PARTICLES``: larger lattices are for the command line).  The walls
+``MAX_PAGE_PARTICLES``: larger lattices are for the command line).  One build runs at a time
+and the last press wins: a press made while a build runs waits, and is skipped if a later press
+came meanwhile; the size typed is used only if it was shown for the chosen preset (else the
+preset's own size), so quick Preset and Build presses never mix two presets.  The walls
 (``app.web.folders.walls``) and the Files subfolder (``app.web.folders.files``) share the
 folder's message line.
 """
 
 from __future__ import annotations
+
+import threading
 
 import viser
 
@@ -16,12 +21,11 @@ from app.web.folders.files import SceneFileControls
 from app.web.folders.walls import WallsControls
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, whole_number
+from app.web.scene_files import MAX_PAGE_PARTICLES
 from app.web.widgets import ERRORS, say
 
 MAX_SIDE = 2_000
 """Largest nx or ny the page builds (and deepest sponge layer it accepts)."""
-MAX_PAGE_PARTICLES = 1_000_000
-"""Largest lattice (nx * ny) the page builds; bigger ones: the command line."""
 FALLBACK_PRESET = "grid"
 """Preset shown when the running scene is not a preset."""
 
@@ -31,6 +35,12 @@ class SceneFolder(Folder):
 
     def __init__(self, host: PanelHost) -> None:
         self.host = host
+        self._build_lock = threading.Lock()
+        self._press_lock = threading.Lock()
+        self._presses = 0
+        """Build presses so far (a build runs only if no later press came while it waited)."""
+        self._sized_for = ""
+        """The preset whose size the nx and ny controls show (or the running scene's size)."""
         gui = host.server.gui
         simulation = host.runner.simulation
         names = sim.scenes.names()
@@ -47,6 +57,7 @@ class SceneFolder(Folder):
             self.walls = WallsControls(host, lambda: self.message, self.show_info, MAX_SIDE)
             self.files = SceneFileControls(host, lambda: self.message)
             self.message = gui.add_html("")
+        self._sized_for = current
 
         @self.preset.on_update
         @from_user
@@ -60,39 +71,54 @@ class SceneFolder(Folder):
             parameters = sim.scenes.presets.PRESETS[name].parameters
             self.nx.value = int(parameters.get("nx", 1))
             self.ny.value = int(parameters.get("ny", 1))
+            self._sized_for = name
 
         @self.build_button.on_click
         @from_user
         def _(_: viser.GuiEvent) -> None:
-            try:
-                name = choice(self.preset.value, "preset", sim.scenes.names())
-                nx = whole_number(self.nx.value, "nx", 1, MAX_SIDE)
-                ny = whole_number(self.ny.value, "ny", 1, MAX_SIDE)
-                if nx * ny > MAX_PAGE_PARTICLES:
-                    raise InputRefused(
-                        f"{nx}x{ny} = {nx * ny:,} particles; the page builds up to "
-                        f"{MAX_PAGE_PARTICLES:,} (use `oscillators run` for larger lattices)"
-                    )
-                parameters = sim.scenes.presets.PRESETS[name].parameters
-                overrides = {}
-                if nx != parameters.get("nx", 1):
-                    overrides["nx"] = nx
-                if ny != parameters.get("ny", 1):
-                    overrides["ny"] = ny
-                self.message.content = as_html(f"building {name} {nx}x{ny}…")
-                scene = sim.scenes.build(name, **overrides)
-                host.replace_scene(scene, source=f"preset {name}")
-            except ERRORS as error:
-                self.show_scene(host.runner.simulation)  # every page: the scene in use
-                say(self.message, error, "could not build")
-                return
-            self.message.content = ok_html(f"built {name} {nx}x{ny}")
+            with self._press_lock:
+                self._presses += 1
+                press = self._presses
+            with self._build_lock:
+                if press == self._presses:  # else a later press builds
+                    self._build()
+
+    def _build(self) -> None:
+        host = self.host
+        try:
+            name = choice(self.preset.value, "preset", sim.scenes.names())
+            parameters = sim.scenes.presets.PRESETS[name].parameters
+            if self._sized_for != name:  # the size shown is another preset's
+                self.nx.value = int(parameters.get("nx", 1))
+                self.ny.value = int(parameters.get("ny", 1))
+                self._sized_for = name
+            nx = whole_number(self.nx.value, "nx", 1, MAX_SIDE)
+            ny = whole_number(self.ny.value, "ny", 1, MAX_SIDE)
+            if nx * ny > MAX_PAGE_PARTICLES:
+                raise InputRefused(
+                    f"{nx}x{ny} = {nx * ny:,} particles; the page builds up to "
+                    f"{MAX_PAGE_PARTICLES:,} (use `oscillators run` for larger lattices)"
+                )
+            overrides = {}
+            if nx != parameters.get("nx", 1):
+                overrides["nx"] = nx
+            if ny != parameters.get("ny", 1):
+                overrides["ny"] = ny
+            self.message.content = as_html(f"building {name} {nx}x{ny}…")
+            scene = sim.scenes.build(name, **overrides)
+            host.replace_scene(scene, source=f"preset {name}")
+        except ERRORS as error:
+            self.show_scene(host.runner.simulation)  # every page: the scene in use
+            say(self.message, error, "could not build")
+            return
+        self.message.content = ok_html(f"built {name} {nx}x{ny}")
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         model = simulation.model
         if simulation.scene.name in sim.scenes.names():
             self.preset.value = simulation.scene.name
         self.nx.value, self.ny.value = model.nx, model.ny
+        self._sized_for = self.preset.value
         self.show_info(simulation)
         self.walls.show(model)
 

@@ -1,0 +1,120 @@
+"""Scene files are bounded by what is read, not by what they announce: a zip whose directory
+under-states its member is refused while it inflates, with little memory; the page opens no
+lattice larger than its particle limit, from an upload or from the server's scene folder."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import viser
+
+import sim
+from app.web.scene_files import MAX_PAGE_PARTICLES, SceneDirectory
+from tests.lying_zip import write_lying_zip
+from tests.test_web_safety import send
+
+REPO = Path(__file__).resolve().parent.parent
+INFLATED = 400_000_000
+"""What the lying TOML inflates to: far more than the 100 MB a refusal may cost."""
+
+
+def run_cli(arguments: list[str], cwd: Path) -> tuple[int, float, str]:
+    """Exit code, peak resident MB (the child's own ``ru_maxrss``) and stderr of
+    ``oscillators ARGUMENTS`` run in a child process."""
+    process = subprocess.Popen([sys.executable, "-m", "app.cli", *arguments], cwd=cwd,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               env={**os.environ, "PYTHONPATH": str(REPO)})
+    error = process.stderr.read().decode()
+    _, status, usage = os.wait4(process.pid, 0)
+    process.returncode = os.waitstatus_to_exitcode(status)
+    return process.returncode, usage.ru_maxrss / 1024, error
+
+
+def test_a_zip_that_understates_its_toml_is_refused_with_little_memory(tmp_path):
+    bomb = write_lying_zip(tmp_path / "bomb.zip", INFLATED)
+    assert bomb.stat().st_size < INFLATED / 100
+    broken = tmp_path / "broken.zip"
+    broken.write_bytes(b"PK\x03\x04 not a zip")
+    code, idle, error = run_cli(["run", broken.name], tmp_path)
+    assert code == 2 and "broken.zip" in error
+    code, peak, error = run_cli(["run", bomb.name], tmp_path)
+    assert code == 2 and "bomb.zip" in error, error
+    assert peak - idle < 100, f"peak {peak:.0f} MB refusing the lying zip, {idle:.0f} MB " \
+                              "refusing a broken one"
+
+
+def test_a_member_is_refused_the_moment_it_inflates_past_the_limit(tmp_path):
+    """The running count, not the directory's stated size, stops a member."""
+    import zipfile
+
+    text = b'name = "x"\n' + b" " * (2 * 2**20)
+    with zipfile.ZipFile(tmp_path / "big.zip", "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("scene.toml", text)
+    with pytest.raises(sim.SceneError, match="larger than the 1,048,576 bytes"):
+        sim.scenes.scene_files.from_bytes((tmp_path / "big.zip").read_bytes(), "big.zip")
+    with zipfile.ZipFile(tmp_path / "big.zip") as archive:
+        with pytest.raises(sim.SceneError, match="unpacks to more than the 1,048,576 bytes"):
+            sim.scenes.scene_files._read_member(archive, archive.infolist()[0], 2**20, "big.zip")
+
+
+LARGE = f'name = "large"\n[model]\nnx = 2000\nny = {MAX_PAGE_PARTICLES // 2000 + 1}\n'
+
+
+def test_the_page_refuses_an_upload_larger_than_its_particle_limit(web_app):
+    files = web_app.panel.scene.files
+    before = web_app.runner.simulation.model.n_particles
+    send(files.upload_button, viser.UploadedFile("large.toml", LARGE.encode()))
+    said = web_app.panel.scene.message.content
+    assert "could not open large.toml" in said and f"{MAX_PAGE_PARTICLES:,}" in said, said
+    assert web_app.runner.simulation.model.n_particles == before
+
+
+def test_the_page_refuses_a_listed_file_larger_than_its_particle_limit(tmp_path):
+    (tmp_path / "large.toml").write_text(LARGE)
+    with pytest.raises(sim.SceneError, match="particles, more than the 1,000,000"):
+        SceneDirectory(tmp_path).load("large.toml")
+
+
+def test_quick_preset_and_build_presses_end_on_the_last_preset_whole(web_app, monkeypatch):
+    """40 Preset + Build presses at 10 a second, each handled on its own thread as viser does,
+    with builds that take 0-0.4 s (as large lattices do): one build at a time, the last press
+    wins, and the scene is the preset at its own size."""
+    import random
+    import threading
+    import time
+
+    from tests.test_web_safety import press, settle
+
+    build = sim.scenes.build
+    delays = random.Random(7)
+
+    def slow_build(*arguments, **overrides):
+        time.sleep(0.4 * delays.random())
+        return build(*arguments, **overrides)
+
+    monkeypatch.setattr(sim.scenes.building, "build", slow_build)
+    panel = web_app.panel.scene
+    names = ["chain", "square", "grid", "single"]
+    threads = []
+    for index in range(40):
+        name = names[index % len(names)]
+        for action in (lambda name=name: send(panel.preset, name),
+                       lambda: press(panel.build_button)):
+            thread = threading.Thread(target=action)
+            thread.start()
+            threads.append(thread)
+            time.sleep(0.05)
+    for thread in threads:
+        thread.join(timeout=120)
+    settle(web_app)
+    last = names[39 % len(names)]
+    expected = sim.scenes.build(last)
+    model = web_app.runner.simulation.model
+    assert web_app.runner.simulation.scene.name == last
+    assert (model.nx, model.ny) == (expected.model.nx, expected.model.ny)
+    assert (panel.nx.value, panel.ny.value) == (model.nx, model.ny)
+    assert panel.preset.value == last
