@@ -54,14 +54,13 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``choose`` command to ``oscillators``."""
-    from sim.errors import MEASURES
-
     from app.study.choose import REFERENCE_BUDGET_SECONDS
-    from sim.errors import SAMPLES
+    from sim.errors import MEASURES, SAMPLES
 
     parser = subparsers.add_parser(
         "choose", help="the cheapest integrator and dt that meet a tolerance (verified)",
-        description=DESCRIPTION.format(samples=SAMPLES, budget=REFERENCE_BUDGET_SECONDS), epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=DESCRIPTION.format(samples=SAMPLES, budget=REFERENCE_BUDGET_SECONDS),
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
         "scene", help="preset name (see `oscillators scenes`) or a .toml or .zip scene file"
