@@ -72,7 +72,7 @@ def test_a_page_movie_of_a_long_scene_stops_within_a_second_of_cancel(tmp_path) 
 
 
 def test_a_page_choice_stops_within_a_second_of_cancel() -> None:
-    scene = dataclasses.replace(sim.scenes.build("grid"), duration=4000.0)  # minutes of runs
+    scene = dataclasses.replace(sim.scenes.build("grid"), duration=400.0)  # minutes of runs
     choice = PageChoice()
     text = Text()
     outcome: list[BaseException | object] = []
@@ -93,13 +93,20 @@ def test_a_page_choice_stops_within_a_second_of_cancel() -> None:
     assert any("left" in line for line in text.lines)
 
 
-def test_a_page_choice_of_a_very_long_scene_says_how_long_and_stops_at_once() -> None:
+def test_a_page_choice_of_a_1e12_s_scene_ends_at_once_and_says_nothing_met() -> None:
     scene = dataclasses.replace(sim.scenes.build("grid"), duration=1e12)
     text = Text()
     started = time.monotonic()
-    with pytest.raises(ValueError, match="years of computing"):
-        PageChoice().run(scene, 0.01, text)
+    choice = PageChoice().run(scene, 0.01, text)
     assert time.monotonic() - started < 60
+    assert choice.answer is None  # every affordable step blows up over 1e12 s
+
+
+@pytest.mark.slow
+def test_a_page_choice_planned_over_an_hour_says_how_long_and_stops_at_once() -> None:
+    scene = dataclasses.replace(sim.scenes.build("grid"), duration=4000.0)
+    with pytest.raises(ValueError, match=r"planned to take about [\d.]+ h of computing"):
+        PageChoice().run(scene, 0.01, Text())
 
 
 def test_the_estimate_counts_down_and_says_when_a_run_is_over_its_plan(monkeypatch) -> None:
@@ -135,7 +142,7 @@ def test_sigterm_during_a_movie_ends_with_one_line_and_no_partial_file(tmp_path)
     assert process.returncode == 128 + signal.SIGTERM, stderr
     assert stderr.strip().splitlines() == [f"movie stopped by SIGTERM: nothing written to {output}"]
     assert list(tmp_path.iterdir()) == []
-    assert stopped < 5.0
+    assert stopped < 30.0
 
 
 @pytest.mark.slow
@@ -144,7 +151,7 @@ def test_the_pages_measure_button_cancels_its_measurement_within_a_second(tmp_pa
     from tests.helpers import free_port
     from tests.test_web_safety import press
 
-    scene = dataclasses.replace(sim.scenes.build("grid"), duration=4000.0)
+    scene = dataclasses.replace(sim.scenes.build("grid"), duration=400.0)
     app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path / "scenes",
                  recordings_dir=tmp_path / "recordings")
     app.start()

@@ -116,6 +116,9 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
             bar.update(1)
             if on_frame is not None and not on_frame(count, source.frames):
                 raise MovieCancelled(f"cancelled after {count} of {source.frames} frames")
+    except BaseException as stopped:  # cancelled or interrupted: drop the frames still queued
+        errors.append(stopped)
+        raise
     finally:
         bar.close()
         frames.put(None)

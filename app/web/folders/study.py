@@ -4,8 +4,9 @@
 viser's thread pool on the scene's current state: the cheapest integrator and dt whose field and
 energy errors over the scene's duration are within the tolerance (in %, like the Accuracy
 folder's), verified by running it.  While it measures the button reads *Cancel the
-measurement*: pressed, the measurement stops within a second (``app.web.choosing``).  The folder shows every run's error against its wall time (full size in a modal) and
-the verified setting, which *Apply the recommendation* sets exactly, as ordinary commands
+measurement*: pressed, the measurement stops within a second (``app.web.choosing``).  The
+folder shows every run's error against its wall time (full size in a modal) and the verified
+setting, which *Apply the recommendation* sets exactly, as ordinary commands
 (``app.web.choosing``, shared with the Accuracy folder's *Choose for me*).
 """
 
