@@ -1,13 +1,16 @@
 """``oscillators movie``: render a scene's run, or a recording, to an MP4, WebM or GIF movie.
 
 Exit codes: 0 done, 2 bad input (checked before anything runs; an existing file is replaced only
-with ``--force``), 3 the run blew up (the frames before it are kept in the movie).
+with ``--force``), 3 the run blew up (the frames before it are kept in the movie), 130 Ctrl+C
+(SIGINT) and 143 SIGTERM: the movie stops, its ``.partial`` file is removed and one line on
+stderr says so.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import signal
 import sys
 import tempfile
 import time
@@ -125,7 +128,43 @@ def movie_length(path: Path) -> str:
     return f"{seconds:.1f} s of movie: {frames} frames at {rate:g} frames/s"
 
 
+class _Stopped(KeyboardInterrupt):
+    """SIGTERM, raised where the movie is, so it ends as Ctrl+C does (its file removed)."""
+
+
+@contextlib.contextmanager
+def _stop_on_sigterm():
+    """SIGTERM raises ``_Stopped`` in the main thread while the movie is made (Ctrl+C raises
+    ``KeyboardInterrupt`` already); outside the main thread the signals are left alone."""
+
+    def stop(number: int, _frame: Any) -> None:
+        raise _Stopped(signal.Signals(number).name)
+
+    try:
+        previous = signal.signal(signal.SIGTERM, stop)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def command_movie(arguments: argparse.Namespace) -> int:
+    """Make the movie; Ctrl+C or SIGTERM stop it with one line on stderr, no file left."""
+    with _stop_on_sigterm():
+        try:
+            return _make_movie(arguments)
+        except KeyboardInterrupt as stopped:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second one while we say so
+            name = "SIGTERM" if isinstance(stopped, _Stopped) else "Ctrl+C"
+            print(f"movie stopped by {name}: nothing written to {arguments.output}",
+                  file=sys.stderr)
+            return 128 + (signal.SIGTERM if isinstance(stopped, _Stopped) else signal.SIGINT)
+
+
+def _make_movie(arguments: argparse.Namespace) -> int:
     from app.movie import encode
     from app.movie.render import render_movie
 

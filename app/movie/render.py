@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import queue
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -46,7 +47,35 @@ class MovieCancelled(Exception):
 
 
 OnFrame = Callable[[int, int], bool]
-"""``on_frame(frames_done, frames_planned)`` after each frame; returning False cancels."""
+"""``on_frame(frames_done, frames_planned)`` after each frame, and about every
+``CANCEL_INTERVAL`` seconds while a frame's steps run; returning False cancels."""
+
+CANCEL_INTERVAL = 0.1
+"""Seconds of stepping between two looks at ``on_frame`` within a frame."""
+
+
+def _cancel_within_frames(source: FrameSource, on_frame: OnFrame, done: list[int]) -> None:
+    """Make the steps between two frames of ``source`` (its ``simulation``, if it has one) look
+    at ``on_frame(done[0], planned)`` about every ``CANCEL_INTERVAL`` seconds, raising
+    ``MovieCancelled`` when it returns False: a frame of a long scene can take minutes."""
+    simulation = getattr(source, "simulation", None)
+    if simulation is None:
+        return
+    step = simulation.step
+
+    def step_looking(n: int = 1) -> None:
+        piece, left = 1, int(n)
+        while left > 0:
+            if not on_frame(done[0], source.frames):
+                raise MovieCancelled(f"cancelled after {done[0]} of {source.frames} frames")
+            count = min(piece, left)
+            started = time.perf_counter()
+            step(count)
+            spent = time.perf_counter() - started
+            left -= count
+            piece = max(1, min(4 * count, int(count * CANCEL_INTERVAL / max(spent, 1e-9))))
+
+    simulation.step = step_looking
 
 
 def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
@@ -67,6 +96,9 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
                               name="movie-encoder", daemon=True)
     worker.start()
     count = 0
+    done = [0]
+    if on_frame is not None:
+        _cancel_within_frames(source, on_frame, done)
     bar = tqdm(total=source.frames, unit="frame", disable=not options.progress,
                dynamic_ncols=True, desc="movie")
     try:
@@ -80,9 +112,13 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
             painter.paint(state, frame)
             frames.put(frame)
             count += 1
+            done[0] = count
             bar.update(1)
             if on_frame is not None and not on_frame(count, source.frames):
                 raise MovieCancelled(f"cancelled after {count} of {source.frames} frames")
+    except BaseException as stopped:  # cancelled or interrupted: drop the frames still queued
+        errors.append(stopped)
+        raise
     finally:
         bar.close()
         frames.put(None)

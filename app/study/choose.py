@@ -204,7 +204,8 @@ def reference_fields(
     wanted = 0.5 * CONVERGED_FRACTION * tolerance
     start = min(0.25 * (limit or 1.0 / omega), duration / 32)
     if predictor is not None:
-        start = predicted_dt(predictor, name, wanted / AIM, duration, "field", limit, omega)[0]
+        start = predicted_dt(predictor, name, wanted / AIM, duration, "field", limit, omega,
+                             getattr(run.progress, "check", None))[0]
     steps, dt = steps_for(duration, start)
     per_step = step_cost or describe(name).seconds_per_step(scene.model.n_particles)
     too_costly = (f"a converged field reference is predicted to take over {budget or 0:g} s "
@@ -257,12 +258,13 @@ def reference_fields(
 
 
 def _planned_dt(predictor: object, name: str, tolerance: float, duration: float, measure: str,
-                limit: float | None, omega: float) -> tuple[float, bool]:
+                limit: float | None, omega: float, check: Callable[[], None]
+                ) -> tuple[float, bool]:
     """``predicted_dt`` in the chosen measure; for ``BOTH`` the smaller of the two steps."""
     if measure != BOTH:
-        return predicted_dt(predictor, name, tolerance, duration, measure, limit, omega)
-    field = predicted_dt(predictor, name, tolerance, duration, "field", limit, omega)
-    energy = predicted_dt(predictor, name, tolerance, duration, "energy", limit, omega)
+        return predicted_dt(predictor, name, tolerance, duration, measure, limit, omega, check)
+    field = predicted_dt(predictor, name, tolerance, duration, "field", limit, omega, check)
+    energy = predicted_dt(predictor, name, tolerance, duration, "energy", limit, omega, check)
     return min(field[0], energy[0]), field[1] and energy[1]
 
 
@@ -356,7 +358,7 @@ def choose(
             plans[name] = (0.5 * limits[name] if limits[name] else 0.2 / omega, "probe")
             continue
         dt, reached = _planned_dt(predictor, name, tolerance, duration, measure, limits[name],
-                                  omega)
+                                  omega, progress.check)
         if not reached:  # run once anyway, to show the best it reaches, at an affordable step
             dt = max(dt, duration * describe(name).seconds_per_step(n) / BEST_REACHED_SECONDS)
         plans[name] = (dt, "predicted" if reached else "predicted best")

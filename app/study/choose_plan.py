@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -53,16 +54,20 @@ def predicted_error(predictor: object, integrator: str, dt: float, duration: flo
 
 
 def predicted_dt(predictor: object, integrator: str, tolerance: float, duration: float,
-                 measure: str, limit: float | None, omega_max: float) -> tuple[float, bool]:
+                 measure: str, limit: float | None, omega_max: float,
+                 check: Callable[[], None] | None = None) -> tuple[float, bool]:
     """(dt, reached): the largest dt (s) predicted to keep the error within ``AIM`` of
     ``tolerance`` over ``duration`` (see the module docstring) and True; when no step is found
-    in ``SEARCHES`` predictions, the last (smallest) step tried and False."""
+    in ``SEARCHES`` predictions, the last (smallest) step tried and False.  ``check`` is called
+    before each prediction (it raises to stop: a cancelled choice)."""
     target = AIM * tolerance
     order = describe(integrator).order or 1
     ceiling = min(0.9 * limit if limit else 0.2 / omega_max, duration)
     dt = ceiling
     best = None
     for _ in range(SEARCHES):
+        if check is not None:
+            check()
         error = predicted_error(predictor, integrator, dt, duration, measure)
         if error <= target:
             best = dt if best is None else max(best, dt)

@@ -1,10 +1,12 @@
 """The page's "Speed vs accuracy" folder: measure the integrators on the scene as it is now.
 
 *Measure on this scene* runs the code of ``oscillators choose`` (``app.study.choose``) in
-viser's thread pool on the scene's current state: the cheapest integrator and dt whose field error
-over the scene's duration is within the tolerance (in %, like the Accuracy folder's), verified by
-running it.  The folder shows every run's error against its wall time (full size in a modal) and
-the verified setting, which *Apply the recommendation* sets exactly, as ordinary commands
+viser's thread pool on the scene's current state: the cheapest integrator and dt whose field and
+energy errors over the scene's duration are within the tolerance (in %, like the Accuracy
+folder's), verified by running it.  While it measures the button reads *Cancel the
+measurement*: pressed, the measurement stops within a second (``app.web.choosing``).  The
+folder shows every run's error against its wall time (full size in a modal) and the verified
+setting, which *Apply the recommendation* sets exactly, as ordinary commands
 (``app.web.choosing``, shared with the Accuracy folder's *Choose for me*).
 """
 
@@ -17,7 +19,7 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.web.choosing import apply_choice, choose_on_page
+from app.web.choosing import ChoiceCancelled, apply_choice, cancel_choice, choose_on_page
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, from_user, number, ok_html
 from app.web.widgets import ERRORS, MATPLOTLIB_LOCK, say
@@ -30,12 +32,14 @@ class StudyFolder(Folder):
         self.host = host
         self._picture: np.ndarray | None = None
         self._recommendation: Any = None
+        self._measuring = False
         gui = host.server.gui
         with gui.add_folder("Speed vs accuracy", expand_by_default=False):
             self.tolerance = gui.add_number(
-                "Tolerance (%)", initial_value=1.0, step=0.1,
-                hint="largest field error (relative L2 distance of the displacement field from a "
-                "reference) at the end of the scene's duration that the chosen setting must meet",
+                "Tolerance (%)", initial_value=1.0, min=1e-6, max=100.0, step=0.1,
+                hint="largest error over the scene's duration the chosen setting must meet, in "
+                "both the field error (distance of the displacement field from a reference) and "
+                "the energy-balance error",
             )
             self.button = gui.add_button(
                 "Measure on this scene", icon=viser.Icon.CHART_LINE,
@@ -75,7 +79,9 @@ class StudyFolder(Folder):
         @self.button.on_click
         @from_user
         def _(_: viser.GuiEvent) -> None:  # runs in viser's thread pool: it may take a while
-            if self.button.disabled:
+            if self._measuring:  # the button reads "Cancel the measurement"
+                if cancel_choice(host):
+                    self.text.content = as_html("cancelling…")
                 return
             try:
                 tolerance = number(self.tolerance.value, "tolerance (%)", 0.0, 100.0,
@@ -83,13 +89,19 @@ class StudyFolder(Folder):
             except InputRefused as error:
                 say(self.text, error)
                 return
-            self.button.disabled = True
+            self._measuring = True
+            self.button.label = "Cancel the measurement"
+            self.button.icon = viser.Icon.PLAYER_STOP
             try:
                 self.measure(tolerance)
+            except ChoiceCancelled:
+                self.text.content = as_html("measurement cancelled")
             except Exception as error:  # a failed study must not take the page down
                 say(self.text, error, "could not measure")
             finally:
-                self.button.disabled = False
+                self._measuring = False
+                self.button.label = "Measure on this scene"
+                self.button.icon = viser.Icon.CHART_LINE
 
     def measure(self, tolerance: float) -> None:
         """Choose on the scene's current state (``app.study.choose``, the code of `oscillators
@@ -116,7 +128,8 @@ class StudyFolder(Folder):
             self.apply.visible = True
             self.text.content = as_html(
                 f"Recommendation (verified by running it over {choice.duration:.4g} s): "
-                f"{answer.describe()}; {choice.measure} error within {tolerance:.3g}. Apply sets "
+                f"{answer.describe()}; {choice.measure} error within {tolerance:.3g}"
+                + (f" ({choice.note})" if choice.note else "") + ". Apply sets "
                 "exactly this integrator and dt.", bold=True)
         else:
             self._recommendation = None
