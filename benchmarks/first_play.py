@@ -69,6 +69,7 @@ def measure(browser, case: str, cache: str, uptime: float, timeout: float) -> di
         server, started = start_server(scene, cache, port, log)
         try:
             page = browser.new_page(viewport={"width": 1366, "height": 768})
+            page.set_default_timeout(timeout * 1000)
             deadline = time.monotonic() + timeout
             while True:
                 try:
