@@ -85,6 +85,7 @@ class _Subscriber:
     strains: bool
     velocities: bool
     on_error: Callable[[BaseException], Any] | None = None
+    preparing: bool = False
 
 
 class Runner:
@@ -124,12 +125,14 @@ class Runner:
 
     def subscribe(
         self, callback: Callable[[Frame], Any], *, strains: bool = False, velocities: bool = False,
-        on_error: Callable[[BaseException], Any] | None = None,
+        on_error: Callable[[BaseException], Any] | None = None, preparing: bool = False,
     ) -> Callable[[], None]:
         """Call ``callback(frame)`` for every published frame; ask for strains / velocities only
-        if you show them.  If ``callback`` raises, it is detached and ``on_error(exception)`` is
-        called once (in the publishing thread).  Returns a function that unsubscribes."""
-        subscriber = _Subscriber(callback, strains, velocities, on_error)
+        if you show them, and for the frames that say the kernels are being prepared
+        (``Frame.preparing``; the state did not advance) only if you show that.  If ``callback``
+        raises, it is detached and ``on_error(exception)`` is called once (in the publishing
+        thread).  Returns a function that unsubscribes."""
+        subscriber = _Subscriber(callback, strains, velocities, on_error, preparing)
         with self._lock:
             self._subscribers.append(subscriber)
 
@@ -200,7 +203,7 @@ class Runner:
         """Build a frame now and hand it to every subscriber; returns it."""
         frame = self.make_frame(error, preparing)
         with self._lock:
-            subscribers = list(self._subscribers)
+            subscribers = [s for s in self._subscribers if preparing is None or s.preparing]
         for subscriber in subscribers:
             try:
                 subscriber.callback(frame)
