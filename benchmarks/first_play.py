@@ -185,7 +185,7 @@ def main() -> None:
                     "-" if result["said"] is None else f"{result['said']:.2f} s")
             print(f"{case:<22} {'warm' if arguments.cache else 'cold':<5} {result['up']:8.1f}s "
                   f"{said:>15} {result['moving']:12.2f}s", flush=True)
-        return
+        os._exit(0)  # the app is stopped; skip the libraries' thread teardown at exit
     from playwright.sync_api import sync_playwright
 
     print(f"{'case':<22} {'cache':<5} {'page up':>8} {'click at':>9} {'says preparing':>15} "

@@ -309,7 +309,7 @@ class Runner:
         key = warming.kernel_key(simulation, steps)
         if self.preparer.ready(key):
             return None
-        return self.preparer.prepare(key, simulation, steps)
+        return self.preparer.prepare(key, simulation, steps, owner=id(self))
 
     def _preparing(self) -> warming.Preparing | None:
         """What the loop waits for before it steps or observes: the kernels of the steps it
@@ -371,6 +371,8 @@ class Runner:
         """Stop the background loop and wait for it."""
         self._running = False
         self._wake.set()
+        if self.preparer is not None:
+            self.preparer.withdraw(id(self))
         if self._thread is not None:
             self._thread.join(timeout)
             if not self._thread.is_alive():  # still stepping: keep it, commands stay queued

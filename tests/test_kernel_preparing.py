@@ -124,3 +124,22 @@ def test_warm_compiles_what_the_page_then_runs(capsys):
 def test_warm_refuses_an_unknown_preset(capsys):
     assert cli.main(["warm", "no-such-scene"]) == 2
     assert "unknown preset 'no-such-scene'" in capsys.readouterr().err
+
+
+def test_a_runner_that_moves_on_withdraws_the_preparations_it_no_longer_needs():
+    gate, done = threading.Event(), []
+
+    def rehearsal(simulation, steps):
+        gate.wait(30)
+        done.append(simulation)
+
+    preparer = warming.KernelPreparer(rehearsal=rehearsal)
+    assert preparer.prepare("grid", "grid", 2, owner="page") is not None
+    assert wait_for(lambda: preparer._current is not None, 10)  # the first one has started
+    preparer.prepare("grid+gravity", "grid+gravity", 2, owner="page")
+    preparer.prepare("grid+damping", "grid+damping", 2, owner="page")  # gravity is withdrawn
+    preparer.prepare("chain", "chain", 2, owner="another page")
+    gate.set()
+    assert wait_for(lambda: preparer.ready("grid+damping") and preparer.ready("chain"), 10)
+    assert sorted(done) == ["chain", "grid", "grid+damping"]
+    assert not preparer.ready("grid+gravity")
