@@ -5,6 +5,7 @@ nothing new."""
 
 from __future__ import annotations
 
+import os
 import re
 import threading
 
@@ -143,3 +144,19 @@ def test_a_runner_that_moves_on_withdraws_the_preparations_it_no_longer_needs():
     assert wait_for(lambda: preparer.ready("grid+damping") and preparer.ready("chain"), 10)
     assert sorted(done) == ["chain", "grid", "grid+damping"]
     assert not preparer.ready("grid+gravity")
+
+
+def test_the_servers_background_warming_runs_at_the_lowest_priority_and_stops(monkeypatch):
+    from app.cli.warm import NO_WARM_VARIABLE, start_background, stop_background
+
+    monkeypatch.setenv(NO_WARM_VARIABLE, "1")
+    assert start_background("grid") is None  # as in the test suite
+    monkeypatch.delenv(NO_WARM_VARIABLE)
+    process = start_background("grid")
+    try:
+        niceness = []
+        assert wait_for(lambda: niceness.append(os.getpriority(os.PRIO_PROCESS, process.pid))
+                        or niceness[-1] == 19, 10)
+    finally:
+        stop_background(process)
+    assert process.poll() is not None
