@@ -11,6 +11,11 @@ did not have).
 
 numba's cache is ``--cache DIR`` (NUMBA_CACHE_DIR), by default a new empty folder: a cold cache,
 as on a fresh machine.  Warm: ``oscillators warm`` into a folder, then ``--cache`` that folder.
+``--cache default`` leaves numba's cache where it is (beside the sources).
+
+``--without-browser`` runs the app in this process instead (its background warming started as
+``serve`` starts it), presses Play as a page's click arrives, and times until the frame pump has
+drawn a frame with a step above 0: the server's share of the wait, without the page's.
 
     .venv/bin/python benchmarks/first_play.py                                  # cold cache
     NUMBA_CACHE_DIR=/tmp/nc .venv/bin/oscillators warm --toggles
@@ -53,7 +58,9 @@ def page_status(page) -> tuple[int | None, bool]:
 
 
 def start_server(scene: str, cache: str, port: int, log) -> tuple[subprocess.Popen, float]:
-    environment = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    if cache != "default":
+        environment["NUMBA_CACHE_DIR"] = cache
     environment.pop("OSCILLATORS_NO_WARM", None)
     started = time.monotonic()
     process = subprocess.Popen(
@@ -69,6 +76,7 @@ def measure(browser, case: str, cache: str, uptime: float, timeout: float) -> di
         server, started = start_server(scene, cache, port, log)
         try:
             page = browser.new_page(viewport={"width": 1366, "height": 768})
+            page.set_default_timeout(timeout * 1000)
             deadline = time.monotonic() + timeout
             while True:
                 try:
@@ -111,15 +119,73 @@ def measure(browser, case: str, cache: str, uptime: float, timeout: float) -> di
                 server.kill()
 
 
+def measure_in_process(case: str, cache: str, uptime: float, timeout: float) -> dict:
+    """The server's share: Play pressed in this process, until a moving frame is drawn."""
+    if cache != "default":
+        os.environ["NUMBA_CACHE_DIR"] = cache  # before numba is imported
+    os.environ.pop("OSCILLATORS_NO_WARM", None)
+    import sim
+    from app.cli.warm import start_background, stop_background
+    from app.web.app import WebApp
+    from tests.helpers import wait_for
+    from tests.test_web_safety import press
+
+    scene, toggle = CASES[case]
+    started = time.monotonic()
+    app = WebApp(sim.Simulation(sim.scenes.build(scene)), port=free_port(),
+                 scenes_dir=tempfile.mkdtemp(), recordings_dir=tempfile.mkdtemp())
+    app.start()
+    warming = start_background(scene)
+    try:
+        time.sleep(max(0.0, uptime - (time.monotonic() - started)))
+        drawn = app._drawn
+        before = drawn is not None and drawn.preparing is not None
+        clicked = time.monotonic()
+        if toggle:
+            press(app.panel.physics.gravity_on)
+            press(app.panel.physics.damping_on)
+        press(app.panel.run.play_button)
+        said = None
+
+        def moving() -> bool:
+            nonlocal said
+            frame = app._drawn
+            if frame is not None and frame.preparing is not None and said is None:
+                said = time.monotonic() - clicked
+            return frame is not None and frame.step > 0
+
+        moved = wait_for(moving, timeout)
+        return dict(case=case, loaded=0.0, up=clicked - started, preparing_before=before,
+                    said=said, moving=time.monotonic() - clicked if moved else float("nan"))
+    finally:
+        stop_background(warming)
+        app.stop()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("cases", nargs="*", default=list(CASES)[:4], choices=list(CASES),
                         metavar="CASE", help=f"of {', '.join(CASES)} (default: the first four)")
-    parser.add_argument("--cache", help="numba's cache folder (default: a new empty one)")
+    parser.add_argument("--cache", help="numba's cache folder (default: a new empty one; "
+                        "'default': numba's cache beside the sources)")
     parser.add_argument("--uptime", type=float, default=60.0,
                         help="seconds the server is up before the click (default 60)")
     parser.add_argument("--timeout", type=float, default=600.0)
+    parser.add_argument("--without-browser", action="store_true",
+                        help="the server's share only: the app in this process, Play pressed "
+                        "as a page's click arrives")
     arguments = parser.parse_args()
+    if arguments.without_browser:
+        print(f"{'case':<22} {'cache':<5} {'click at':>9} {'says preparing':>15} "
+              f"{'first moving':>13}  (server only)")
+        for case in arguments.cases:
+            cache = arguments.cache or tempfile.mkdtemp(prefix="numba-cold-")
+            result = measure_in_process(case, cache, arguments.uptime, arguments.timeout)
+            said = ("before the click" if result["preparing_before"] else
+                    "-" if result["said"] is None else f"{result['said']:.2f} s")
+            print(f"{case:<22} {'warm' if arguments.cache else 'cold':<5} {result['up']:8.1f}s "
+                  f"{said:>15} {result['moving']:12.2f}s", flush=True)
+        os._exit(0)  # the app is stopped; skip the libraries' thread teardown at exit
     from playwright.sync_api import sync_playwright
 
     print(f"{'case':<22} {'cache':<5} {'page up':>8} {'click at':>9} {'says preparing':>15} "

@@ -125,8 +125,8 @@ def command_warm(arguments: argparse.Namespace) -> int:
         if name not in scenes.names():
             raise ValueError(f"unknown preset {name!r}; choose from {', '.join(scenes.names())}")
     parent = os.getppid()
-    if arguments.background:
-        os.nice(19)
+    if arguments.background and hasattr(os, "setpriority"):
+        os.setpriority(os.PRIO_PROCESS, 0, 19)
     combinations = plan(names, arguments.toggles, arguments.served)
     skip = set()
     if arguments.served:
@@ -174,11 +174,16 @@ def start_background(served: str | None) -> Any:
 
     if os.environ.get(NO_WARM_VARIABLE, "") not in ("", "0"):
         return None
-    command = [sys.executable, "-m", "app.cli", "warm", "--background"]
-    if served is not None:
-        command += ["--served", served]
+    arguments = ["warm", "--background"] + (["--served", served] if served is not None else [])
+    # the lowest priority from the start, before the imports (seconds of CPU themselves)
+    command = [sys.executable, "-c", f"{_LOWEST}; from app.cli import main; "
+               f"raise SystemExit(main({arguments!r}))"]
     return subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
+
+
+_LOWEST = "import os; hasattr(os, 'setpriority') and os.setpriority(os.PRIO_PROCESS, 0, 19)"
+"""Python that gives this process the lowest CPU priority (where the system has priorities)."""
 
 
 def stop_background(process: Any) -> None:

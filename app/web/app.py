@@ -228,7 +228,7 @@ class WebApp:
             return
         old = self._unsubscribe
         self._unsubscribe = self.runner.subscribe(
-            self._receive, strains=wanted[0], velocities=wanted[1]
+            self._receive, strains=wanted[0], velocities=wanted[1], preparing=True
         )
         self._subscription = wanted
         if old is not None:

@@ -86,6 +86,7 @@ class _Subscriber:
     strains: bool
     velocities: bool
     on_error: Callable[[BaseException], Any] | None = None
+    preparing: bool = False
 
 
 class Runner:
@@ -125,12 +126,14 @@ class Runner:
 
     def subscribe(
         self, callback: Callable[[Frame], Any], *, strains: bool = False, velocities: bool = False,
-        on_error: Callable[[BaseException], Any] | None = None,
+        on_error: Callable[[BaseException], Any] | None = None, preparing: bool = False,
     ) -> Callable[[], None]:
         """Call ``callback(frame)`` for every published frame; ask for strains / velocities only
-        if you show them.  If ``callback`` raises, it is detached and ``on_error(exception)`` is
-        called once (in the publishing thread).  Returns a function that unsubscribes."""
-        subscriber = _Subscriber(callback, strains, velocities, on_error)
+        if you show them, and for the frames that say the kernels are being prepared
+        (``Frame.preparing``; the state did not advance) only if you show that.  If ``callback``
+        raises, it is detached and ``on_error(exception)`` is called once (in the publishing
+        thread).  Returns a function that unsubscribes."""
+        subscriber = _Subscriber(callback, strains, velocities, on_error, preparing)
         with self._lock:
             self._subscribers.append(subscriber)
 
@@ -201,7 +204,7 @@ class Runner:
         """Build a frame now and hand it to every subscriber; returns it."""
         frame = self.make_frame(error, preparing)
         with self._lock:
-            subscribers = list(self._subscribers)
+            subscribers = [s for s in self._subscribers if preparing is None or s.preparing]
         for subscriber in subscribers:
             try:
                 subscriber.callback(frame)
@@ -307,7 +310,7 @@ class Runner:
         key = warming.kernel_key(simulation, steps)
         if self.preparer.ready(key):
             return None
-        return self.preparer.prepare(key, simulation, steps)
+        return self.preparer.prepare(key, simulation, steps, owner=id(self))
 
     def _preparing(self) -> warming.Preparing | None:
         """What the loop waits for before it steps or observes: the kernels of the steps it
@@ -369,6 +372,8 @@ class Runner:
         """Stop the background loop and wait for it."""
         self._running = False
         self._wake.set()
+        if self.preparer is not None:
+            self.preparer.withdraw(id(self))
         if self._thread is not None:
             self._thread.join(timeout)
             if not self._thread.is_alive():  # still stepping: keep it, commands stay queued

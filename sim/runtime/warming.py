@@ -167,6 +167,7 @@ class _Job:
     key: Hashable
     work: Callable[[], None]
     asked: float
+    owner: Hashable = None
     started: float | None = None
 
 
@@ -175,8 +176,11 @@ class KernelPreparer:
 
     ``rehearsal(simulation, steps)`` is the work done for a key (``rehearse_simulation`` by
     default; tests give a slow stand-in).  ``ready(key)`` says whether a key was prepared;
-    ``prepare(key, simulation, steps)`` asks for it (the snapshot is taken at once, in the
-    caller's thread) and returns None when it is ready, else the ``Preparing`` under way.
+    ``prepare(key, simulation, steps, owner)`` asks for it (the snapshot is taken at once, in
+    the caller's thread) and returns None when it is ready, else the ``Preparing`` under way; a
+    new request of an ``owner`` (a runner) withdraws its requests not yet started, and
+    ``withdraw(owner)`` all of them (a scene left before its kernels were needed costs nothing
+    more).  A preparation under way cannot be stopped (numba does not interrupt a compile).
     """
 
     def __init__(self, rehearsal: Callable[[Any, int], None] | None = None) -> None:
@@ -202,7 +206,8 @@ class KernelPreparer:
             self._ready.add(key)
             self._waiting.pop(key, None)
 
-    def prepare(self, key: Hashable, simulation: Any, steps: int) -> Preparing | None:
+    def prepare(self, key: Hashable, simulation: Any, steps: int,
+                owner: Hashable = None) -> Preparing | None:
         """None if ``key`` is ready; else make sure it is being prepared and say how far."""
         with self._lock:
             if key in self._ready:
@@ -214,12 +219,24 @@ class KernelPreparer:
         if job is None:
             work = self._work(simulation, steps)  # the snapshot, in the caller's thread
             with self._lock:
-                job = self._waiting.setdefault(key, _Job(key, work, time.perf_counter()))
+                self._withdraw(owner, keep=key)
+                job = self._waiting.setdefault(key, _Job(key, work, time.perf_counter(), owner))
                 job.asked = time.perf_counter()
                 self._start()
                 self._wake.notify()
         with self._lock:
             return self._progress(job)
+
+    def withdraw(self, owner: Hashable) -> None:
+        """Drop the requests of ``owner`` that have not started."""
+        with self._lock:
+            self._withdraw(owner)
+
+    def _withdraw(self, owner: Hashable, keep: Hashable = None) -> None:
+        if owner is None:
+            return
+        for key in [k for k, job in self._waiting.items() if job.owner == owner and k != keep]:
+            del self._waiting[key]
 
     def _work(self, simulation: Any, steps: int) -> Callable[[], None]:
         if self._rehearsal is not None:
