@@ -40,6 +40,25 @@ import numpy as np
 
 Colour = tuple[int, int, int]
 
+ENERGY_COLOURS: dict[str, Colour] = {  # RGB of each energy term's line, on the page and in recordings
+    "kinetic": (220, 90, 30),
+    "potential": (40, 110, 235),
+    "spring": (40, 110, 235),
+    "gravity": (140, 86, 75),
+    "total": (150, 70, 200),
+    "dissipated": (150, 120, 30),
+    "driven": (0, 140, 140),
+}
+"""One colour per energy term wherever it is drawn (the page's Energy plot, recordings, movies);
+"potential" (springs and gravity together) takes the springs' colour.  Each has a WCAG contrast
+of at least 3 on white and on rerun's dark panels (``tests/test_recording.py``)."""
+
+
+def hex_colour(colour: Colour) -> str:
+    """``#rrggbb`` of an RGB colour, for the page's plots."""
+    return "#{:02x}{:02x}{:02x}".format(*colour)
+
+
 
 @dataclasses.dataclass(frozen=True)
 class ColourMap:

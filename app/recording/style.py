@@ -14,20 +14,15 @@ import math
 
 import numpy as np
 
-from app.colours import Colour, ColourMap
+from app.colours import ENERGY_COLOURS, Colour, ColourMap
 from sim.integrators.registry import IntegratorError, describe
 
 WHITE: Colour = (255, 255, 255)
 DARK_BACKGROUND: Colour = (13, 16, 17)
 """Rerun's dark-theme panel background (approximately)."""
 
-TERM_COLOURS: dict[str, Colour] = {  # RGB of each energy term's line
-    "kinetic": (220, 90, 30),
-    "potential": (40, 110, 235),
-    "total": (150, 70, 200),
-    "dissipated": (150, 120, 30),
-    "driven": (0, 140, 140),
-}
+TERM_COLOURS: dict[str, Colour] = ENERGY_COLOURS
+"""The energy terms' line colours (``app.colours.ENERGY_COLOURS``)."""
 DRIFT_COLOUR: Colour = (200, 40, 140)
 """The energy-balance error line of a single run."""
 NEUTRAL_COLOUR: Colour = (128, 128, 128)

@@ -11,6 +11,7 @@ energy in J with the SI prefix that keeps its ticks readable (``app.web.plots.Li
 from __future__ import annotations
 
 import sim
+from app.colours import ENERGY_COLOURS, hex_colour
 from app.web.host import Folder, PanelHost
 from app.web.plots import LivePlot
 from app.web.widgets import History, PlotAxis
@@ -22,12 +23,18 @@ PLOT_INTERVAL = 0.25
 """Seconds between energy plot updates."""
 TIME_SERIES = {"label": "t (s)"}
 LINES = {
-    "kinetic": {"label": "kinetic", "stroke": "#1f77b4", "width": 1.5},
-    "spring": {"label": "springs' potential", "stroke": "#ff7f0e", "width": 1.5},
-    "gravity": {"label": "gravity's potential", "stroke": "#8c564b", "width": 1.5},
-    "total": {"label": "total", "stroke": "#222222", "width": 2},
-    "dissipated": {"label": "dissipated", "stroke": "#9467bd", "width": 1.5},
-    "driven": {"label": "driver's work", "stroke": "#2ca02c", "width": 1.5},
+    "kinetic": {"label": "kinetic", "stroke": hex_colour(ENERGY_COLOURS["kinetic"]),
+               "width": 1.5},
+    "spring": {"label": "springs' potential", "stroke": hex_colour(ENERGY_COLOURS["spring"]),
+              "width": 1.5},
+    "gravity": {"label": "gravity's potential", "stroke": hex_colour(ENERGY_COLOURS["gravity"]),
+               "width": 1.5},
+    "total": {"label": "total", "stroke": hex_colour(ENERGY_COLOURS["total"]),
+             "width": 2},
+    "dissipated": {"label": "dissipated", "stroke": hex_colour(ENERGY_COLOURS["dissipated"]),
+                  "width": 1.5},
+    "driven": {"label": "driver's work", "stroke": hex_colour(ENERGY_COLOURS["driven"]),
+              "width": 1.5},
 }
 """Each energy term (a ``sim.theory.observables.Energy`` field) and its line (a uPlot series)."""
 

@@ -1,6 +1,7 @@
-"""The parameter table is the one place a scene parameter's facts live: every parameter of a model
-has a row, the checks refuse a number outside the row's bounds, and the recording's read-me and
-the page's controls show the row's symbol and unit."""
+"""Facts kept in one place: the parameter table holds a scene parameter's facts (every parameter of
+a model has a row, the checks refuse a number outside the row's bounds, the recording's read-me and
+the page's controls show the row's symbol and unit), and each energy term has one colour on the
+page and in recordings."""
 
 from __future__ import annotations
 
@@ -46,3 +47,15 @@ def test_the_read_me_shows_each_rows_symbol_and_unit():
 def test_a_control_caption_carries_symbol_and_unit():
     assert parameters.get("stiffness").caption() == "Stiffness k (N/m)"
     assert parameters.get("damping").caption() == "Dashpot c (N s/m)"
+
+
+def test_each_energy_term_has_one_colour_on_the_page_and_in_recordings():
+    from app.colours import ENERGY_COLOURS, hex_colour
+    from app.recording.style import TERM_COLOURS
+    from app.web.folders.energy import LINES
+
+    for term, line in LINES.items():
+        assert line["stroke"] == hex_colour(ENERGY_COLOURS[term])
+    for term, colour in TERM_COLOURS.items():
+        assert colour == ENERGY_COLOURS[term]
+    assert LINES["kinetic"]["stroke"] == hex_colour(TERM_COLOURS["kinetic"])
