@@ -39,6 +39,8 @@ EPILOG = f"""examples:
   oscillators movie catenary -o sag.mp4 --color density --duration 10
   oscillators movie recordings/grid.rrd -o grid.mp4          # re-render a recording's positions
   oscillators movie interference -o short.mp4 --duration 10 --size 640x360
+  oscillators movie interference -o interference.html      # one page, plays in 3-D offline
+  oscillators movie recordings/interference.rrd -o run.html --fps 10
 
 the picture: large lattices as a field image (one block of pixels per particle, the lattice seen
 from the front), small ones as springs and particles, 3-D ones in an oblique view coloured by
@@ -53,7 +55,13 @@ keeps one linear scale from a look-ahead run, so frames are comparable in bright
 
 length: --duration simulated seconds (default: the scene's) shown in --frames frames (default:
 at most {MAX_FRAMES}, 25 per simulated second); the movie lasts frames / fps seconds.
-formats by suffix: .mp4 (H.264, yuv420p: browsers, slides), .webm (VP9), .gif.
+formats by suffix: .mp4 (H.264, yuv420p: browsers, slides), .webm (VP9), .gif, or .html: one
+self-contained page that any browser opens from disk with no network and no server; it plays
+the run in 3-D as on the web page (spheres and springs, or the field picture of a large
+lattice), one simulated second per second, with play/pause, a time slider, the colour bar and
+an "About this run" read-me. For .html, --fps is frames per simulated second (default 25; large
+lattices 5) and --size the largest field picture (default 400x400); the defaults keep the
+flagship's 150 s near 12 MB.
 """
 
 
@@ -78,7 +86,7 @@ def register(subparsers: Any) -> None:
     )
     add_scene_arguments(parser)
     parser.add_argument("-o", "--output", type=Path, required=True,
-                        help="the movie file: .mp4, .webm or .gif")
+                        help="the movie file: .mp4, .webm, .gif or .html (one page)")
     parser.add_argument("--force", action="store_true", help="replace the output if it exists")
     parser.add_argument("--fps", type=bounded_int(1, 120),
                         help="movie frames per second (default 30; GIF 15)")

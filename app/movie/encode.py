@@ -26,7 +26,8 @@ def kind_of(path: str | Path) -> str:
     """The movie kind from a file name's suffix (.mp4, .webm, .gif)."""
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in KINDS:
-        raise ValueError(f"the movie must end in .mp4, .webm or .gif, got {Path(path).name!r}")
+        raise ValueError(f"the movie must end in .mp4, .webm, .gif (or .html: one page, "
+                         f"`oscillators movie`), got {Path(path).name!r}")
     return suffix
 
 

@@ -34,6 +34,7 @@ from app.movie.frames import FrameSource, State
 from app.movie.html_overlay import overlay
 from app.movie.html_readme import readme_html
 from app.movie.options import MovieOptions
+from app.recording.style import nice_number
 from sim.storage.files import AtomicFile
 
 SPHERE_LIMIT = 2500
@@ -94,10 +95,12 @@ class LatticeScene:
     """The viser scene of one lattice, updated frame by frame (see the module docstring)."""
 
     def __init__(self, server: Any, model: Any, axis: int, picture: tuple[int, int],
-                 start_limits: dict[str, float]) -> None:
+                 start_limits: dict[str, float], exaggeration: float = 1.0) -> None:
         self.server = server
         self.model = model
         self.axis = axis
+        self.exaggeration = exaggeration
+        """3-D lattices: heights (z) drawn this many times larger, as in movies."""
         self.small = model.n_particles <= SPHERE_LIMIT
         if self.small:
             self.quantity = "displacement" if model.dim == 3 else "strain"
@@ -186,6 +189,9 @@ class LatticeScene:
     def _show_small(self, state: State, values: np.ndarray) -> None:
         model, scene = self.model, self.server.scene
         xyz = _xyz(state.positions)
+        if model.dim == 3 and self.exaggeration != 1.0:
+            rest = model.rest_positions[:, 2]
+            xyz[:, 2] = rest + self.exaggeration * (xyz[:, 2] - rest)
         ends = np.concatenate([xyz, _xyz(model.anchor_positions)])
         segments = ends[model.springs]
         if self.quantity == "strain":
@@ -279,7 +285,12 @@ def write_html(source: FrameSource, path: Path, options: MovieOptions, *,
     axis = 2 if model.dim == 3 and model.n_particles <= SPHERE_LIMIT else scales.axis
     server = viser_page.start_server()
     try:
-        lattice = LatticeScene(server, model, axis, options.size, limits)
+        exaggeration = 1.0
+        if model.dim == 3 and model.n_particles <= SPHERE_LIMIT:
+            width = (max(model.nx, model.ny) + 1) * model.spacing
+            exaggeration = options.exaggeration or nice_number(
+                0.08 * width / max(limits["displacement"], 1e-12))
+        lattice = LatticeScene(server, model, axis, options.size, limits, exaggeration)
         camera_script = lattice.camera()
         serializer = server.get_scene_serializer()
         times: list[float] = []

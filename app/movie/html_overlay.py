@@ -30,10 +30,12 @@ def overlay(scene: Any, integrator: str, dt: float, lattice: Any, label: str,
                        "limits": [float(f"{v:.4g}") for v in limits],
                        "ticks": ticks, "start": start})
     head = f"<style>{STYLE}</style>"
+    heights = (f" · heights drawn {lattice.exaggeration:g} times larger"
+               if lattice.exaggeration != 1.0 else "")
     body = f"""
 <div id="co-title"><div class="co-name">{html.escape(title)}</div>
 <div class="co-run">{html.escape(scene.name)} · {html.escape(integrator)}, dt = {dt:g} s ·
-{html.escape(lattice.model.describe())}</div></div>
+{html.escape(lattice.model.describe())}{heights}</div></div>
 <div id="co-time">t = {start:.2f} s</div>
 <button id="co-about" type="button">About this run</button>
 <div id="co-readme" hidden><button id="co-close" type="button">Close</button>{readme}</div>
