@@ -50,6 +50,14 @@ STATUS = re.compile(r"t = ([0-9.]+) s, step (\d+)")
 PREPARING = "Preparing the kernel"
 
 
+def cache_state(cache: str) -> str:
+    """"cold" for an empty (or missing) cache folder, else "warm" ("as is" beside the sources)."""
+    if cache == "default":
+        return "as is"
+    folder = Path(cache)
+    return "warm" if folder.is_dir() and any(folder.iterdir()) else "cold"
+
+
 def page_status(page) -> tuple[int | None, bool]:
     """(the step the status line shows, whether it says the kernel is being prepared)."""
     text = page.evaluate("document.body.innerText")
@@ -180,10 +188,11 @@ def main() -> None:
               f"{'first moving':>13}  (server only)")
         for case in arguments.cases:
             cache = arguments.cache or tempfile.mkdtemp(prefix="numba-cold-")
+            state = cache_state(cache)
             result = measure_in_process(case, cache, arguments.uptime, arguments.timeout)
             said = ("before the click" if result["preparing_before"] else
                     "-" if result["said"] is None else f"{result['said']:.2f} s")
-            print(f"{case:<22} {'warm' if arguments.cache else 'cold':<5} {result['up']:8.1f}s "
+            print(f"{case:<22} {state:<5} {result['up']:8.1f}s "
                   f"{said:>15} {result['moving']:12.2f}s", flush=True)
         os._exit(0)  # the app is stopped; skip the libraries' thread teardown at exit
     from playwright.sync_api import sync_playwright
@@ -194,10 +203,11 @@ def main() -> None:
         browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         for case in arguments.cases:
             cache = arguments.cache or tempfile.mkdtemp(prefix="numba-cold-")
+            state = cache_state(cache)
             result = measure(browser, case, cache, arguments.uptime, arguments.timeout)
             said = ("before the click" if result["preparing_before"] else
                     "-" if result["said"] is None else f"{result['said']:.2f} s")
-            print(f"{case:<22} {'warm' if arguments.cache else 'cold':<5} "
+            print(f"{case:<22} {state:<5} "
                   f"{result['loaded']:7.1f}s {result['up']:8.1f}s {said:>15} "
                   f"{result['moving']:12.2f}s", flush=True)
         browser.close()

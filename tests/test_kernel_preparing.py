@@ -82,8 +82,9 @@ def test_the_page_says_it_is_preparing_and_the_controls_answer_meanwhile(tmp_pat
 
 
 def test_a_prepared_runner_compiles_nothing_in_its_own_thread():
-    """The rehearsal compiles exactly what the run calls: once it is done, stepping, pinned
-    steps, a single step and the frames compile nothing more in the runner's thread."""
+    """The rehearsal compiles exactly what the run calls: once it is done, stepping, a single
+    step and the frames neither compile nor read a kernel from the cache in the runner's
+    thread."""
     runner = LatticeRunner(sim.Simulation(sim.scenes.build("grid", nx=9, ny=6)),
                            steps_per_frame=2, preparer=warming.KernelPreparer())
     frames, recorded = [], []
@@ -98,7 +99,7 @@ def test_a_prepared_runner_compiles_nothing_in_its_own_thread():
         assert any(frame.preparing is not None for frame in frames)
         assert frames[-1].preparing is None
         assert recorded and all(frame.preparing is None for frame in recorded)
-        assert not warming.compiled_in_thread(runner._thread.ident)
+        assert not warming.loaded_in_thread(runner._thread.ident)  # no compile, no cache read
     finally:
         runner.stop()
 

@@ -178,13 +178,13 @@ def command_serve(arguments: argparse.Namespace) -> int:
 
             preset = simulation.scene.name if simulation.scene.name in PRESETS else None
             warming = start_background(preset)
-            if warming is not None:
-                print("compiling the presets' kernels in the background at low priority "
-                      "(--no-warm: not)", flush=True)
         print(f"{simulation.scene.summary()}")
         print(f"serving on {app.url}  (Ctrl+C to stop)", flush=True)
         print(f"scene files offered from {scenes_dir}/ ({len(app.scene_files.names())} found); "
               f"recordings go to {arguments.recordings_dir}/", flush=True)
+        if warming is not None:
+            print("compiling the other presets' kernels in the background at low priority "
+                  "(--no-warm: not)", flush=True)
         if not _loopback(arguments.host) and app.roles is not None:
             print(f"warning: listening on {arguments.host}: anyone who can reach this machine on "
                   f"port {app.server.get_port()} can open the page and watch; only teacher pages "

@@ -106,6 +106,8 @@ class _CompileWatch:
     def __init__(self) -> None:
         self.threads: dict[int, int] = {}
         self.seen: set[int] = set()
+        self.locked: set[int] = set()
+        """Threads that took numba's compiler lock: compiled or read a kernel from the cache."""
         self.started = 0
         self._lock = threading.Lock()
         self.installed = False
@@ -132,7 +134,16 @@ class _CompileWatch:
                 with watch._lock:
                     watch.threads[ident] = max(0, watch.threads.get(ident, 0) - 1)
 
+        class LockListener(event.Listener):
+            def on_start(self, _: Any) -> None:
+                with watch._lock:
+                    watch.locked.add(threading.get_ident())
+
+            def on_end(self, _: Any) -> None:
+                pass
+
         event.register("numba:compile", Listener())
+        event.register("numba:compiler_lock", LockListener())
         self.installed = True
 
     def compiled_in(self, ident: int | None) -> bool:
@@ -153,6 +164,14 @@ def compiled_in_thread(ident: int) -> bool:
     the process began watching (a thread whose kernels were prepared starts none)."""
     _WATCH.install()
     return _WATCH.compiled_in(ident)
+
+
+def loaded_in_thread(ident: int) -> bool:
+    """Whether the thread ``ident`` compiled a kernel or read one from numba's cache (both take
+    numba's compiler lock) since the process began watching."""
+    _WATCH.install()
+    with _WATCH._lock:
+        return ident in _WATCH.locked
 
 
 def compiles_started() -> int:
