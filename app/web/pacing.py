@@ -14,6 +14,9 @@ pace it can show them:
   then is that page sent the next picture (the newest one, encoded by then), so a page never
   holds a picture it has not drawn (viser's page drops a picture still being decoded when the
   next one comes), and a slow page gets fewer pictures while the others go on;
+* **time to answer.**  A page that took long to draw a picture is left ``IDLE_SHARE`` times as
+  long without one before the next (a page with a graphics card draws in milliseconds and
+  loses nothing; a page drawing in software keeps its thread free half the time for clicks);
 * **at most** ``MAX_FPS`` pictures a second per page and ``BYTES_PER_SECOND`` of pictures per
   page (a class on one Wi-Fi network), whatever the page could take;
 * a page that does not reply within ``ACK_TIMEOUT`` seconds (a program speaking viser's protocol
@@ -42,6 +45,10 @@ MAX_FPS = 15.0
 BYTES_PER_SECOND = 400_000
 """Bytes per second of pictures aimed at for each page (3.2 Mbit/s: a 50 kB picture 8 times a
 second; a class of 30 shares about 100 Mbit/s at most)."""
+IDLE_SHARE = 1.0
+"""After a page has drawn a picture, it is left this many times as long as the drawing took
+before the next picture (a page with a graphics card draws in milliseconds, so nothing
+changes for it; a page drawing in software keeps time between pictures to answer clicks)."""
 ACK_TIMEOUT = 3.0
 """Seconds after which a page that has not replied gets the next picture anyway."""
 ACK_PREFIX = "picture-shown-"
@@ -66,6 +73,8 @@ class PageState:
     acknowledged: int = 0
     scheduled: bool = False
     """A delayed send (byte budget) is already scheduled on the event loop."""
+    draw_seconds: float = 0.0
+    """How long the page took from a picture sent to its second reply (smoothed)."""
     confirming: bool = False
     """The page took the picture in; the reply awaited now says it drew a frame since."""
 
@@ -153,7 +162,8 @@ class PicturePacer:
 
     def _next_allowed(self, page: PageState) -> float:
         rate = max(0.1, min(MAX_FPS, self.max_fps()))
-        return page.sent_at + max(1.0 / rate, page.last_bytes / self.budget)
+        return page.sent_at + max(1.0 / rate, page.last_bytes / self.budget,
+                                  (1.0 + IDLE_SHARE) * page.draw_seconds)
 
     def _offer(self, client_id: int, now: float) -> None:
         """Send the newest picture to a page if it is ready; if only its budget holds it back,
@@ -199,7 +209,10 @@ class PicturePacer:
                 page = self.pages.get(client_id)
                 if page is not None:
                     page.scheduled = False
+                has_newest = page is not None and page.serial >= self.serial
             self._offer(client_id, time.monotonic())
+            if has_newest and self.on_ready is not None:
+                self.on_ready()
 
         try:
             loop.call_soon_threadsafe(loop.call_later, delay, run)
@@ -223,6 +236,9 @@ class PicturePacer:
                     return
             page.waiting = None
             page.acknowledged += 1
+            took = time.monotonic() - page.sent_at
+            page.draw_seconds = took if page.acknowledged == 1 else (
+                0.7 * page.draw_seconds + 0.3 * took)
             has_newest = page.serial >= self.serial
         self._offer(client_id, time.monotonic())
         if has_newest and self.on_ready is not None:
