@@ -10,6 +10,7 @@ import time
 
 import msgspec
 import numpy as np
+import pytest
 import viser
 import websockets
 import zstandard
@@ -186,3 +187,19 @@ def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
         server.stop()
     assert len(set(requests)) == 3
     assert model.n_particles >= frames.IMAGE_LIMIT
+
+
+def test_a_page_that_draws_slowly_is_left_time_between_pictures():
+    """A page that took 0.4 s to draw its picture waits (1 + IDLE_SHARE) times that from the
+    picture sent; a page with a graphics card (20 ms) is held only by the rate and the budget."""
+    class Server:
+        class _websock_server:  # noqa: N801 (viser's name)
+            @staticmethod
+            def register_handler(*_: object) -> None:
+                pass
+
+    pacer = pacing.PicturePacer(Server(), lambda client, data: None)
+    slow = pacing.PageState(handle=None, sent_at=100.0, last_bytes=1_000, draw_seconds=0.4)
+    fast = pacing.PageState(handle=None, sent_at=100.0, last_bytes=1_000, draw_seconds=0.02)
+    assert pacer._next_allowed(slow) == pytest.approx(100.0 + (1 + pacing.IDLE_SHARE) * 0.4)
+    assert pacer._next_allowed(fast) == pytest.approx(100.0 + 1 / pacing.MAX_FPS)

@@ -151,16 +151,21 @@ def test_a_student_first_stays_a_student_and_a_reconnect_keeps_its_role(class_ap
     teacher_url = f"{url}{TEACHER_PATH}{app.roles.token}"
     play = app.panel.run.play_button._impl.uuid
 
-    async def visit(address: str) -> tuple[str, list[dict]]:
-        """Connect, say the camera, listen for a moment; the role given and what was
-        received."""
+    def disabled_play(received: list[dict]) -> bool:
+        return any(m.get("type") == "GuiUpdateMessage" and m.get("uuid") == play
+                   and (m.get("updates") or {}).get("disabled") is True for m in received)
+
+    async def visit(address: str, seconds: float = 2.0) -> tuple[str, list[dict]]:
+        """Connect, say the camera, listen for ``seconds`` (or until Play is shown disabled);
+        the role given and what was received."""
         received: list[dict] = []
         decompressor = zstandard.ZstdDecompressor()
         async with websockets.connect(address, subprotocols=PROTOCOL, max_size=None) as page:
             await page.send(msgspec.msgpack.encode(CAMERA))
             client_id = None
-            ends = asyncio.get_running_loop().time() + 2.0
-            while (left := ends - asyncio.get_running_loop().time()) > 0:
+            ends = asyncio.get_running_loop().time() + seconds
+            while (left := ends - asyncio.get_running_loop().time()) > 0 and not disabled_play(
+                    received):
                 try:
                     raw = await asyncio.wait_for(page.recv(), left)
                 except TimeoutError:
@@ -171,13 +176,10 @@ def test_a_student_first_stays_a_student_and_a_reconnect_keeps_its_role(class_ap
                     role = "teacher" if client_id in app.roles.teachers else "student"
         return role, received
 
-    def disabled_play(received: list[dict]) -> bool:
-        return any(m.get("type") == "GuiUpdateMessage" and m.get("uuid") == play
-                   and (m.get("updates") or {}).get("disabled") is True for m in received)
-
     async def scenario() -> list[tuple[str, list[dict]]]:
-        return [await visit(f"{url}{STUDENT_PATH}"), await visit(teacher_url),
-                await visit(f"{url}{STUDENT_PATH}"), await visit(teacher_url)]
+        student = f"{url}{STUDENT_PATH}"
+        return [await visit(student, 30.0), await visit(teacher_url),
+                await visit(student, 30.0), await visit(teacher_url)]
 
     visits = asyncio.run(scenario())
     assert [role for role, _ in visits] == ["student", "teacher", "student", "teacher"]

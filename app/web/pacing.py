@@ -14,6 +14,10 @@ pace it can show them:
   then is that page sent the next picture (the newest one, encoded by then), so a page never
   holds a picture it has not drawn (viser's page drops a picture still being decoded when the
   next one comes), and a slow page gets fewer pictures while the others go on;
+* **time to answer.**  A page that took long (over ``SLOW_DRAW``) to draw a picture is left
+  ``IDLE_SHARE`` times as long without one before the next (a page with a graphics card draws
+  in milliseconds and loses nothing; a page drawing in software keeps its thread free half the
+  time for clicks);
 * **at most** ``MAX_FPS`` pictures a second per page and ``BYTES_PER_SECOND`` of pictures per
   page (a class on one Wi-Fi network), whatever the page could take;
 * a page that does not reply within ``ACK_TIMEOUT`` seconds (a program speaking viser's protocol
@@ -39,9 +43,17 @@ from viser import _messages
 
 MAX_FPS = 15.0
 """Most pictures per second sent to one page."""
-BYTES_PER_SECOND = 400_000
-"""Bytes per second of pictures aimed at for each page (3.2 Mbit/s: a 50 kB picture 8 times a
-second; a class of 30 shares about 100 Mbit/s at most)."""
+BYTES_PER_SECOND = 480_000
+"""Bytes per second of pictures aimed at for each page (3.8 Mbit/s: the flagship's pictures,
+80 kB late in the run, 6 times a second; a class of 30 shares about 115 Mbit/s at most)."""
+IDLE_SHARE = 1.0
+"""After a page took more than ``SLOW_DRAW`` seconds to draw a picture, it is left this many
+times as long before the next picture (a page with a graphics card draws in milliseconds, so
+nothing changes for it; a page drawing in software keeps time between pictures to answer
+clicks)."""
+SLOW_DRAW = 0.15
+"""Seconds from a picture sent to the page's second reply above which the page is slow to draw
+(a page with a graphics card on a busy network replies in two round trips and a frame)."""
 ACK_TIMEOUT = 3.0
 """Seconds after which a page that has not replied gets the next picture anyway."""
 ACK_PREFIX = "picture-shown-"
@@ -66,6 +78,8 @@ class PageState:
     acknowledged: int = 0
     scheduled: bool = False
     """A delayed send (byte budget) is already scheduled on the event loop."""
+    draw_seconds: float = 0.0
+    """How long the page took from a picture sent to its second reply (smoothed)."""
     confirming: bool = False
     """The page took the picture in; the reply awaited now says it drew a frame since."""
 
@@ -153,7 +167,9 @@ class PicturePacer:
 
     def _next_allowed(self, page: PageState) -> float:
         rate = max(0.1, min(MAX_FPS, self.max_fps()))
-        return page.sent_at + max(1.0 / rate, page.last_bytes / self.budget)
+        drawing = page.draw_seconds if page.draw_seconds > SLOW_DRAW else 0.0
+        return page.sent_at + max(1.0 / rate, page.last_bytes / self.budget,
+                                  (1.0 + IDLE_SHARE) * drawing)
 
     def _offer(self, client_id: int, now: float) -> None:
         """Send the newest picture to a page if it is ready; if only its budget holds it back,
@@ -199,7 +215,10 @@ class PicturePacer:
                 page = self.pages.get(client_id)
                 if page is not None:
                     page.scheduled = False
+                has_newest = page is not None and page.serial >= self.serial
             self._offer(client_id, time.monotonic())
+            if has_newest and self.on_ready is not None:
+                self.on_ready()
 
         try:
             loop.call_soon_threadsafe(loop.call_later, delay, run)
@@ -223,6 +242,9 @@ class PicturePacer:
                     return
             page.waiting = None
             page.acknowledged += 1
+            took = time.monotonic() - page.sent_at
+            page.draw_seconds = took if page.acknowledged == 1 else (
+                0.7 * page.draw_seconds + 0.3 * took)
             has_newest = page.serial >= self.serial
         self._offer(client_id, time.monotonic())
         if has_newest and self.on_ready is not None:
