@@ -119,3 +119,23 @@ def test_camera_fits_lattice_and_colour_bar_in_the_free_part(scene, size):
     assert v.min() >= 0 and v.max() <= 1 - bottom + 1e-9
     spans = ((u.max() - u.min()) / (1 - right), (v.max() - v.min()) / (1 - bottom))
     assert max(spans) > 0.85
+
+
+def test_a_page_recording_on_a_full_disk_says_so_on_the_page_within_a_second(web_app,
+                                                                              monkeypatch):
+    import shutil
+
+    folder = web_app.panel.recording
+    press(folder.record_button, PageClient())
+    assert wait_for(lambda: web_app.recordings.active)
+    web_app.runner.play()
+    assert wait_for(lambda: "recording to" in folder.record_text.content)
+    real = shutil.disk_usage
+    monkeypatch.setattr(shutil, "disk_usage",
+                        lambda path: real(path)._replace(free=100_000))  # another writer filled it
+    filled = time.monotonic()
+    assert wait_for(lambda: "recording stopped" in folder.record_text.content, timeout=5)
+    assert time.monotonic() - filled < 1.5
+    assert "disk nearly full" in folder.record_text.content
+    assert not web_app.recordings.active and folder.record_button.label == "Start recording"
+    web_app.runner.pause()
