@@ -25,14 +25,15 @@ class Page:
     """A websocket client speaking viser's protocol: ``state`` holds each control's creation
     message by label and every update it received since, in order."""
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int, path: str = "") -> None:
         self.port = port
+        self.path = path
         self.controls: dict[str, dict] = {}
         self.updates: list[dict] = []
 
     async def __aenter__(self) -> Page:
         self.connection = await websockets.connect(
-            f"ws://127.0.0.1:{self.port}", subprotocols=[f"viser-v{viser.__version__}"],
+            f"ws://127.0.0.1:{self.port}{self.path}", subprotocols=[f"viser-v{viser.__version__}"],
             max_size=None)
         self.decompressor = zstandard.ZstdDecompressor()
         return self

@@ -171,3 +171,21 @@ def test_a_phone_shows_every_presets_colour_bar_text_at_least_11_pixels(preset):
     half_h = position[2] * math.tan(VIEW_FOV / 2)
     low = 0.5 - (centre[1] - bar_height / 2 - position[1]) / half_h / 2
     assert low <= 1 - PHONE_PANEL_SHARE + 1e-9
+def test_a_page_recording_on_a_full_disk_says_so_on_the_page_within_a_second(web_app,
+                                                                              monkeypatch):
+    import shutil
+
+    folder = web_app.panel.recording
+    press(folder.record_button, PageClient())
+    assert wait_for(lambda: web_app.recordings.active)
+    web_app.runner.play()
+    assert wait_for(lambda: "recording to" in folder.record_text.content)
+    real = shutil.disk_usage
+    monkeypatch.setattr(shutil, "disk_usage",
+                        lambda path: real(path)._replace(free=100_000))  # another writer filled it
+    filled = time.monotonic()
+    assert wait_for(lambda: "recording stopped" in folder.record_text.content, timeout=5)
+    assert time.monotonic() - filled < 1.5
+    assert "disk nearly full" in folder.record_text.content
+    assert not web_app.recordings.active and folder.record_button.label == "Start recording"
+    web_app.runner.pause()

@@ -41,13 +41,14 @@ from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
-from app.web.roles import ClassRoles
+from app.web.roles import STUDENT_MESSAGES, ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import NARROW, PHONE_PANEL_SHARE, VIEW_FOV, LatticeView, camera_fit, laptop_fit
 from sim.runtime.runner import Frame
 from sim.runtime.warming import KernelPreparer
 
+STUDENT_TYPES = frozenset(message.__name__ for message in STUDENT_MESSAGES)
 DEFAULT_SCENES_DIR = Path("scenes")
 """Where ``serve`` looks for scene files the page may open (by name)."""
 DEFAULT_RECORDINGS_DIR = Path("recordings")
@@ -158,6 +159,10 @@ class WebApp:
         self._install_interaction()
         self.roles = (ClassRoles(self.server, self.pick, token=teacher_token).install()
                       if class_mode else None)
+        if self.roles is not None:  # a student's other messages: dropped unread past a few
+            allowed = STUDENT_TYPES | {"ScenePointerMessage"}
+            self.gate.role_messages = (
+                lambda client_id: allowed if client_id in self.roles.students else None)
 
     # --- life cycle ------------------------------------------------------------------------------
 

@@ -26,6 +26,9 @@ MESSAGE_RATE = 200.0
 """Messages a second one page may send (a browser sends its camera and a dragged control at
 most about 60 times a second)."""
 MESSAGE_BURST = 400.0
+REFUSED_RATE = 10.0
+"""Messages a second a page may send that its role refuses (a student's click on a control):
+enough for a person, whose control is then set back on the page; more are dropped unread."""
 FLOOD_SECONDS = 5.0
 """A page still over the rate this long after it first went over is disconnected."""
 

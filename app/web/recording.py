@@ -25,6 +25,9 @@ from app.web.jobs import PageJobs
 from sim.runtime.runner import Runner
 from sim.storage.files import partial_path, safe_name
 
+SPACE_CHECK_SECONDS = 1.0
+"""How often a running recording's free disk space is looked at (``failure``)."""
+
 
 class RecordingBusy(RuntimeError):
     """A recording is already starting or running."""
@@ -43,6 +46,7 @@ class WebRecordings:
         self.last_path: Path | None = None
         self.last_error: str | None = None
         self.jobs = PageJobs()
+        self._space_checked = 0.0
 
     @property
     def active(self) -> bool:
@@ -100,11 +104,22 @@ class WebRecordings:
         return self.stop()
 
     def failure(self) -> str | None:
-        """Why the running recording stopped by itself (a full disk), or None."""
+        """Why the running recording stopped by itself (a failed write), or must stop (its disk
+        is nearly full: looked at once a second, so the page says so within a second), or None."""
         recorder = self._recorder
         if recorder is None:
             return None
         error = getattr(recorder, "failure", None) or getattr(recorder, "_failure", None)
+        if error is None and time.monotonic() - self._space_checked >= SPACE_CHECK_SECONDS:
+            self._space_checked = time.monotonic()
+            from app.recording.destination import RecordingError, check_space
+
+            try:
+                check_space(self.directory)
+            except RecordingError as full:
+                return str(full)
+            except OSError:
+                pass
         return None if error is None else str(error)
 
     def stop(self) -> Path | None:

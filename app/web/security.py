@@ -44,7 +44,7 @@ import math
 import socket
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import urlsplit
@@ -52,7 +52,14 @@ from urllib.parse import urlsplit
 import viser
 import websockets.asyncio.server
 
-from app.web.page_messages import FLOOD_SECONDS, MESSAGE_RATE, PAGE_MESSAGES, MessageBudget, message_type
+from app.web.page_messages import (
+    FLOOD_SECONDS,
+    MESSAGE_RATE,
+    PAGE_MESSAGES,
+    REFUSED_RATE,
+    MessageBudget,
+    message_type,
+)
 from sim.scenes.scene_files import MAX_UPLOAD_BYTES as MAX_SCENE_UPLOAD_BYTES
 
 _SERVE_PATCH_LOCK = threading.Lock()
@@ -262,6 +269,9 @@ class PageGate:
         self.disconnected = 0
         """Pages disconnected for sending over the rate."""
         self.message_rate = MESSAGE_RATE
+        self.role_messages: Callable[[int], frozenset[str] | None] = lambda client_id: None
+        """The message types a page's role lets it send (None: all of ``PAGE_MESSAGES``);
+        beyond ``REFUSED_RATE`` a second, others are dropped unread."""
         self.flood_seconds = FLOOD_SECONDS
         self._upload_started: dict[str, tuple[int, float]] = {}
         self.upload_seconds = MAX_UPLOAD_SECONDS
@@ -406,8 +416,12 @@ class PageGate:
         """Make viser's reads of this page's websocket pass ``PAGE_MESSAGES`` and the rate first
         (viser's reader awaits ``websocket.recv()`` for each message, then decodes it)."""
         receive = websocket.recv
+        refusals = MessageBudget(rate=REFUSED_RATE, burst=2.0 * REFUSED_RATE,
+                                 tokens=2.0 * REFUSED_RATE, last=time.monotonic())
         budget = MessageBudget(rate=self.message_rate, burst=2.0 * self.message_rate,
                                tokens=2.0 * self.message_rate, last=time.monotonic())
+
+        closing: list[float] = []
 
         async def gated_receive(*args: Any, **kwargs: Any) -> Any:
             while True:
@@ -415,7 +429,8 @@ class PageGate:
                 now = time.monotonic()
                 if not budget.take(now):
                     self._drop(client_id, "over the rate")
-                    if budget.flooding(now, self.flood_seconds):
+                    if budget.flooding(now, self.flood_seconds) and not closing:
+                        closing.append(now)
                         self.disconnected += 1
                         _LOG.warning("client %s: disconnected: more than %g messages a second "
                                      "for %g s", client_id, budget.rate, self.flood_seconds)
@@ -423,7 +438,11 @@ class PageGate:
                     continue
                 kind = message_type(raw)
                 if kind in PAGE_MESSAGES:
-                    return raw
+                    narrowed = self.role_messages(client_id)
+                    if narrowed is None or kind in narrowed or refusals.take(now):
+                        return raw  # (a few refused ones pass, to be answered on the page)
+                    self._drop(client_id, "not for this page's role")
+                    continue
                 self._drop(client_id, kind if kind is not None else "not a viser message")
 
         websocket.recv = gated_receive
