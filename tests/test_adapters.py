@@ -28,3 +28,44 @@ def test_argparse_adapter_finds_the_subcommands():
     commands = argparse_adapter.subcommands(build_parser())
     assert {"run", "serve", "record", "movie"} <= set(commands)
     assert argparse_adapter.subcommands(commands["run"]) == {}
+
+
+def test_viser_adapter_reaches_every_internal_it_reads():
+    """Each private name of viser the page reads (``app/web/viser_adapter.py``) is where the
+    adapter looks for it on the installed viser."""
+    import numpy as np
+    import viser
+
+    from app.web import viser_adapter
+    from tests.helpers import free_port
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    try:
+        socket_server = viser_adapter.websocket_server(server)
+        assert callable(socket_server.register_handler) and callable(socket_server.on_client_connect)
+        assert viser_adapter.live_connections(server) == {}
+        assert viser_adapter.live_connection(server, 12345) is None
+        buffer = viser_adapter.broadcast_buffer(server)
+        assert isinstance(buffer.message_counter, int) and isinstance(buffer.generator_cursors, dict)
+        assert viser_adapter.event_loop(server) is not None
+        assert callable(viser_adapter.incoming_dispatch(server))
+        slider = server.gui.add_slider("x", 0.0, 1.0, 0.1, 0.5)
+        state = viser_adapter.control_state(slider)
+        assert (state.value, state.removed, state.is_button) == (0.5, False, False)
+        assert hasattr(state.props, "disabled")
+        assert viser_adapter.gui_input(server.gui, state.uuid) is slider
+        assert state.uuid in viser_adapter.gui_inputs(server.gui)
+        assert callable(viser_adapter.gui_queue(server.gui).queue_message)
+        assert all(callable(handler) for handler in viser_adapter.gui_handlers(server.gui).values())
+        assert isinstance(viser_adapter.upload_states(server.gui), dict)
+        image = server.scene.add_image("/picture", np.zeros((2, 2, 3), np.uint8), 1.0, 1.0,
+                                       format="jpeg")
+        viser_adapter.set_image_bytes(image, b"\xff\xd8 picture")
+        assert image._data == b"\xff\xd8 picture"
+        for name in ("GuiUpdateMessage", "ScenePointerMessage", "ViewerCameraMessage",
+                     "FileTransferStartUpload", "FileTransferPart", "ShareUrlRequest",
+                     "ShareUrlDisconnect", "LocalStorageGetItemRequestMessage",
+                     "LocalStorageGetItemResponseMessage", "GetRenderResponseMessage"):
+            assert isinstance(getattr(viser_adapter.messages, name), type), name
+    finally:
+        server.stop()

@@ -30,6 +30,8 @@ from typing import Any
 
 import viser
 
+from app.web import viser_adapter
+
 STALL_TIMEOUT = 10.0
 """Seconds a page may take nothing while newer frames wait before it is disconnected."""
 CHECK_PERIOD = 1.0
@@ -77,7 +79,7 @@ class ClientWatch:
 
     def _run(self) -> None:
         while not self._stopping.wait(self.period):
-            loop = self._websocket_server()._background_event_loop
+            loop = viser_adapter.event_loop(self.server)
             if loop is None or loop.is_closed():
                 continue
             try:
@@ -85,17 +87,13 @@ class ClientWatch:
             except RuntimeError:  # the loop closed meanwhile (the server stopped)
                 return
 
-    def _websocket_server(self) -> Any:
-        return self.server._websock_server
-
     def check(self, now: float | None = None) -> list[int]:
         """Disconnect the pages stuck for ``timeout`` seconds; returns their ids.  Runs on
         viser's event loop (where the connections live)."""
         now = time.monotonic() if now is None else now
-        websocket_server = self._websocket_server()
-        buffer = websocket_server._broadcast_buffer
+        buffer = viser_adapter.broadcast_buffer(self.server)
         newest = buffer.message_counter - 1
-        live = dict(websocket_server._live_connections)
+        live = viser_adapter.live_connections(self.server)
         stuck = []
         for client_id, connection in live.items():
             if client_id not in self._progress:

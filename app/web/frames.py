@@ -32,6 +32,7 @@ import numpy as np
 import viser
 from PIL import Image
 
+from app.web import viser_adapter
 from app.web.pacing import BYTES_PER_SECOND, MAX_FPS, PicturePacer  # noqa: F401 (re-exported)
 from sim.model.lattice import Model
 
@@ -116,7 +117,7 @@ class FieldImage:
             format="jpeg", jpeg_quality=QUALITY, position=centre, cast_shadow=False,
             receive_shadow=False,
         )
-        handle._data = data
+        viser_adapter.set_image_bytes(handle, data)
         return handle
 
     def due_now(self) -> bool:

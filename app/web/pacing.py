@@ -39,7 +39,9 @@ from collections.abc import Callable
 from typing import Any
 
 import viser
-from viser import _messages
+
+from app.web import viser_adapter
+from app.web.viser_adapter import messages as _messages
 
 MAX_FPS = 15.0
 """Most pictures per second sent to one page."""
@@ -108,7 +110,7 @@ class PicturePacer:
         self._ids = itertools.count()
         self._lock = threading.RLock()
         self._handler = self._acknowledged
-        server._websock_server.register_handler(
+        viser_adapter.websocket_server(server).register_handler(
             _messages.LocalStorageGetItemResponseMessage, self._handler)
 
     # --- the stream -------------------------------------------------------------------------------
@@ -158,7 +160,7 @@ class PicturePacer:
         for page in pages.values():
             page.handle.remove()
         try:
-            self.server._websock_server.unregister_handler(
+            viser_adapter.websocket_server(self.server).unregister_handler(
                 _messages.LocalStorageGetItemResponseMessage, self._handler)
         except (AssertionError, ValueError):
             pass
@@ -190,7 +192,7 @@ class PicturePacer:
             if client is None:
                 return
             data, page.serial = self.data, self.serial
-            page.handle._data = data
+            viser_adapter.set_image_bytes(page.handle, data)
             page.sent_at, page.last_bytes = now, len(data)
             page.sent += 1
             page.bytes_sent += len(data)
@@ -200,13 +202,13 @@ class PicturePacer:
     def _ask(self, client: Any, page: PageState) -> None:
         """Ask the page to say when it has drawn what it was sent."""
         page.waiting = f"{ACK_PREFIX}{next(self._ids)}"
-        connection = client._websock_connection
+        connection = viser_adapter.client_queue(client)
         connection.queue_message(_messages.LocalStorageGetItemRequestMessage(
             key=ACK_KEY, request_uuid=page.waiting))
         client.flush()
 
     def _later(self, delay: float, client_id: int) -> None:
-        loop = self.server._websock_server._background_event_loop
+        loop = viser_adapter.event_loop(self.server)
         if loop is None or loop.is_closed():
             return
 

@@ -43,9 +43,10 @@ from urllib.parse import urlsplit
 
 import numpy as np
 import viser
-from viser import _messages
 
+from app.web import viser_adapter
 from app.web.inputs import as_html
+from app.web.viser_adapter import messages as _messages
 from sim.runtime.runner import Frame
 
 TEACHER_PATH = "/teacher/"
@@ -131,7 +132,7 @@ class ClassRoles:
     def arrived(self, client_id: int) -> str:
         """Give a page whose websocket just opened its role (``teacher`` or ``student``), before
         anything it sends is read: by its link or its address, whoever came first."""
-        connection = self.server._websock_server._live_connections.get(client_id)
+        connection = viser_adapter.live_connection(self.server, client_id)
         path = getattr(getattr(connection, "request", None), "path", "") or ""
         role = role_for(path, getattr(connection, "remote_address", None), self.token)
         with self._lock:
@@ -149,14 +150,14 @@ class ClassRoles:
         """Show every shared control disabled on a student's page (that page alone): each one
         not yet sent, and each one whose shared state the server changed since (a change sent to
         every page would enable it there).  Returns how many were sent."""
-        connection = client._websock_connection
+        connection = viser_adapter.client_queue(client)
         count = 0
         with self._lock:
             if client.client_id not in self.students:
                 return 0
             shown = self._disabled.setdefault(client.client_id, {})
-            for uuid, handle in list(self.server.gui._gui_input_handle_from_uuid.items()):
-                shared = getattr(handle._impl.props, "disabled", None)
+            for uuid, handle in list(viser_adapter.gui_inputs(self.server.gui).items()):
+                shared = getattr(viser_adapter.control_state(handle).props, "disabled", None)
                 if shown.get(uuid, "unsent") == shared:
                     continue
                 connection.queue_message(_messages.GuiUpdateMessage(uuid, {"disabled": True}))
@@ -176,8 +177,8 @@ class ClassRoles:
     def install(self) -> ClassRoles:
         """Put ``gate`` in front of viser's dispatch of the messages pages send, and follow
         pages connecting and leaving."""
-        websocket_server = self.server._websock_server
-        dispatch = websocket_server._handle_incoming_message
+        websocket_server = viser_adapter.websocket_server(self.server)
+        dispatch = viser_adapter.incoming_dispatch(self.server)
 
         async def gated(client_id: int, message: _messages.Message) -> None:
             if self.gate(client_id, message):
@@ -189,7 +190,7 @@ class ClassRoles:
         async def closed(connection: Any) -> None:
             self.left(connection.client_id)
 
-        websocket_server._handle_incoming_message = gated
+        viser_adapter.replace_incoming_dispatch(self.server, gated)
         websocket_server.on_client_connect(opened)
         websocket_server.on_client_disconnect(closed)
         self.server.on_client_connect(self.greet)
@@ -215,14 +216,14 @@ class ClassRoles:
 
     def _restore(self, client_id: int, message: _messages.GuiUpdateMessage) -> None:
         """Set a refused control back, on that page, to the value in use."""
-        handle = self.server.gui._gui_input_handle_from_uuid.get(message.uuid)
+        handle = viser_adapter.gui_input(self.server.gui, message.uuid)
         client = self.server.get_clients().get(client_id)
         if handle is None or client is None:
             return
-        current = {name: getattr(handle._impl, name) for name in message.updates
-                   if hasattr(handle._impl, name)}
+        state = viser_adapter.control_state(handle)
+        current = {name: getattr(state, name) for name in message.updates if hasattr(state, name)}
         if current:
-            client._websock_connection.queue_message(
+            viser_adapter.client_queue(client).queue_message(
                 _messages.GuiUpdateMessage(message.uuid, current))
 
     # --- a student's own probe -------------------------------------------------------------------

@@ -52,6 +52,7 @@ from urllib.parse import urlsplit
 import viser
 import websockets.asyncio.server
 
+from app.web import viser_adapter
 from app.web.page_messages import (
     FLOOD_SECONDS,
     MESSAGE_RATE,
@@ -259,7 +260,7 @@ class PageGate:
     def __init__(self, server: viser.ViserServer) -> None:
         self.server = server
         self.gui = server.gui
-        self.websockets = server._websock_server
+        self.websockets = viser_adapter.websocket_server(server)
         self.connected: set[int] = set()
         self.refused = 0
         """How many messages were dropped (for tests and the log)."""
@@ -277,21 +278,15 @@ class PageGate:
         self.upload_seconds = MAX_UPLOAD_SECONDS
 
     def install(self) -> PageGate:
-        from viser import _messages
-
+        _messages = viser_adapter.messages
+        self._originals = viser_adapter.gui_handlers(self.gui)
         for message_class, original, checked in (
-            (_messages.GuiUpdateMessage, self.gui._handle_gui_updates, self._gui_update),
-            (_messages.FileTransferStartUpload, self.gui._handle_file_transfer_start,
-             self._upload_start),
-            (_messages.FileTransferPart, self.gui._handle_file_transfer_part, self._upload_part),
+            (_messages.GuiUpdateMessage, self._originals["update"], self._gui_update),
+            (_messages.FileTransferStartUpload, self._originals["start"], self._upload_start),
+            (_messages.FileTransferPart, self._originals["part"], self._upload_part),
         ):
             self.websockets.unregister_handler(message_class, original)
             self.websockets.register_handler(message_class, checked)
-        self._originals = {
-            "update": self.gui._handle_gui_updates,
-            "start": self.gui._handle_file_transfer_start,
-            "part": self.gui._handle_file_transfer_part,
-        }
         # and no handler for viser's share tunnel either, should a message reach dispatch
         for message_class in (_messages.ShareUrlRequest, _messages.ShareUrlDisconnect):
             self.websockets.unregister_handler(message_class)
@@ -309,14 +304,14 @@ class PageGate:
         (a role) is checked here too."""
         if client_id not in self.connected:
             return "from a client that is not connected"
-        handle = self.gui._gui_input_handle_from_uuid.get(message.uuid)
-        if handle is None or handle._impl.removed:
+        handle = viser_adapter.gui_input(self.gui, message.uuid)
+        if handle is None or viser_adapter.control_state(handle).removed:
             return f"for an unknown control {message.uuid!r:.40}"
         updates = message.updates
         if not isinstance(updates, dict) or set(updates) != {"value"}:
             names = sorted(map(str, updates)) if isinstance(updates, dict) else updates
             return f"sets {names!r:.60}; a page may set only a control's value"
-        state = handle._impl
+        state = viser_adapter.control_state(handle)
         if state.is_button:
             return None if updates["value"] is True else "a button takes only a press"
         if getattr(state.props, "disabled", False):
@@ -332,13 +327,14 @@ class PageGate:
             await self._originals["update"](client_id, message)
             return
         self._refuse(client_id, f"value update {reason}")
-        handle = self.gui._gui_input_handle_from_uuid.get(getattr(message, "uuid", None))
-        if handle is not None and not handle._impl.removed and not handle._impl.is_button:
-            from viser._messages import GuiUpdateMessage
+        handle = viser_adapter.gui_input(self.gui, getattr(message, "uuid", None))
+        state = None if handle is None else viser_adapter.control_state(handle)
+        if state is not None and not state.removed and not state.is_button:
+            GuiUpdateMessage = viser_adapter.messages.GuiUpdateMessage
 
             # every page shows the value in use again (the sender's widget shows its own)
-            self.gui._websock_interface.queue_message(
-                GuiUpdateMessage(handle._impl.uuid, {"value": handle._impl.value}))
+            viser_adapter.gui_queue(self.gui).queue_message(
+                GuiUpdateMessage(state.uuid, {"value": state.value}))
 
     def _upload_start(self, client_id: int, message: Any) -> None:
         self._drop_stalled_uploads()
@@ -347,7 +343,7 @@ class PageGate:
         reason = None
         if client_id not in self.connected:
             reason = "from a client that is not connected"
-        elif message.source_component_uuid not in self.gui._gui_input_handle_from_uuid:
+        elif viser_adapter.gui_input(self.gui, message.source_component_uuid) is None:
             reason = "for an unknown control"
         elif not (isinstance(size, int) and isinstance(parts, int)
                   and 0 <= size <= MAX_UPLOAD_BYTES and 0 <= parts <= max(1, size)):
@@ -362,7 +358,7 @@ class PageGate:
 
     def _upload_part(self, client_id: int, message: Any) -> None:
         self._drop_stalled_uploads()
-        states = self.gui._current_file_upload_states
+        states = viser_adapter.upload_states(self.gui)
         state = states.get(message.transfer_uuid)
         if state is None:
             return
@@ -377,13 +373,13 @@ class PageGate:
             self._upload_started.pop(message.transfer_uuid, None)
 
     def _drop_upload(self, transfer: str) -> None:
-        self.gui._current_file_upload_states.pop(transfer, None)
+        viser_adapter.upload_states(self.gui).pop(transfer, None)
         self._upload_started.pop(transfer, None)
 
     def _drop_stalled_uploads(self) -> None:
         now = time.monotonic()
         for transfer, (client_id, started) in list(self._upload_started.items()):
-            if transfer not in self.gui._current_file_upload_states:
+            if transfer not in viser_adapter.upload_states(self.gui):
                 self._upload_started.pop(transfer, None)
             elif now - started > self.upload_seconds:
                 self._drop_upload(transfer)
@@ -399,15 +395,13 @@ class PageGate:
     # --- clients -------------------------------------------------------------------------------
 
     async def _connected(self, connection: Any) -> None:
-        from viser._messages import ViewerCameraMessage
-
         self.connected.add(connection.client_id)
-        websocket = self.websockets._live_connections.get(connection.client_id)
+        websocket = viser_adapter.live_connection(self.server, connection.client_id)
         if websocket is not None:
             self._read_through_gate(connection.client_id, websocket)
         # viser registers a client (and runs the app's checks for it) at its first camera
         # message: give it one now, the page's own follows
-        await connection._handle_incoming_message(connection.client_id, ViewerCameraMessage(
+        await viser_adapter.dispatch_from(connection, viser_adapter.messages.ViewerCameraMessage(
             wxyz=(1.0, 0.0, 0.0, 0.0), position=(0.0, 0.0, -5.0), fov=0.9, near=0.01,
             far=1000.0, image_height=720, image_width=1280, look_at=(0.0, 0.0, 0.0),
             up_direction=(0.0, 0.0, 1.0)))
