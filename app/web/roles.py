@@ -126,9 +126,6 @@ class ClassRoles:
         scheme = "wss" if parts.scheme == "https" else "ws"
         return f"{page_url}/?websocket={scheme}://{parts.netloc}{path}"
 
-    def is_teacher(self, client_id: int) -> bool:
-        return client_id in self.teachers
-
     def arrived(self, client_id: int) -> str:
         """Give a page whose websocket just opened its role (``teacher`` or ``student``), before
         anything it sends is read: by its link or its address, whoever came first."""

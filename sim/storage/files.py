@@ -21,7 +21,6 @@ exits 2).
 
 from __future__ import annotations
 
-import errno
 import os
 import re
 from pathlib import Path
@@ -208,8 +207,3 @@ def write_bytes(path: str | os.PathLike, data: bytes, overwrite: bool = False) -
     with AtomicFile(path, overwrite) as output:
         output.file.write(data)
     return output.path
-
-
-def disk_full(error: BaseException) -> bool:
-    """True for the errors of a full disk or quota (the writer should stop, not retry)."""
-    return isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT)
