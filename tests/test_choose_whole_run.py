@@ -8,6 +8,9 @@ with the formula written out again (largest distance over the samples / largest 
 field).  On the catenary, whose sagging lattice buckles and folds, a change of 1e-10 m in the
 start grows to percents: no step gives a reference for the field, and ``choose`` says so and
 meets the tolerance in the energy error, which the run must then keep at every sample.
+
+Each test runs `choose` and several whole runs in other processes (tens of seconds): they are in
+the slow suite; ``tests/test_choose.py`` checks the whole-run errors of a linear chain in seconds.
 """
 
 from __future__ import annotations
@@ -89,6 +92,7 @@ def _check_answer(tmp_path: Path, scene: str, reference_steps: int, *options: st
     return data
 
 
+@pytest.mark.slow
 def test_the_catenary_answer_keeps_its_energy_balance_over_the_whole_run(tmp_path) -> None:
     data = _choose(tmp_path, "catenary")
     summary = json.loads(_cli(tmp_path, "run", "catenary", "--integrator", data["integrator"],

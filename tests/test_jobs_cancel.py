@@ -76,6 +76,7 @@ def test_a_page_movie_of_a_long_scene_stops_within_a_second_of_cancel(tmp_path) 
     assert list(tmp_path.iterdir()) == []  # the .partial file is removed
 
 
+@pytest.mark.slow
 def test_a_page_choice_stops_within_a_second_of_cancel() -> None:
     scene = LONG_CHOICE()
     choice = PageChoice()
@@ -126,6 +127,7 @@ def test_the_estimate_counts_down_and_says_when_a_run_is_over_its_plan(monkeypat
     assert "15 s over the planned time" in progress.line()
 
 
+@pytest.mark.slow
 def test_sigterm_during_a_movie_ends_with_one_line_and_no_partial_file(tmp_path) -> None:
     output = tmp_path / "grid.mp4"
     environment = dict(os.environ, PYTHONPATH=str(ROOT))
