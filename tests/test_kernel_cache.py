@@ -4,6 +4,7 @@ inlines a function from another module is recompiled when that module changes.""
 from __future__ import annotations
 
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -57,3 +58,15 @@ def test_kernels_compiled_at_another_optimisation_level_are_cached_apart():
     assert paths["3"] == [Path(kernels.__file__).parent / "__pycache__",
                           Path(raster.__file__).parent / "__pycache__"]
     assert paths["1"] == [path / "opt-1" for path in paths["3"]]
+
+
+def test_an_index_naming_a_type_the_sources_lack_is_a_miss(tmp_path):
+    """numba unpickles a kernel's whole cache index before it compares the sources' stamp; an
+    index that names a type no longer defined is a miss (the kernel compiles), not an error."""
+    from numba.core import caching
+
+    index = caching.IndexDataCacheFile(str(tmp_path), "kernel-1.py311", "stamp")
+    with open(index._index_path, "wb") as file:
+        pickle.dump(index._version, file, protocol=-1)
+        file.write(b"csim.integrators.butcher\nNoSuchRecord\n.")
+    assert index._load_index() == {}

@@ -325,18 +325,15 @@ phase per stage (6 rows: too thin for halos)."""
 @pytest.mark.parametrize("threads, ny, blocks", LOOP_SHAPES)
 @pytest.mark.parametrize("table", _runge_kutta_tables())
 def test_every_runge_kutta_table_matches_its_textbook_form_on_every_loop_shape(
-    request, table, threads, ny, blocks
+    table, threads, ny, blocks
 ):
     """The compiled low-storage stages of each table against the numpy Runge-Kutta step written
     from the full matrix A (``sim.integrators.reference.runge_kutta``), with dashpots and unequal
-    masses so that the stage velocities and every weight matter.  On one thread each table runs
-    in the default suite (the same kernels as ``test_steps_match_plain_numpy``); on threads
-    Ralston's (the one stage count the other tests leave out), the rest in the slow suite."""
+    masses so that the stage velocities and every weight matter.  One compiled loop per shape
+    serves every table (the same kernels on one thread as ``test_steps_match_plain_numpy``)."""
     from sim.integrators import reference
     from sim.integrators.steppers import RungeKutta
 
-    if threads > 1 and table.stages != 3:
-        request.applymarker(pytest.mark.slow)
     model = Model.create(7, ny, dim=2, stiffness=K, rest_length=0.85, linear=True, damping=0.7,
                          mass=np.linspace(1, 3, 7 * ny).reshape(ny, 7))
     stepper = RungeKutta.of(table)(model, np.float64, threads)

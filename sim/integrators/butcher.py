@@ -3,7 +3,8 @@
 An explicit s-stage Runge-Kutta method on y' = f(y) is the table (A, b, c): stage i evaluates
 k_i = f(y_0 + dt sum_j a_ij k_j) at time t + c_i dt, and the step is y_0 + dt sum_i b_i k_i.  The
 compiled loops (``sim.loops.stage_updates``, ``sim.loops.wavefront``) run one generic stage update
-for every table in the *low-storage* form where each stage's input is y_0 + dt a_{i,i-1} k_{i-1}
+(compiled once, the table's numbers a small array argument) for every table in the *low-storage*
+form where each stage's input is y_0 + dt a_{i,i-1} k_{i-1}
 (A zero except its sub-diagonal): a running sum, the next input and the state are all the work a
 stage needs, which is what lets the stages stream over the rows as one wavefront.  Classic RK4,
 Heun, Ralston's third-order method and the midpoint method have that form; a table whose A has
@@ -20,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 import math
 from fractions import Fraction
-from typing import NamedTuple
 
 import numpy as np
 
@@ -32,16 +32,6 @@ _TOLERANCE = 1e-12
 
 class ButcherTableError(ValueError):
     """A table the compiled loops cannot run (not explicit, not low-storage, inconsistent)."""
-
-
-class StageCoefficients(NamedTuple):
-    """A low-storage table as the compiled loops take it: ``c`` (s,) the stage times in steps,
-    ``a`` (s - 1,) the sub-diagonal a_{i+1,i}, ``b`` (s,) the weights.  Tuples of floats, so numba
-    compiles the loops once per stage count and the numbers are ordinary arguments."""
-
-    c: tuple
-    a: tuple
-    b: tuple
 
 
 def _number(value) -> float:
@@ -105,10 +95,16 @@ class ButcherTable:
         return np.array(self.a, dtype=float)
 
     @property
-    def coefficients(self) -> StageCoefficients:
-        """The numbers the compiled loops take (``sim.loops.stage_updates.stage_update``)."""
-        sub_diagonal = tuple(self.a[i + 1][i] for i in range(self.stages - 1))
-        return StageCoefficients(c=self.c, a=sub_diagonal, b=self.b)
+    def coefficients(self) -> np.ndarray:
+        """The numbers the compiled loops take (``sim.loops.stage_updates.stage_update``), a
+        (3, s) float64 array: row 0 the nodes c, row 1 the sub-diagonal a_{i+1,i} (0 after the
+        last stage), row 2 the weights b.  An array, not a tuple: numba's parallel loops take
+        arrays into their threads, and one compiled loop serves every stage count."""
+        table = np.zeros((3, self.stages))
+        table[0] = self.c
+        table[1, :-1] = [self.a[i + 1][i] for i in range(self.stages - 1)]
+        table[2] = self.b
+        return table
 
     @property
     def order(self) -> int:

@@ -161,7 +161,7 @@ def runge_kutta_phases(
     next_velocity, sum_position, sum_velocity, block_starts, time=0.0, drive=None,
     drive_work=None,
 ):
-    """n steps of the method of ``table`` (``sim.integrators.butcher.StageCoefficients``) with
+    """n steps of the method of ``table`` (``sim.integrators.butcher.ButcherTable.coefficients``) with
     each stage one parallel phase over the row blocks.
 
     The work arrays are full (dim, ny, nx) arrays: stage inputs alternate between (``stage_*``)

@@ -89,7 +89,7 @@ def runge_kutta_steps(
     parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
     sum_velocity, time=0.0, drive=None, drive_work=None,
 ):
-    """n steps of the Runge-Kutta method of ``table`` (``sim.integrators.butcher.StageCoefficients``)
+    """n steps of the Runge-Kutta method of ``table`` (``sim.integrators.butcher.ButcherTable.coefficients``)
     on (x, v), each one wavefront over the whole lattice; with a drive table
     (``sim.forces.drive_table``) from ``time`` (s), its work (J) added to ``drive_work[0]``.
 
@@ -97,7 +97,7 @@ def runge_kutta_steps(
     state through the cache once instead of once per stage, and the stage arrays only need to
     hold as many rows as the method has stages: they are ring buffers of shape (dim, rows, nx)
     (full (dim, ny, nx) arrays work too), row j being stored at index j % rows.  Numba compiles
-    this loop once per stage count; the table's numbers are ordinary arguments.
+    this loop once for every table: its numbers are an ordinary array argument.
     """
     nx = position.shape[2]
     count = stages(table)

@@ -117,7 +117,8 @@ def verlet_drift(j, dt, position, velocity, acceleration, predicted_velocity, da
 
 # --- the stages of a Runge-Kutta method, from its table ---------------------------------------
 #
-# ``table`` is a ``sim.integrators.butcher.StageCoefficients`` record (c, sub-diagonal a, b).
+# ``table`` is a (3, stages) array (``sim.integrators.butcher.ButcherTable.coefficients``): the
+# nodes c, the sub-diagonal a_{s+1,s} and the weights b, one row each.
 # Each stage reads the accelerations ``row`` of its input state at row j, and the velocity of
 # that input (``stage_velocity``) at ``slot``; it adds its slopes times dt b_s to the running sums
 # (``sum_*``) and writes the next stage's input x0 + dt a_{s+1,s} k_s (``next_*``) at ``slot``;
@@ -190,9 +191,8 @@ def _last_stage(slot, weight, row, stage_velocity, sum_position, sum_velocity, n
 
 @njit(**_JIT)
 def stages(table):
-    """Number of stages (force evaluations per step) of ``table``: a constant where numba
-    compiles, since the record's tuples have a fixed length."""
-    return len(table.b)
+    """Number of stages (force evaluations per step) of ``table``."""
+    return table.shape[1]
 
 
 @njit(**_ROW_UPDATE)
@@ -207,8 +207,8 @@ def stage_update(table, stage, j, slot, dt, position, velocity, row, stage_veloc
     the next input x + dt a_{s+1,s} v_s, v + dt a_{s+1,s} a_s; the last stage writes
     x_new = sum + dt b_last v_last, v_new = sum + dt b_last a_last.
     """
-    weight = type(dt)(table.b[stage]) * dt
-    first_weight = type(dt)(table.b[0]) * dt
+    weight = type(dt)(table[2, stage]) * dt
+    first_weight = type(dt)(table[2, 0]) * dt
     if stage == stages(table) - 1:
         if stage == 1:
             _second_and_last_stage(j, slot, first_weight, weight, position, velocity, row,
@@ -217,7 +217,7 @@ def stage_update(table, stage, j, slot, dt, position, velocity, row, stage_veloc
             _last_stage(slot, weight, row, stage_velocity, sum_position, sum_velocity,
                         new_position, new_velocity, k)
         return
-    step_to_next = type(dt)(table.a[stage]) * dt
+    step_to_next = type(dt)(table[1, stage]) * dt
     if stage == 0:
         _first_stage(j, slot, weight, step_to_next, position, velocity, row, next_position,
                      next_velocity, sum_velocity)
@@ -232,7 +232,7 @@ def stage_update(table, stage, j, slot, dt, position, velocity, row, stage_veloc
 @njit(**_JIT)
 def stage_time(table, stage):
     """Time of stage ``stage``'s input in steps after the step's start: c_stage."""
-    return table.c[stage]
+    return table[0, stage]
 
 
 @njit(**_JIT)
@@ -241,5 +241,5 @@ def dissipated_energy(table, dt, powers):
     the method's weights b as the quadrature weights."""
     total = 0.0
     for stage in range(stages(table)):
-        total += table.b[stage] * powers[stage]
+        total += table[2, stage] * powers[stage]
     return float(dt) * total

@@ -7,8 +7,8 @@ longer needs it (``sim.loops.stage_updates.stage_update``), and the last stage w
 rows every stage has left behind.  So a step streams the state through the cache once instead
 of once per stage, and the stage arrays are ring buffers of a few rows, row j kept at j % rows.
 
-The method is its table (``sim.integrators.butcher.StageCoefficients``: stage times c, the
-sub-diagonal a, weights b); numba compiles the wavefront once per stage count.  The whole lattice
+The method is its table (``sim.integrators.butcher.ButcherTable.coefficients``: stage times c, the
+sub-diagonal a, weights b, one row each); one compiled wavefront serves every table.  The whole lattice
 on one thread is the block of all rows.  A block of rows j0 .. j1-1 on one of several threads
 extends the wavefront by ``stages - 1`` halo rows: stage s also runs on the ``stages - 1 - s``
 rows beyond each inner block edge, so the last stage has its inputs for the block's own rows
@@ -95,7 +95,7 @@ def wavefront(
     sum_position, sum_velocity, deferred_position, deferred_velocity, vertical, horizontal, row,
     powers, time=0.0, drive=None, drive_powers=None,
 ):
-    """One step of the method of ``table`` (``sim.integrators.butcher.StageCoefficients``) on
+    """One step of the method of ``table`` (``sim.integrators.butcher.ButcherTable.coefficients``) on
     rows j0 .. j1-1.
 
     Stage arrays ``stage_*``, ``sum_*`` (dim, rows, nx) are this block's ring buffers;

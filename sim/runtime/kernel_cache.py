@@ -11,8 +11,9 @@ the package's and any other module's, are kept in a subfolder of their own
 (``optimisation_folder``).
 
 It is registered before any kernel is defined (``sim/__init__.py`` imports this module first);
-``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  If numba's cache internals differ from
-what this expects, numba's default locators stay in place.
+``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  An index of cached versions that cannot
+be read (it names a type the sources no longer define) counts as a miss, not an error.  If
+numba's cache internals differ from what this expects, numba's default locators stay in place.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import pickle
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent
@@ -120,6 +122,21 @@ def _register() -> None:
     for position, locator in enumerate((PackageCacheLocator, LevelCacheLocator)):
         if not any(cls.__name__ == locator.__name__ for cls in impl._locator_classes):
             impl._locator_classes.insert(position, locator)
+
+    index_file = getattr(caching, "IndexDataCacheFile", None)
+    load = getattr(index_file, "_load_index", None)
+    if load is not None and not getattr(load, "unreadable_is_a_miss", False):
+
+        def _load_index(self):
+            """numba's index of a kernel's cached versions, empty (a miss) when it cannot be
+            read: an index written from other sources may name a type that these lack."""
+            try:
+                return load(self)
+            except (AttributeError, ImportError, EOFError, pickle.UnpicklingError):
+                return {}
+
+        _load_index.unreadable_is_a_miss = True  # type: ignore[attr-defined]
+        index_file._load_index = _load_index
 
 
 _register()
