@@ -241,9 +241,10 @@ def test_accuracy_command_writes_its_picture_by_default_and_says_where(tmp_path,
     status = main(["accuracy", "chain", "--set", "linear=true", "--integrators", "rk4",
                    "--dts", "0.02", "--until", "1", "--quiet"])
     assert status == 0
-    picture = tmp_path / "chain-work-precision.png"
+    picture = tmp_path / "pictures" / "chain-work-precision.png"  # never the current folder
     assert picture.stat().st_size > 10_000
-    assert str(picture) in capsys.readouterr().out
+    assert not list(tmp_path.glob("*.png"))
+    assert str(picture.relative_to(tmp_path)) in capsys.readouterr().out
 
 
 def test_run_reports_the_energy_balance_error(capsys):

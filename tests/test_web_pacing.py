@@ -32,7 +32,7 @@ def test_scene_pauses_at_its_duration_unless_asked_to_go_on(web_app):
     assert wait_for(lambda: not runner.playing and runner.simulation.time >= duration - 1e-9)
     stopped_at = runner.simulation.time
     assert stopped_at < duration + 0.2  # within a few frames of it
-    assert wait_for(lambda: "duration" in folder.part_html.content)
+    assert wait_for(lambda: "duration" in folder.end_html.content)
     press(folder.play_button, PageClient())  # go on
     assert wait_for(lambda: runner.simulation.time > stopped_at + 0.5)
     assert runner.playing

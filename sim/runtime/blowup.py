@@ -4,7 +4,8 @@ A run is unstable when any of these holds (``BlowUpRule.problem``):
 
 * a position or velocity is not finite;
 * its energy of motion (kinetic + spring, J) plus what its dampers, drag and sponges have taken
-  out since the rule was set exceeds ``RUNAWAY_FACTOR`` times what the exact dynamics could
+  out since the rule was set exceeds ``RUNAWAY_FACTOR`` (a symplectic method; ``DRIFT_FACTOR``
+  for a method whose energy drifts by its own error) times what the exact dynamics could
   have supplied: the energy of motion then, plus what gravity has released since (the drop of
   the gravitational energy), plus the work a driver has done (in either direction).  The exact
   dynamics spend exactly that supply (energy balance), so the rule holds from a start at rest
@@ -50,6 +51,18 @@ energy the dashpots pour away as fast as it comes: its energy of motion stays sm
 dissipated energy grows steadily (for the catenary at 0.97 of its measured limit, 3.5 kW, ten
 times the whole supply within about 17 s)."""
 
+DRIFT_FACTOR = 100.0
+"""The same for a method that conserves no energy, whose energy drifts by its own error at every
+step (explicit Euler's grows by 1 + (omega dt)^2 a step on an undamped lattice, at every dt; the
+Runge-Kutta methods' decays below their limit): that drift is the method's accuracy, shown as the
+energy-balance error, so only a hundredfold counts as a blow-up."""
+
+
+def runaway_factor(symplectic: bool) -> float:
+    """The factor of the energy rule for a method that is (or is not) symplectic."""
+    return RUNAWAY_FACTOR if symplectic else DRIFT_FACTOR
+
+
 COORDINATE_FACTOR = 10.0
 """Distance from rest, in lattice sizes (plus sag), that counts as a blow-up."""
 
@@ -89,17 +102,19 @@ class BlowUpRule:
         released = max(0.0, self.gravity - energy.gravity)
         return self.motion + released + abs(energy.driven - self.driven)
 
-    def problem(self, model: Model, state: State, energy: Energy) -> str | None:
-        """Why the run counts as blown up, or None while it does not."""
+    def problem(self, model: Model, state: State, energy: Energy,
+                factor: float = RUNAWAY_FACTOR) -> str | None:
+        """Why the run counts as blown up, or None while it does not; ``factor`` that of the
+        method (``runaway_factor``)."""
         motion = _motion(energy, self.release)
         spent = motion + max(0.0, energy.dissipated - self.dissipated)
         if not math.isfinite(spent) or not state.is_finite():
             return "positions or velocities became infinite or NaN"
         supply = self.supply(energy)
-        if spent > RUNAWAY_FACTOR * supply + self.floor:
+        if spent > factor * supply + self.floor:
             return (
                 f"the energy ran away ({spent:.3g} J of motion and dissipation, more than "
-                f"{RUNAWAY_FACTOR:g} times the {supply:.3g} J the initial energy, gravity and "
+                f"{factor:g} times the {supply:.3g} J the initial energy, gravity and "
                 "drivers can supply)"
             )
         distance = largest_displacement(model, state)

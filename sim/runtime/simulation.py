@@ -24,12 +24,13 @@ from sim.integrators.registry import (
     check_integrator_name,
     check_precision,
     check_threads,
+    describe,
     make_integrator,
 )
 from sim.model import schema
 from sim.model.lattice import Model, ModelError
 from sim.model.state import State
-from sim.runtime.blowup import BlowUpRule
+from sim.runtime.blowup import BlowUpRule, runaway_factor
 from sim.scenes.building import Scene
 from sim.theory import observables
 
@@ -438,7 +439,8 @@ class Simulation:
         # The chunk failed but single steps did not (cannot happen for a deterministic kernel).
 
     def _problem(self) -> str | None:
-        return self._rule.problem(self._model, self.state, self.energy())
+        return self._rule.problem(self._model, self.state, self.energy(),
+                                  runaway_factor(describe(self._integrator_name).symplectic))
 
 
 def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
