@@ -11,6 +11,9 @@ import pytest
 # both variants of two loops on a fresh machine; tests/test_host_tuning.py checks that the
 # variants agree and that the measurement answers.
 os.environ.setdefault("OSCILLATORS_INVERSE_SQRT", "divide")
+# Runs may ask for at most numba's threads (``sim.integrators.registry.max_threads``); the tests
+# split lattices into up to 4 row blocks on threads whatever the machine's cores.
+os.environ.setdefault("NUMBA_NUM_THREADS", str(max(4, os.cpu_count() or 1)))
 # The servers the tests start warm no other presets' kernels in the background (app.cli.warm).
 os.environ.setdefault("OSCILLATORS_NO_WARM", "1")
 

@@ -61,13 +61,15 @@ def test_the_energy_plot_draws_under_gravity_and_reset_empties_the_accuracy_plot
     span = times[-1] - times[0]
     assert low is not None and high is not None, energy["x"]
     assert low <= times[0] + 0.05 * span and high >= times[-1] - 0.05 * span, (low, high, times)
-    # its lines are drawn: the gravity line's brown (#8c564b) and the total's near-black
+    # its lines are drawn: the gravity line's colour and the total's (app.colours.ENERGY_COLOURS)
+    from app.colours import ENERGY_COLOURS
+
     page.get_by_text("Energy", exact=True).scroll_into_view_if_needed()
     canvas = page.locator(".uplot-container", has_text="kinetic").locator("canvas").first
     pixels = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGB")).astype(int)
-    brown = (np.abs(pixels - (140, 86, 75)).max(axis=2) < 40).sum()
-    dark = (pixels.max(axis=2) < 60).sum()
-    assert brown > 50 and dark > 50, (brown, dark)
+    gravity = (np.abs(pixels - ENERGY_COLOURS["gravity"]).max(axis=2) < 40).sum()
+    total = (np.abs(pixels - ENERGY_COLOURS["total"]).max(axis=2) < 40).sum()
+    assert gravity > 50 and total > 50, (gravity, total)
 
     assert len(chart(page, "energy-balance error")["data"][0]) > 10
     page.get_by_role("button", name="Reset").click()

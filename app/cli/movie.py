@@ -205,8 +205,9 @@ def _make_movie(arguments: argparse.Namespace) -> int:
                 duration=arguments.duration)
         started = time.perf_counter()
         if page:
+            from app.cli.arguments import command_from_arguments
             from app.movie.html import render_html
-            from app.recording.explain import command_from_arguments, command_line
+            from app.recording.explain import command_line
 
             command = (command_from_arguments(arguments.command_parser, arguments)
                        if getattr(arguments, "command_parser", None) else command_line())

@@ -36,7 +36,7 @@ class StudyFolder(Folder):
         gui = host.server.gui
         with gui.add_folder("Speed vs accuracy", expand_by_default=False):
             self.tolerance = gui.add_number(
-                "Tolerance (%)", initial_value=1.0, min=1e-6, max=100.0, step=0.1,
+                "Tolerance (%)", initial_value=1.0, step=0.1,
                 hint="largest error over the scene's duration the chosen setting must meet, in "
                 "both the field error (distance of the displacement field from a reference) and "
                 "the energy-balance error",
