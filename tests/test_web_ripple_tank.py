@@ -168,6 +168,7 @@ def test_the_tape_measures_spacings_and_metres_and_the_stopwatch_counts_simulate
     assert "5 spacings = 5 m" in folder.tape.content
     send(folder.end_b, (100, 9))  # outside the 60-column lattice
     assert "refused" in folder.message.content
+    assert tuple(folder.end_b.value) == (13, 9)  # every page shows the end in use again
     watch = Stopwatch()
     watch.observe(1.0, 10.0)  # not running: nothing counted
     watch.start()

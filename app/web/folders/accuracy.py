@@ -27,7 +27,7 @@ import numpy as np
 import viser
 
 import sim
-from app.web.choosing import apply_choice, choose_on_page
+from app.web.choosing import ChoiceCancelled, apply_choice, cancel_choice, choose_on_page
 from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
@@ -110,6 +110,7 @@ class AccuracyFolder(Folder):
                 "Apply", icon=viser.Icon.CHECK, visible=False,
                 hint="run exactly the verified integrator and dt")
         self._answer: Any = None
+        self._choosing = False
 
         @self.tolerance.on_update
         @from_user
@@ -124,15 +125,22 @@ class AccuracyFolder(Folder):
         @self.choose_button.on_click
         @from_user
         def _(_: viser.GuiEvent) -> None:  # thread pool: the runs take a while
-            if self.choose_button.disabled:
+            if self._choosing:  # the button reads "Cancel the choice"
+                if cancel_choice(host):
+                    self.message.content = as_html("cancelling…")
                 return
-            self.choose_button.disabled = True
+            self._choosing = True
+            self.choose_button.label = "Cancel the choice"
+            self.choose_button.icon = viser.Icon.PLAYER_STOP
             self.apply_button.visible = False
             self._answer = None
             try:
                 tolerance = self.tolerance_value()
                 self.message.content = as_html("measuring…")
                 choice = self.choose(tolerance)
+            except ChoiceCancelled:
+                self.message.content = as_html("choice cancelled")
+                return
             except (InputRefused, sim.ModelError, ValueError) as error:
                 say(self.message, error, "could not choose")
                 return
@@ -140,7 +148,9 @@ class AccuracyFolder(Folder):
                 say(self.message, error, "could not choose")
                 return
             finally:
-                self.choose_button.disabled = False
+                self._choosing = False
+                self.choose_button.label = "Choose for me"
+                self.choose_button.icon = viser.Icon.WAND
             answer = choice.answer
             if answer is None:
                 best = choice.best_reached

@@ -85,6 +85,8 @@ class MeasureFolder(Folder):
         self._last_time = -math.inf
         self.tape_line: viser.LineSegmentsHandle | None = None
         """The tape drawn on the lattice (shown only with the folder, in ripple tanks)."""
+        self._in_use: tuple[tuple[int, int], tuple[int, int]] = ((0, 0), (0, 0))
+        """The tape's ends in use (column, row): what a refused value is set back to."""
         gui = host.server.gui
         self.folder = gui.add_folder("Tape and stopwatch", expand_by_default=False)
         with self.folder:
@@ -153,7 +155,12 @@ class MeasureFolder(Folder):
             a, b = self._ends(model)
         except InputRefused as error:
             say(self.message, error, "refused")
+            # every page shows the ends in use again, not the refused value
+            for handle, end in zip((self.end_a, self.end_b), self._in_use, strict=True):
+                if tuple(handle.value) != end:
+                    handle.value = end
             return
+        self._in_use = (a, b)
         self.message.content = ""
         spacings, metres = tape_length(model, a, b)
         self.tape.content = as_html(f"tape A {a} to B {b}: {spacings:.4g} spacings = "
