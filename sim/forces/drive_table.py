@@ -119,22 +119,6 @@ def drive_rows(time, table, kinds, acceleration, velocity, lead=0.0):
 
 
 @njit(**_JIT)
-def place_driven(time, table, position, velocity):
-    """Set every prescribed particle to its prescribed position and velocity at ``time``."""
-    dim = position.shape[0]
-    for d in range(table.shape[0]):
-        if int(table[d, KIND]) != DISPLACEMENT:
-            continue
-        j = int(table[d, ROW])
-        i = int(table[d, COLUMN])
-        value, rate, _ = drive_signal(time, table, d)
-        for c in range(dim):
-            direction = table[d, DIRECTION + c]
-            position[c, j, i] = table[d, REST + c] + table[d, AMPLITUDE] * value * direction
-            velocity[c, j, i] = table[d, AMPLITUDE] * rate * direction
-
-
-@njit(**_JIT)
 def save_driven(j, table, velocity, saved):
     """Keep the velocities (m/s) of row j's driven particles in ``saved`` (drives, 3) before a
     fused kick and drift that does not know them (``leapfrog_drive``)."""
