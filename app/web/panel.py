@@ -108,10 +108,10 @@ class ControlPanel:
             return
         self._failures[name] = text
         print(f"web page: {text}", file=sys.stderr)
+        self.failures.visible = True  # first: a reader who sees the text sees it shown
         self.failures.content = amber_html(
             "A part of the page stopped (the simulation goes on): "
             + "; ".join(self._failures.values()))
-        self.failures.visible = True
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         """Show a (new) simulation's scene and parameters.  Assigning widget values posts no
