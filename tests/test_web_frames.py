@@ -89,6 +89,7 @@ def test_a_large_lattice_is_one_picture_encoded_once_for_every_page(tmp_path, mo
         assert wait_for(lambda: app.runner.simulation.step_count > 20, timeout=300)
         received = asyncio.run(pages())
         image = app.view._image
+        assert not app.gate.dropped, app.gate.dropped  # the pages' replies reach the pacer
         assert app.view._points is None and app.view._spheres is None
     finally:
         app.stop()

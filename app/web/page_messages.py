@@ -20,6 +20,7 @@ PAGE_MESSAGES = frozenset({
     "ScenePointerMessage",  # a click on the lattice
     "TransformControlsUpdateMessage", "TransformControlsDragStartMessage",
     "TransformControlsDragEndMessage",  # a drag of the gizmo
+    "LocalStorageGetItemResponseMessage",  # a page's reply: it has drawn its picture
 })
 """The viser message types the app handles; every other type a page sends is dropped unread."""
 MESSAGE_RATE = 200.0
