@@ -11,6 +11,10 @@ down with more clients).  ``--slow K`` adds K clients that read like a page on a
 disconnected them), ``--drawing K`` K clients that take 0.25 s to "draw" each picture (a page
 without graphics acceleration), ``--browsers K`` K real Chromium pages (bytes received only).
 
+One more page stays connected from the first phase to the last and is not counted: the server
+pauses the run when its last page leaves (nobody watches), so without it every phase after the
+first would watch a paused run.
+
 Every client acknowledges each picture as viser's page does once it has drawn it (the server
 asks for a local-storage value after each picture; the page's reply is what lets the next
 picture go to that page, ``app/web/pacing.py``); stalled clients never do.
@@ -231,6 +235,38 @@ def start_server(port: int, scene: str, log: Path) -> subprocess.Popen:
     raise RuntimeError(f"the server did not start:\n{log.read_text()}")
 
 
+async def keep_watching(url: str, stop: asyncio.Event) -> None:
+    """A page that stays connected between phases (not counted), so that the run is never left
+    without a page (which pauses it)."""
+    decompressor = zstandard.ZstdDecompressor()
+    async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"],
+                                  max_size=None, open_timeout=60) as connection:
+        while not stop.is_set():
+            try:
+                raw = await asyncio.wait_for(connection.recv(), timeout=0.5)
+            except TimeoutError:
+                continue
+            for request in acknowledgements(decode_window(raw, decompressor)):
+                await connection.send(request)
+
+
+async def all_phases(url: str, process: psutil.Process, arguments: argparse.Namespace,
+                     log: Path) -> None:
+    stop = asyncio.Event()
+    keeper = asyncio.create_task(keep_watching(url, stop))
+    try:
+        for count in arguments.clients:
+            clients, rss = await phase(url, process, count, arguments.slow, arguments.stalled,
+                                       arguments.browsers, arguments.warm_up, arguments.seconds,
+                                       arguments.drawing)
+            report(count, clients, rss, arguments.seconds)
+            dropped = [line for line in log.read_text().splitlines() if "disconnected page" in line]
+            print(f"    server log: {len(dropped)} page(s) disconnected for not reading so far")
+    finally:
+        stop.set()
+        await keeper
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--clients", type=int, nargs="*", default=[1, 20])
@@ -251,15 +287,9 @@ def main() -> None:
         process = psutil.Process(server.pid)
         url = f"ws://127.0.0.1:{arguments.port}"
         print(f"serve {arguments.scene} --play, {os.cpu_count()} cores; server RSS at start "
-              f"{process.memory_info().rss / 1e6:.0f} MB")
-        for count in arguments.clients:
-            clients, rss = asyncio.run(phase(url, process, count, arguments.slow,
-                                             arguments.stalled, arguments.browsers,
-                                             arguments.warm_up, arguments.seconds,
-                                             arguments.drawing))
-            report(count, clients, rss, arguments.seconds)
-            dropped = [line for line in log.read_text().splitlines() if "disconnected page" in line]
-            print(f"    server log: {len(dropped)} page(s) disconnected for not reading so far")
+              f"{process.memory_info().rss / 1e6:.0f} MB; one more page stays connected "
+              "throughout (not counted)")
+        asyncio.run(all_phases(url, process, arguments, log))
     finally:
         server.terminate()
         server.wait(30)
