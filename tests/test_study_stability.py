@@ -96,3 +96,18 @@ def test_interference_lattice_limits_match_theory():
                                       precision=0.01)
     for limit in study.limits:
         assert limit.ratio is not None and abs(limit.ratio - 1) < 0.03, limit
+
+
+def test_a_whole_run_limit_is_the_theory_s_on_a_linear_scene_and_below_it_when_it_sags():
+    """Judged by the scene's own run: on the linear grid (a small displacement) the limit is
+    the normal-mode theory's (omega_max dt = 2, from our own modes); the catenary sagging under
+    gravity stiffens its springs, so its run's limit is well below the small-amplitude one."""
+    grid = sim.scenes.build("grid", linear=True)
+    theory = 2.0 / _omega_max(grid)
+    measured, trials = stability.measured_limit(grid, "verlet", theory, steps=0, precision=0.01,
+                                                judge=stability.whole_run_trial)
+    assert measured == pytest.approx(theory, rel=0.02)
+    catenary = sim.scenes.build("catenary")
+    small_amplitude = sim.Simulation(catenary).stable_dt("verlet")
+    assert stability.whole_run_trial(catenary, "verlet", 0.5 * small_amplitude).stable
+    assert not stability.whole_run_trial(catenary, "verlet", 0.8 * small_amplitude).stable

@@ -45,6 +45,7 @@ examples:
   oscillators stability --cases grid stiff heavy-among-light --plot stability.png
   oscillators stability grid --set damping=5          # one scene of your own
   oscillators stability --list                        # the cases and what they contain
+  oscillators stability catenary --whole-run --integrators verlet   # the limit a run meets
 """
 
 
@@ -75,6 +76,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--precision", type=_precision, default=0.005,
         help="relative width at which the bisection stops (default 0.005; from 1e-6 to 1)",
     )
+    parser.add_argument(
+        "--whole-run", action="store_true",
+        help="judge each dt by SCENE's own run over its whole duration, unperturbed, as "
+        "`oscillators run SCENE --dt DT` does (unstable: the run stops, exit 3): the limit a user "
+        "meets, which large motion (a sag, big displacements) can put below the theory's",
+    )
     add_output_arguments(parser)
     add_cluster_arguments(parser)
     parser.set_defaults(handler=command_stability)
@@ -97,6 +104,8 @@ def command_stability(arguments: argparse.Namespace) -> int:
             print(f"{case.name:22s} {case.description}")
         return 0
     check_plot_path(arguments)
+    if arguments.whole_run and arguments.scene is None:
+        raise ValueError("--whole-run needs a SCENE (the built-in cases have no run of their own)")
     if arguments.scene is not None:
         scene = scene_from_arguments(arguments)
         cases = [stability.Case(scene.name, "the scene given on the command line", scene)]
@@ -107,6 +116,7 @@ def command_stability(arguments: argparse.Namespace) -> int:
         study = stability.stability_study(
             cases, integrators=integrators, steps=arguments.steps,
             precision=arguments.precision, progress=advance(bar), executor=executor,
+            whole_run=arguments.whole_run,
         )
     if arguments.plot:
         write_picture(arguments.plot, stability.plot_stability, study)

@@ -223,18 +223,39 @@ def trial(scene: sim.Scene, integrator: str, dt: float, steps: int) -> Trial:
     return Trial(dt, True, "")
 
 
+def whole_run_trial(scene: sim.Scene, integrator: str, dt: float, steps: int = 0) -> Trial:
+    """Run the scene as ``oscillators run`` does, unperturbed, over its whole duration at ``dt``
+    (``steps`` is ignored): unstable only if the run stops (its own blow-up rule, a NaN).  This
+    is the limit a user meets; for large motion (a sag under gravity, big displacements) it can
+    be below the small-amplitude theory's."""
+    simulation = sim.Simulation(scene, integrator=integrator, dt=dt)
+    try:
+        simulation.step(max(1, math.ceil(scene.duration / dt - 1e-9)))
+    except sim.BlowUpError as error:
+        return Trial(dt, False, f"BlowUpError at step {error.step}: {error.reason}")
+    if not simulation.state.is_finite():
+        return Trial(dt, False, "non-finite state without BlowUpError", silent_nan=True)
+    return Trial(dt, True, "")
+
+
+Judge = Callable[[sim.Scene, str, float, int], Trial]
+
+
 def measured_limit(
     scene: sim.Scene, integrator: str, guess: float, steps: int, precision: float = 0.005,
     smallest_fraction: float = 1e-4, progress: ProgressCallback | None = None,
+    judge: Judge = trial,
 ) -> tuple[float | None, list[Trial]]:
     """Largest stable dt by bracketing around ``guess`` (s) then bisecting (geometric mean) until
-    the bracket is narrower than ``precision`` (relative).  Returns (dt or None, trials)."""
+    the bracket is narrower than ``precision`` (relative); ``judge`` runs one trial (``trial``:
+    a short perturbed run; ``whole_run_trial``: the scene's own run).  Returns (dt or None,
+    trials)."""
     trials: list[Trial] = []
 
     def stable(dt: float) -> bool:
         if progress:
             progress(f"{integrator} dt={dt:.4g}")
-        result = trial(scene, integrator, dt, steps)
+        result = judge(scene, integrator, dt, steps)
         trials.append(result)
         return result.stable
 
@@ -266,33 +287,38 @@ def measured_limit(
 def stability_study(
     cases: Sequence[Case], integrators: Sequence[str] | None = None, steps: int = 400,
     precision: float = 0.005, progress: ProgressCallback | None = None,
-    executor: Any = None,
+    executor: Any = None, whole_run: bool = False,
 ) -> StabilityStudy:
     """Measured against theoretical stability limits for every case and integrator.  Each
     (case, integrator) is one independent run of ``executor`` (``app.study.executor``; default
-    serial in this process); ``progress`` is called as each completes."""
+    serial in this process); ``progress`` is called as each completes.  ``whole_run``: each
+    trial is the scene's own run over its duration (``whole_run_trial``), not a short perturbed
+    one."""
     names = [sim.integrators.check_integrator_name(n) for n in (integrators or sim.INTEGRATORS)]
-    tasks = [(case, name, case.steps or steps, precision) for case in cases for name in names]
-    labels = [f"{case.name}: {name}" for case, name, _, _ in tasks]
+    tasks = [(case, name, case.steps or steps, precision, whole_run)
+             for case in cases for name in names]
+    labels = [f"{task[0].name}: {task[1]}" for task in tasks]
     limits = (executor or serial()).map(case_limit, tasks, labels, progress)
     return StabilityStudy(list(cases), list(limits))
 
 
-def case_limit(task: tuple[Case, str, int, float]) -> Limit:
-    """The measured limit of one (case, integrator, steps per trial, bisection precision)."""
-    case, name, run_steps, precision = task
+def case_limit(task: tuple[Case, str, int, float, bool]) -> Limit:
+    """The measured limit of one (case, integrator, steps per trial, bisection precision, whole
+    run)."""
+    case, name, run_steps, precision, whole_run = task
+    judge: Judge = whole_run_trial if whole_run else trial
     started = time.perf_counter()
-    scene = perturbed(case.scene)
+    scene = case.scene if whole_run else perturbed(case.scene)
     stability = sim.Simulation(scene).stability(name)
     omega_max = stability.omega_max
     guess = stability.dt or (2.0 / omega_max if omega_max else 0.01)
     if not math.isfinite(guess):
         guess = 0.01
-    measured, trials = measured_limit(scene, name, guess, run_steps, precision)
+    measured, trials = measured_limit(scene, name, guess, run_steps, precision, judge=judge)
     below: list[float] = []
     if measured:
         for fraction in WINDOW_SCAN:
-            check = trial(scene, name, fraction * measured, run_steps)
+            check = judge(scene, name, fraction * measured, run_steps)
             trials.append(check)
             if not check.stable:
                 below.append(check.dt)
