@@ -14,7 +14,9 @@ import numpy as np
 import pytest
 
 import sim
+from app.study.stability import whole_run_trial
 from sim.runtime.blowup import BlowUpRule
+from sim.scenes import run_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -53,6 +55,9 @@ def test_catenary_just_below_its_sagging_limit_exits_3_and_names_the_small_ampli
     message = result.stderr.strip()
     assert "the energy ran away" in message, message
     assert f"small-amplitude stability limit is dt = {limit:.6g} s, above this dt" in message
+    measured = run_limits.MEASURED[("catenary", "verlet")]
+    assert f"catenary preset's own run was measured to run to its end up to dt = {measured:.4g} s" \
+        in message
 
 
 def test_a_thousandfold_energy_gain_is_a_blow_up_and_json_stays_one_document() -> None:
@@ -171,3 +176,25 @@ def test_the_largest_displacement_is_the_farthest_coordinate_from_rest(dim, prec
     expected = np.abs(state.positions.astype(np.float64) - rest).max()
     assert expected == pytest.approx(2.5, rel=1e-6)
     assert largest_displacement(model, state) == pytest.approx(expected, rel=1e-6)
+
+
+@pytest.mark.parametrize(("preset", "integrator"), sorted(run_limits.MEASURED))
+def test_each_measured_run_limit_is_where_the_preset_s_own_run_starts_to_stop(
+        preset: str, integrator: str) -> None:
+    """The table's limit is an edge of the preset's own run: a little below it the run goes to
+    its end, a little above it stops (the blow-up rule), and it is below the small-amplitude
+    theory's limit (else it would not be listed)."""
+    scene = sim.scenes.build(preset)
+    measured = run_limits.MEASURED[(preset, integrator)]
+    assert measured < 0.98 * sim.Simulation(scene).stable_dt(integrator)
+    assert whole_run_trial(scene, integrator, 0.98 * measured).stable
+    assert not whole_run_trial(scene, integrator, 1.05 * measured).stable
+
+
+def test_the_measured_run_limit_is_said_only_for_the_preset_as_built() -> None:
+    limit = sim.Simulation(sim.scenes.build("catenary"), integrator="verlet").stability()
+    assert limit.run_dt == run_limits.MEASURED[("catenary", "verlet")]
+    assert "catenary preset's own run was measured" in limit.reason
+    changed = sim.Simulation(sim.scenes.build("catenary", stiffness=36.0), integrator="verlet")
+    assert changed.stability().run_dt is None
+    assert "measured" not in changed.stability().reason

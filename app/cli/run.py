@@ -54,6 +54,7 @@ def command_run(arguments: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from sim import BlowUpError
+    from sim.runtime.blowup import CHECKS_PER_RUN
 
     simulation = simulation_from_arguments(arguments)
     steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
@@ -64,7 +65,7 @@ def command_run(arguments: argparse.Namespace) -> int:
     print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}",
           file=talk)
     start_energy = simulation.energy()
-    chunk = max(1, steps // 200)
+    chunk = max(1, steps // CHECKS_PER_RUN)
     probes = None
     if arguments.probe:
         from app.recording.instruments import check_probes, parse_probe

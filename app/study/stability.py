@@ -30,6 +30,7 @@ import numpy as np
 import sim
 from app.study.executor import serial
 from sim.integrators.registry import describe
+from sim.runtime.blowup import CHECKS_PER_RUN
 
 ProgressCallback = Callable[[str], None]
 
@@ -225,12 +226,16 @@ def trial(scene: sim.Scene, integrator: str, dt: float, steps: int) -> Trial:
 
 def whole_run_trial(scene: sim.Scene, integrator: str, dt: float, steps: int = 0) -> Trial:
     """Run the scene as ``oscillators run`` does, unperturbed, over its whole duration at ``dt``
-    (``steps`` is ignored): unstable only if the run stops (its own blow-up rule, a NaN).  This
+    (``steps`` is ignored), looking at it ``CHECKS_PER_RUN`` times: unstable only if the run stops
+    (its own blow-up rule, a NaN).  This
     is the limit a user meets; for large motion (a sag under gravity, big displacements) it can
     be below the small-amplitude theory's."""
     simulation = sim.Simulation(scene, integrator=integrator, dt=dt)
+    steps = max(1, math.ceil(scene.duration / dt - 1e-9))
+    chunk = max(1, steps // CHECKS_PER_RUN)
     try:
-        simulation.step(max(1, math.ceil(scene.duration / dt - 1e-9)))
+        for done in range(0, steps, chunk):
+            simulation.step(min(chunk, steps - done))
     except sim.BlowUpError as error:
         return Trial(dt, False, f"BlowUpError at step {error.step}: {error.reason}")
     if not simulation.state.is_finite():

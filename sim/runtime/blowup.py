@@ -63,6 +63,11 @@ def runaway_factor(symplectic: bool) -> float:
     return RUNAWAY_FACTOR if symplectic else DRIFT_FACTOR
 
 
+CHECKS_PER_RUN = 200
+"""Times ``oscillators run`` (and the whole-run stability study) looks at a run, at least:
+the rule is checked at each look, and a burst of energy that dashpots take out again between two
+looks can pass unseen."""
+
 COORDINATE_FACTOR = 10.0
 """Distance from rest, in lattice sizes (plus sag), that counts as a blow-up."""
 

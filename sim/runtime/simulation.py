@@ -14,6 +14,7 @@ one step at a time, so the ``BlowUpError`` leaves the state exactly as it was be
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -31,6 +32,7 @@ from sim.model import schema
 from sim.model.lattice import Model, ModelError
 from sim.model.state import State
 from sim.runtime.blowup import BlowUpRule, runaway_factor
+from sim.scenes import run_limits
 from sim.scenes.building import Scene
 from sim.theory import observables
 
@@ -39,12 +41,13 @@ class BlowUpError(RuntimeError):
     """The integration went unstable.  The simulation keeps the state before the bad step.
 
     Attributes: ``integrator``, ``dt``, ``step`` (index of the step that failed), ``time``,
-    ``stable_dt`` (the stability limit, None if there is none) and ``reason``.
+    ``stable_dt`` (the stability limit, None if there is none) and ``reason``; ``run``: what is
+    known of the scene's own run's limit (``sim.scenes.run_limits.describe``), if anything.
     """
 
     def __init__(
         self, integrator: str, dt: float, step: int, time: float, stable_dt: float | None,
-        reason: str,
+        reason: str, run: str | None = None,
     ) -> None:
         self.integrator = integrator
         self.dt = dt
@@ -59,10 +62,17 @@ class BlowUpError(RuntimeError):
             if dt <= stable_dt:
                 limit += (", above this dt: large displacements or a sag under gravity stiffen "
                           "the springs and lower the limit of this run")
+            if run is not None:
+                limit += "; " + run
         super().__init__(
             f"{LABELS.get(integrator, integrator)} blew up at step {step} (t = {time:.6g} s, "
             f"dt = {dt:.6g} s): {reason}; {limit}. The state before that step is kept."
         )
+
+
+def _sentence(text: str) -> str:
+    """``text`` as a sentence: a capital first letter and a full stop."""
+    return text[:1].upper() + text[1:] + "."
 
 
 def _check_dt(dt: Any) -> float:
@@ -338,7 +348,13 @@ class Simulation:
         """Stability limit of an integrator (default: the current one) with an explanation."""
         name = check_integrator_name(integrator or self._integrator_name, self._model)
         if name not in self._stability_cache:
-            self._stability_cache[name] = observables.stability_limit(self._model, name)
+            limit = observables.stability_limit(self._model, name)
+            measured = run_limits.run_limit(self.scene, self._model, name)
+            if measured is not None:
+                limit = dataclasses.replace(limit, run_dt=measured, reason=(
+                    limit.reason + " " + _sentence(
+                        run_limits.describe(self.scene.name, name, measured))))
+            self._stability_cache[name] = limit
         return self._stability_cache[name]
 
     def stable_dt(self, integrator: str | None = None) -> float | None:
@@ -434,9 +450,16 @@ class Simulation:
                 self._integrator.invalidate()
                 raise BlowUpError(
                     self._integrator_name, self._dt, checkpoint.step + 1, checkpoint.time,
-                    self.stable_dt(), problem,
+                    self.stable_dt(), problem, run=self._run_limit_sentence(),
                 )
         # The chunk failed but single steps did not (cannot happen for a deterministic kernel).
+
+    def _run_limit_sentence(self) -> str | None:
+        """What is known of this scene's own run's limit, for a blow-up's message."""
+        limit = self.stability()
+        if limit.run_dt is None:
+            return None
+        return run_limits.describe(self.scene.name, self._integrator_name, limit.run_dt)
 
     def _problem(self) -> str | None:
         return self._rule.problem(self._model, self.state, self.energy(),

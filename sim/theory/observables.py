@@ -190,6 +190,7 @@ class StabilityLimit:
     ``dt`` is None when no step is stable (explicit Euler and Heun on an undamped lattice).
     ``omega_max`` is the highest natural frequency (rad/s) of the linearised undamped lattice.
     ``exact`` is False when the limit is an estimate (damping on a lattice with unequal masses).
+    ``run_dt``: see below.
     """
 
     integrator: str
@@ -197,6 +198,9 @@ class StabilityLimit:
     omega_max: float
     exact: bool
     reason: str
+    run_dt: float | None = None
+    """The largest dt at which the scene's own run was measured to run to its end, where that
+    is below ``dt`` (``sim.scenes.run_limits``); None where it is not known."""
 
     def __str__(self) -> str:
         return self.reason

@@ -55,6 +55,8 @@ class IntegratorFolder(Folder):
         self._stability_for: tuple[sim.Model, str] | None = None
         """(model, integrator) the stability line was computed for."""
         self._stable_dt: float | None = None
+        self._run_dt: float | None = None
+        """Where the scene's own run was measured to stop, if known and below ``_stable_dt``."""
         self._shown_dt: float | None = None
         """The dt of the last frame shown in the dt box (s)."""
         self._stability_text = ""
@@ -140,6 +142,7 @@ class IntegratorFolder(Folder):
                 if result.exception() is None:
                     limit = result.result()
                     self._stable_dt = limit.dt
+                    self._run_dt = limit.run_dt
                     self._stability_text = limit.reason
 
             future.add_done_callback(done)
@@ -152,6 +155,15 @@ class IntegratorFolder(Folder):
         elif frame.dt > stable:
             text = warning_html(f"dt = {frame.dt:.4g} s exceeds the stability limit "
                                 f"{stable:.4g} s: the run will blow up")
+        elif self._run_dt is not None and frame.dt > self._run_dt:
+            text = warning_html(f"dt = {frame.dt:.4g} s is below the small-amplitude limit "
+                                f"{stable:.4g} s but above {self._run_dt:.4g} s, where this "
+                                "scene's own run was measured to stop: its large motion "
+                                "stiffens the springs")
+        elif self._run_dt is not None:
+            text = ok_html(f"this scene's run was measured stable up to dt = {self._run_dt:.4g} s "
+                           f"({frame.dt / self._run_dt:.0%} of it; small-amplitude limit "
+                           f"{stable:.4g} s)")
         else:
             text = ok_html(f"stable for dt ≤ {stable:.4g} s ({frame.dt / stable:.0%} of the limit)")
         if self.stability.content != text:
