@@ -122,3 +122,47 @@ def test_the_disk_space_estimate_is_within_a_factor_two(tmp_path):
         assert recorder.frames_logged == frames
         ratio = recorder.estimated_bytes / path.stat().st_size
         assert 0.5 <= ratio <= 2.0, (name, recorder.estimated_bytes, path.stat().st_size)
+
+
+@pytest.mark.slow
+def test_recordings_on_a_small_real_filesystem_that_another_writer_fills_all_read_back(tmp_path):
+    """Four recorders on a 40 MB tmpfs while another program fills it: every recording stops
+    with exit 2 and one line, and every file it leaves reads back whole with rerun's reader,
+    its last entry the ERROR that says why (mounting needs root: skipped otherwise)."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if os.geteuid() != 0 or subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=40m", "tmpfs", str(disk)],
+            capture_output=True).returncode != 0:
+        pytest.skip("mounting a small tmpfs needs root")
+    try:
+        recorders = [subprocess.Popen(
+            [sys.executable, "-m", "app.cli", "record", "interference", "--set", "nx=120",
+             "--set", "ny=80", "--steps", "20000", "--every", "5", "--field", "jpeg",
+             "-o", str(disk / f"run{k}.rrd"), "--quiet"],  # each alone fits (about 20 MB)
+            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for k in range(4)]
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and sum(
+                path.stat().st_size for path in disk.glob("*.partial")) < 4_000_000:
+            time.sleep(0.2)
+        with open(disk / "filler", "wb") as filler:  # another writer takes what is left
+            try:
+                while True:
+                    filler.write(b"\0" * 1_000_000)
+                    filler.flush()
+            except OSError:
+                pass
+        results = [process.communicate(timeout=300) for process in recorders]
+        for process, (_, err) in zip(recorders, results, strict=True):
+            assert process.returncode == 2, err
+            assert err.strip().splitlines()[-1].startswith("error: recording failed"), err
+        assert not list(disk.glob("*.partial"))
+        for k in range(4):
+            chunks = read_chunks(disk / f"run{k}.rrd")
+            assert len(temporal(chunks, "/energy/total", "Scalars:scalars")) > 10
+            errors = errors_in(chunks)
+            assert errors and "recording stopped" in errors[-1][1], errors[-1:]
+            assert "full" in errors[-1][1] and "full" in results[k][1]
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True)

@@ -49,6 +49,23 @@ def free_bytes(directory: Path) -> int:
     return shutil.disk_usage(directory).free
 
 
+def explain_failure(error: BaseException, directory: Path) -> BaseException:
+    """``error`` (a write that failed) said in the user's words when the disk is what failed
+    (less than ``RESERVE_BYTES`` free): rerun's writer only says it shut down."""
+    if isinstance(error, RecordingError) and "disk" in str(error):
+        return error
+    try:
+        free = free_bytes(directory)
+    except OSError:
+        return error
+    if free >= RESERVE_BYTES:
+        return error
+    explained = RecordingError(f"the disk holding {directory} is full ({free / 1e3:.0f} kB free; "
+                               f"the writer said: {error})")
+    explained.__cause__ = error
+    return explained
+
+
 def open_destination(path: Path, overwrite: bool, needed_bytes: float = 0.0) -> AtomicFile:
     """Refuse a bad ``path`` (not ``.rrd``, a directory, an existing file without
     ``overwrite``, a missing folder, a ``.partial`` that exists or is a link), create the
@@ -187,8 +204,9 @@ def end_readably(output: AtomicFile, application_id: str, recording_id: str, tex
     """Make a recording whose writer failed readable: cut it after its last whole message and,
     if it has no end message, append ``text`` as an ERROR entry at each of ``entries``
     (entity, step, sim_time), encoded by rerun as messages of the same recording.  When the
-    entry does not fit (a full disk, a short write), the file is cut back to its last whole
-    message again: it always ends readably, without the entry."""
+    entry does not fit (a full disk, a short write), the last frames are given up to make room
+    for it (``ROOM_SLACK``); if even that fails the file is cut back to its last whole message:
+    it always ends readably."""
     part = readable_part(output.library_path)
     if part.complete:
         return
@@ -204,9 +222,51 @@ def end_readably(output: AtomicFile, application_id: str, recording_id: str, tex
     data = encoded.read(flush=True) or b""
     stream.disconnect()
     payload = _messages(data)
+    end = part.readable_bytes
+    if not _write_at(output.descriptor, payload, end):
+        # a full disk: give up the last frames, as many bytes as the entry and some slack (the
+        # file system's blocks), and write it there instead
+        ends = message_ends(output.library_path)
+        room = [position for position in ends if position <= end - len(payload) - ROOM_SLACK]
+        if room and room[-1] > _STREAM_HEADER_BYTES:
+            end = room[-1]
+            os.truncate(output.descriptor, end)
+            _write_at(output.descriptor, payload, end)
+
+
+ROOM_SLACK = 64 * 1024
+"""Bytes given up besides the ERROR entry's own when it must make room for itself on a full disk
+(a file system frees and allocates whole blocks)."""
+
+
+def _write_at(descriptor: int, payload: bytes, position: int) -> bool:
+    """Write ``payload`` at ``position`` as the file's end; on a short write or an error (a full
+    disk) cut the file back to ``position`` (its last whole message) and say False."""
     try:
-        written = os.pwrite(output.descriptor, payload, part.readable_bytes)
-    except OSError:  # a full disk: the entry does not fit
+        written = os.pwrite(descriptor, payload, position)
+    except OSError:
         written = -1
     if written != len(payload):  # never leave a cut message: end at the last whole one
-        os.truncate(output.descriptor, part.readable_bytes)
+        os.truncate(descriptor, position)
+        return False
+    return True
+
+
+def message_ends(path: str | os.PathLike) -> list[int]:
+    """The byte positions at which each whole message of ``path`` ends (headers only read)."""
+    ends: list[int] = []
+    with open(path, "rb") as stream:
+        total = os.fstat(stream.fileno()).st_size
+        position = _STREAM_HEADER_BYTES
+        while position + _HEADER.size <= total:
+            stream.seek(position)
+            header = stream.read(_HEADER.size)
+            if header[:4] == _MAGIC:
+                position += _STREAM_HEADER_BYTES
+                continue
+            _, length = _HEADER.unpack(header)
+            if position + _HEADER.size + length > total:
+                break
+            position += _HEADER.size + length
+            ends.append(position)
+    return ends

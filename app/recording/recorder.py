@@ -356,6 +356,7 @@ class Recorder:
             self._queue.put(_STOP)
             self._worker.join()
         if self._failure is not None:
+            self._failure = destination.explain_failure(self._failure, self.path.parent)
             self._log_failure()
         try:
             self.stream.flush(timeout_sec=120.0)
@@ -365,6 +366,7 @@ class Recorder:
         finally:
             self.stream.disconnect()
         if self._failure is not None:
+            self._failure = destination.explain_failure(self._failure, self.path.parent)
             self._end_readably()
         self._output.commit()
         if self._failure is not None:
