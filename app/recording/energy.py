@@ -13,7 +13,8 @@ import rerun as rr
 
 from app.recording.layout import DRIVEN_TERM, TreePaths, energy_terms
 from app.recording.style import NEUTRAL_COLOUR, TERM_COLOURS, integrator_colour
-from sim.theory.observables import Energy
+from sim.model.lattice import Model
+from sim.runtime.runner import Frame
 
 
 class EnergyView:
@@ -56,9 +57,18 @@ class EnergyView:
         stream.log(self.paths.energy_term(term),
                    rr.SeriesLines(names=label, colors=TERM_COLOURS[term]), static=True)
 
-    def log_frame(self, stream: rr.RecordingStream, energy: Energy, balance_error: float,
-                  dt: float) -> None:
+    def model_changed(self, stream: rr.RecordingStream, model: Model,
+                      same_lattice: bool) -> str | None:
+        if model.driven:
+            self.add_driver(stream)
+        return None
+
+    def finish(self, stream: rr.RecordingStream) -> list[str]:
+        return []
+
+    def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
         """One frame: the energy terms (J), the relative balance error and the step dt (s)."""
+        energy, balance_error, dt = frame.energy, frame.energy_balance_error, frame.dt
         stream.log(self.paths.dt, rr.Scalars(dt))
         for term in self.terms:
             stream.log(self.paths.energy_term(term), rr.Scalars(float(getattr(energy, term))))

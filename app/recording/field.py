@@ -44,6 +44,7 @@ import rerun as rr
 from app.colours import ColourScale, colour_fractions, make_scale, scheme
 from app.recording.scales import SIGNED, field_values
 from sim.model.lattice import Model
+from sim.runtime.runner import Frame
 
 FIELD_MODES = ("jpeg", "video", "raw")
 
@@ -221,10 +222,18 @@ class FieldView:
                                                         signed=quantity in SIGNED)
         self._described = False
 
-    def log_frame(self, stream: rr.RecordingStream, model: Model, positions: np.ndarray,
-                  velocities: np.ndarray | None, time: float = 0.0) -> None:
-        """One frame at simulated ``time`` (s) from (n_particles, dim) positions (m) and
+    def log_static(self, stream: rr.RecordingStream) -> None:
+        """Nothing yet: the field describes itself with its first frame."""
+
+    def model_changed(self, stream: rr.RecordingStream, model: Model,
+                      same_lattice: bool) -> str | None:
+        return None
+
+    def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
+        """One frame at its simulated time from its (n_particles, dim) positions (m) and
         velocities (m/s; the speed field skips frames without them)."""
+        model, positions, velocities, time = (frame.model, frame.positions, frame.velocities,
+                                              frame.time)
         if self.quantity == "speed" and velocities is None:
             return
         if not self._described:
@@ -242,5 +251,6 @@ class FieldView:
         if self.on_scale is not None:
             self.on_scale(self.colour_scale)
 
-    def finish(self, stream: rr.RecordingStream) -> None:
+    def finish(self, stream: rr.RecordingStream) -> list[str]:
         self.encoder.finish(stream, self.entity)
+        return []

@@ -35,6 +35,7 @@ from app.recording.layout import COMPONENT_NAMES, TreePaths, probe_label
 from app.recording.style import legend_png
 from sim.model import boundaries
 from sim.model.lattice import Model, ModelError
+from sim.runtime.runner import Frame
 
 MODE_IMAGE_SIDE = 128
 """Largest width and height (modes) of a mode-energy image; larger lattices are block-summed."""
@@ -116,17 +117,27 @@ class ProbeLog:
                     static=True,
                 )
 
-    def log_frame(self, stream: rr.RecordingStream, time: float, positions: np.ndarray) -> None:
+    def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
         """Log the probes' displacements (m) of a frame and keep them for the spectra."""
-        self.series.add(time, positions)
+        positions = frame.positions
+        self.series.add(frame.time, positions)
         displacement = np.asarray(positions)[self.series.particles] - self.series.rest
         for label, values in zip(self.labels, displacement, strict=True):
             for name, value in zip(self.components, values, strict=True):
                 stream.log(self.paths.probe(label, name), rr.Scalars(float(value)))
 
-    def finish(self, stream: rr.RecordingStream, driver: Any = None) -> list[str]:
+    def model_changed(self, stream: rr.RecordingStream, model: Model,
+                      same_lattice: bool) -> str | None:
+        """Probes follow particles of one lattice: another shape or spacing ends them."""
+        if not same_lattice:
+            return "probes stop here: the lattice changed shape or spacing"
+        self.model = model
+        return None
+
+    def finish(self, stream: rr.RecordingStream) -> list[str]:
         """Log each series' spectrum (static bar charts, m against Hz) and return markdown lines
-        naming the peaks and the normal modes nearest to them."""
+        naming the peaks and the normal modes nearest to them (and the driver's frequency)."""
+        driver = self.model.driver
         from sim.instruments.probes import dominant_frequencies, spectrum, uniform_series
 
         times = self.series.times
@@ -267,17 +278,29 @@ def mode_legend_png(top_energy: float) -> bytes:
 class ModeLog:
     """The mode energies of one tree: a tensor and a log-colour heat map per polarisation."""
 
-    def __init__(self, paths: TreePaths, model: Model, top_energy: float, basis: Any = None) -> None:
+    def __init__(self, paths: TreePaths, model: Model, top_energy: float, basis: Any = None,
+                 every: int = 1) -> None:
         self.paths = paths
+        self.every = every
+        """Frames between two frames of mode energies."""
         self.polarisations = COMPONENT_NAMES[: model.dim]
         self.bottom, self.top = mode_colour_range(top_energy)
         self.model = model
         self.basis = basis if basis is not None else modal_basis(model)
         self.enabled = True
 
-    def model_changed(self, model: Model) -> str | None:
-        """Recompute the modes for new parameters; returns a warning if that is impossible (the
-        mode energies then stop)."""
+    def log_static(self, stream: rr.RecordingStream) -> None:
+        """Nothing: the colour legend is the recording's (``mode_legend_png``)."""
+
+    def finish(self, stream: rr.RecordingStream) -> list[str]:
+        return []
+
+    def model_changed(self, stream: rr.RecordingStream, model: Model,
+                      same_lattice: bool) -> str | None:
+        """Recompute the modes for new parameters; a reason to stop if that is impossible (the
+        lattice changed shape or spacing, or its modes cannot be found)."""
+        if not same_lattice:
+            return "mode energies stop here: the lattice changed shape or spacing"
         self.model = model
         try:
             self.basis = modal_basis(model)
@@ -299,9 +322,10 @@ class ModeLog:
             for values in mode_energies(model, positions, velocities, self.basis)
         ]
 
-    def log_frame(self, stream: rr.RecordingStream, positions: np.ndarray,
-                  velocities: np.ndarray) -> None:
-        if not self.enabled:
+    def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
+        """Every ``every``-th frame that carries velocities: each mode's energy."""
+        positions, velocities = frame.positions, frame.velocities
+        if not self.enabled or velocities is None or index % self.every:
             return
         table = MAGNITUDE.table()
         for name, energies in zip(self.polarisations, self.energies(positions, velocities),

@@ -22,6 +22,7 @@ from app.recording.options import LoggingPlan
 from app.recording.scales import ColourScales
 from app.recording.style import ANCHOR_COLOUR, NEUTRAL_COLOUR, PARTICLE_COLOUR
 from sim.model.lattice import Model
+from sim.runtime.runner import Frame
 
 
 def grid_triangles(nx: int, ny: int) -> np.ndarray:
@@ -121,11 +122,14 @@ class LatticeView:
             if not model.uniform_mass:
                 stream.log(self.paths.particles, rr.AnyValues(mass=masses), static=True)
 
-    def log_frame(self, stream: rr.RecordingStream, positions: np.ndarray,
-                  strains: np.ndarray | None) -> None:
-        """(n_particles, dim) positions (m) as points or the surface's vertices; the springs
-        too when the plan has them and ``strains`` (n_springs,) came with the frame."""
-        positions = np.asarray(positions, dtype=np.float32)
+    def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
+        """Every ``plan.positions_every``-th frame: the (n_particles, dim) positions (m) as
+        points or the surface's vertices; the springs too when the plan has them and strains
+        (n_springs,) came with the frame."""
+        every = self.plan.positions_every
+        if not every or index % every:
+            return
+        positions, strains = np.asarray(frame.positions, dtype=np.float32), frame.strains
         if self.plan.surface:
             self._log_surface(stream, positions)
         else:
@@ -133,6 +137,18 @@ class LatticeView:
             stream.log(self.paths.particles, archetype(positions))
         if self.plan.springs and strains is not None:
             self._log_springs(stream, positions, strains)
+
+    def model_changed(self, stream: rr.RecordingStream, model: Model,
+                      same_lattice: bool) -> str | None:
+        """New parameters: the masses again if they changed."""
+        masses_changed = not np.array_equal(model.masses, self.model.masses)
+        self.model = model
+        if masses_changed:
+            self.log_masses(stream)
+        return None
+
+    def finish(self, stream: rr.RecordingStream) -> list[str]:
+        return []
 
     def _log_surface(self, stream: rr.RecordingStream, positions: np.ndarray) -> None:
         """(n_particles, 3) float32 positions (m) as the mesh's vertices, coloured by height."""

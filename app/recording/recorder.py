@@ -380,8 +380,8 @@ class Recorder:
         first)."""
         lines: list[str] = []
         for name, track in self.tracks.items():
-            if track.probe_notes:
-                lines += ([f"### {name}", ""] if name else []) + track.probe_notes + [""]
+            if track.notes:
+                lines += ([f"### {name}", ""] if name else []) + track.notes + [""]
         if not lines:
             return
         text = self.document + "\n\n## Probes: spectra (computed at the end)\n\n" + "\n".join(lines)

@@ -14,12 +14,12 @@ Scenes without a slit barrier get the profile alone (the rows series follow the 
 
 from __future__ import annotations
 
-import numpy as np
 import rerun as rr
 
 from app.recording.layout import TreePaths
 from sim.instruments.screen import IntensityScreen
 from sim.model.lattice import Model
+from sim.runtime.runner import Frame
 
 PERIODS = 4
 """Whole periods the screen averages over."""
@@ -66,9 +66,16 @@ class ScreenLog:
         text = "\n".join(self.lines) or "no slit barrier: no theory lines"
         stream.log(self.paths.below("screen/theory"), rr.TextDocument(text), static=True)
 
-    def log_frame(self, stream: rr.RecordingStream, time: float, positions: np.ndarray) -> None:
+    def model_changed(self, stream: rr.RecordingStream, model: Model,
+                      same_lattice: bool) -> str | None:
+        return None
+
+    def finish(self, stream: rr.RecordingStream) -> list[str]:
+        return []
+
+    def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
         """Add a frame; log the profile and the fringe rows when a whole period has ended."""
-        self.screen.observe(time, positions)
+        self.screen.observe(frame.time, frame.positions)
         if self.screen.completed == self._periods:
             return
         self._periods = self.screen.completed

@@ -2,9 +2,11 @@
 
 A ``Track`` owns the views of one tree (``app.recording.layout.TreePaths``): the lattice
 (``lattice.LatticeView``), the energy plots (``energy.EnergyView``), the field image
-(``field.FieldView``), the probes and mode energies (``instruments``), and the tree's event log.
-It logs each frame's time, follows changes of integrator, dt and parameters, and finishes the
-views at the end.  All its methods run in the thread that logs frames (or at the end).
+(``field.FieldView``), the probes and mode energies (``instruments``), the screen
+(``screen.ScreenLog``), and the tree's event log.  It logs each frame's time, follows changes of
+integrator, dt and parameters, and hands each frame, each change and the end to every view
+through one interface (``app.recording.views.RecordingView``).  All its methods run in the
+thread that logs frames (or at the end).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from app.recording.layout import TreePaths, tree_paths
 from app.recording.options import LoggingPlan
 from app.recording.scales import ColourScales
 from app.recording.screen import ScreenLog
+from app.recording.views import RecordingView
 from sim.model.lattice import Model
 from sim.runtime.runner import Frame
 
@@ -64,22 +67,23 @@ class Track:
                        if plan.probes else None)
         self.screen = (ScreenLog(self.paths, model, plan.screen)
                        if plan.screen is not None else None)
-        self.modes = (instruments.ModeLog(self.paths, model, scales.energy, basis=modal_basis)
+        self.modes = (instruments.ModeLog(self.paths, model, scales.energy, basis=modal_basis,
+                                          every=plan.modes_every)
                       if plan.modes_every else None)
-        self.probe_notes: list[str] = []
-        """Markdown lines about the probes' spectra, filled by ``finish``."""
+        self.views: list[RecordingView] = [
+            view for view in (self.energy, self.probes, self.screen, self.modes, self.lattice,
+                              self.field) if view is not None]
+        """Every view of the tree, in the order each frame is logged."""
+        self.notes: list[str] = []
+        """Markdown lines for the read-me from the views that ended (the probes' spectra)."""
         self.finished = False
 
     def log_static(self) -> None:
-        self.lattice.log_static(self.stream)
-        self.energy.log_static(self.stream)
-        if self.probes is not None:
-            self.probes.log_static(self.stream)
-        if self.screen is not None:
-            self.screen.log_static(self.stream)
+        for view in self.views:
+            view.log_static(self.stream)
 
     def log_frame(self, frame: Frame) -> None:
-        stream, plan = self.stream, self.plan
+        stream = self.stream
         stream.set_time("step", sequence=frame.step)
         stream.set_time("sim_time", duration=frame.time)
         self.last_step, self.last_time = frame.step, frame.time
@@ -90,19 +94,8 @@ class Track:
             self.event(f"{start}integrator {frame.integrator}, dt = {frame.dt:g} s", "INFO")
             stream.log(self.paths.integrator, rr.TextDocument(frame.integrator))
             self._integrator, self._dt = frame.integrator, frame.dt
-        self.energy.log_frame(stream, frame.energy, frame.energy_balance_error, frame.dt)
-        if self.probes is not None:
-            self.probes.log_frame(stream, frame.time, frame.positions)
-        if self.screen is not None:
-            self.screen.log_frame(stream, frame.time, frame.positions)
-        if (self.modes is not None and frame.velocities is not None
-                and self.frames_logged % plan.modes_every == 0):
-            self.modes.log_frame(stream, frame.positions, frame.velocities)
-        if plan.positions_every and self.frames_logged % plan.positions_every == 0:
-            self.lattice.log_frame(stream, frame.positions, frame.strains)
-        if self.field is not None:
-            self.field.log_frame(stream, self.model, frame.positions, frame.velocities,
-                                 frame.time)
+        for view in self.views:
+            view.log_frame(stream, frame, self.frames_logged)
         if frame.error:
             self.event(frame.error, "ERROR")
         self.frames_logged += 1
@@ -116,26 +109,16 @@ class Track:
     def _model_changed(self, model: Model) -> None:
         self.event(f"parameters changed: {model.describe()}", "INFO")
         self.stream.log(self.paths.model, rr.TextDocument(model.describe()))
-        masses_changed = not np.array_equal(model.masses, self.model.masses)
         same_lattice = (model.nx, model.ny, model.dim) == (
             self.model.nx, self.model.ny, self.model.dim) and np.array_equal(
             model.rest_positions, self.model.rest_positions)
         self.model = model
-        self.lattice.model = model
-        if masses_changed:
-            self.lattice.log_masses(self.stream)
-        if model.driven:
-            self.energy.add_driver(self.stream)
-        if self.probes is not None and not same_lattice:
-            self.probe_notes = self.probes.finish(self.stream, model.driver)
-            self.probes = None
-            self.event("probes stop here: the lattice changed shape or spacing", "WARN")
-        if self.modes is not None:
-            warning = (self.modes.model_changed(model) if same_lattice
-                       else "mode energies stop here: the lattice changed shape or spacing")
-            if warning:
-                self.modes = None
-                self.event(warning, "WARN")
+        for view in list(self.views):
+            reason = view.model_changed(self.stream, model, same_lattice)
+            if reason:
+                self.notes += view.finish(self.stream)
+                self.views.remove(view)
+                self.event(reason, "WARN")
 
     def event(self, text: str, level: str = "INFO") -> None:
         """A text-log entry in this tree (call in the thread that logs frames, or at the end)."""
@@ -143,8 +126,7 @@ class Track:
 
     def finish(self) -> None:
         self.set_last_time()
-        if self.field is not None and not self.finished:
-            self.field.finish(self.stream)
-        if self.probes is not None and not self.finished:
-            self.probe_notes = self.probes.finish(self.stream, self.model.driver)
+        if not self.finished:
+            for view in self.views:
+                self.notes += view.finish(self.stream)
         self.finished = True
