@@ -417,9 +417,9 @@ def static_value(chunks: list, entity: str, column: str) -> object:
 def document(chunks: list) -> str:
     """The read-me as the viewer shows it: the last static ``/scene`` text (a recording with
     probes logs it again at the end, with their spectra)."""
-    texts = [chunk.to_record_batch().column("TextDocument:text")[0].as_py()[0]
-             for chunk in chunks if chunk.entity_path == "/scene" and chunk.is_static]
-    return texts[-1]
+    texts = [row.as_py()[0] for chunk in chunks if chunk.entity_path == "/scene"
+             and chunk.is_static for row in chunk.to_record_batch().column("TextDocument:text")]
+    return texts[-1]  # the last row: a chunk may hold both logs of the read-me
 
 
 def default_timeline(path: Path) -> str:
@@ -560,3 +560,27 @@ def test_interference_field_is_signed_and_its_scale_fixed_on_request(tmp_path):
     limits = temporal(chunks, "/colour_scale/field", "Scalars:scalars")
     assert len({scalar(value) for value in limits.values()}) == 1  # fixed: one limit throughout
     assert "The scale is fixed for the whole recording" in document(chunks)
+
+
+def test_a_lattice_of_another_spacing_ends_the_probes_and_modes_with_a_warning_and_notes(
+        tmp_path):
+    """The views that follow particles of one lattice end when its spacing changes: a WARN says
+    so at that step, and the probes' spectra still reach the read-me."""
+    scene = sim.scenes.build("grid")
+    runner = Runner(sim.Simulation(scene))
+    path = tmp_path / "reshaped.rrd"
+    options = RecordingOptions(probes=[(3, 4)], modes=True, modes_every=1, frame_interval=0,
+                               background=False)
+    with Recorder(path, scene, options=options) as recorder:
+        recorder.attach(runner)
+        runner.advance(40, every=2)
+        runner.post(lambda s: s.set_parameters(spacing=1.2))
+        runner.advance(4, every=2)
+    chunks = read_chunks(path)
+    warnings = [(step, text) for step, text, level in texts(chunks, "/log") if level == "WARN"]
+    assert any("probes stop here" in text for _, text in warnings), warnings
+    assert any("mode energies stop here" in text for _, text in warnings), warnings
+    assert {step for step, _ in warnings} == {42}
+    probe_steps = temporal(chunks, "/probes/3_4/y", "Scalars:scalars")
+    assert probe_steps and max(probe_steps) == 40
+    assert "Probes: spectra" in document(chunks)
