@@ -121,6 +121,42 @@ def test_the_pretensioned_lattice_is_anisotropic_as_theory_says():
     assert abs(along_y["group_velocity"][0]) < 1e-3 * along_y["group_speed"]
 
 
+def test_u_y_along_y_of_the_pretensioned_lattice_travels_at_the_group_velocity():
+    measured, expected = pretensioned("y")
+    check(measured, expected)
+
+
+def lower_in_plane_branch(k: float, k2: float, m: float, a: float, qx: float, qy: float) -> float:
+    """omega (rad/s) of the lower in-plane branch of an unstressed lattice with nearest springs k
+    and diagonal ones k2: the smaller eigenvalue of the 2x2 force-constant matrix per mass,
+    summed spring by spring (nearest along x and y, diagonals along (1, +-1) / sqrt 2)."""
+    cx, cy, sx, sy = (math.cos(qx * a), math.cos(qy * a), math.sin(qx * a), math.sin(qy * a))
+    xx = 2 * k * (1 - cx) + 2 * k2 * (1 - cx * cy)
+    yy = 2 * k * (1 - cy) + 2 * k2 * (1 - cx * cy)
+    xy = 2 * k2 * sx * sy
+    return math.sqrt((xx + yy - math.hypot(xx - yy, 2 * xy)) / 2 / m)
+
+
+@pytest.mark.slow
+def test_an_oblique_s_packet_of_the_elastic_solid_travels_at_its_group_velocity():
+    scene = sim.scenes.build("elastic-solid", nx=100, ny=100)
+    model = scene.model
+    k, k2, m, a = model.stiffness, model.diagonal_stiffness, 1.0, model.spacing
+    qx, qy, h = 1.0, 0.5, 1e-6
+    omega = lower_in_plane_branch(k, k2, m, a, qx, qy)
+    vx = (lower_in_plane_branch(k, k2, m, a, qx + h, qy)
+          - lower_in_plane_branch(k, k2, m, a, qx - h, qy)) / (2 * h)
+    vy = (lower_in_plane_branch(k, k2, m, a, qx, qy + h)
+          - lower_in_plane_branch(k, k2, m, a, qx, qy - h)) / (2 * h)
+    measured = measure(scene, PacketSpec(qx, qy, "S"))
+    check(measured, {"omega": omega, "group_speed": math.hypot(vx, vy),
+                     "phase_speed": omega / math.hypot(qx, qy)})
+    # it travels along the group velocity, not along q
+    angle = math.atan2(*measured["group_velocity"][::-1])
+    assert angle == pytest.approx(math.atan2(vy, vx), abs=0.02)
+    assert abs(math.atan2(vy, vx) - math.atan2(qy, qx)) > 0.03
+
+
 def test_the_packet_state_is_the_plane_wave_under_its_envelope():
     model = sim.scenes.build("grid", nx=200, ny=1).model
     spec = PacketSpec(1.0, 0.0, "x")
