@@ -226,3 +226,37 @@ def test_run_refuses_a_bad_packet_with_one_line(packet, words, capsys):
     assert main(["run", "grid", "--set", "ny=1", f"--packet={packet}", "--quiet"]) == 2
     error = capsys.readouterr().err
     assert error.startswith("error: --packet") and words in error and "Traceback" not in error
+
+
+def test_launch_packet_sets_the_state_and_keeps_the_clock():
+    simulation = sim.Simulation(sim.scenes.build("grid", nx=120, ny=1))
+    simulation.step(7)
+    spec = PacketSpec(2.5, 0.0, "x")
+    launch_packet(simulation, spec)
+    positions, velocities = packet_state(simulation.model, spec)
+    np.testing.assert_array_equal(simulation.state.particle_positions(), positions)
+    np.testing.assert_array_equal(simulation.state.particle_velocities(), velocities)
+    assert simulation.time == pytest.approx(7 * simulation.dt)
+    assert simulation.state.dissipated == 0.0
+
+
+def test_the_tracker_starts_again_after_a_reset_and_reads_sparse_samples():
+    scene = sim.scenes.build("grid", nx=120, ny=1)
+    spec = PacketSpec(2.5, 0.0, "x")
+    simulation = sim.Simulation(scene)
+    launch_packet(simulation, spec)
+    tracker = PacketTracker(simulation.model, spec)
+    tracker.add(5.0, simulation.state.particle_positions())
+    tracker.add(6.0, simulation.state.particle_positions())
+    tracker.add(0.0, simulation.state.particle_positions())  # an earlier time: a reset
+    assert tracker.times.tolist() == [0.0]
+    # one sample every 0.9 of a period: the phase is unwrapped about the theory's omega
+    expected = analytic(35.0, 0.0, 1.0, 1.0, 2.5, 0.0)
+    steps = max(1, int(0.9 * 2 * math.pi / expected["omega"] / simulation.dt))
+    while simulation.time < 20.0:
+        simulation.step(steps)
+        tracker.add(simulation.time, simulation.state.particle_positions())
+    measured = tracker.speeds()
+    assert measured["unwrapped_about_theory"]
+    assert measured["omega"] == pytest.approx(expected["omega"], rel=1e-3)
+    assert measured["group_speed"] == pytest.approx(expected["group_speed"], rel=TOLERANCE)
