@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 import numpy as np
 
@@ -189,7 +190,8 @@ def check_spec(model: Model, spec: PacketSpec) -> None:
     or a length that is not a positive number (WaveError)."""
     edge = math.pi / model.spacing
     for name, value in (("qx", spec.qx), ("qy", spec.qy)):
-        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+        if isinstance(value, bool) or not (isinstance(value, numbers.Real)
+                                           and math.isfinite(value)):
             raise WaveError(f"{name} must be a finite number of rad/m, got {value!r}")
         if abs(value) > edge * (1 + 1e-12):
             raise WaveError(f"{name} = {value:g} rad/m is outside the first zone: |{name}| <= "
