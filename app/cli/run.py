@@ -1,6 +1,7 @@
 """``oscillators run``: run a scene headless with a progress bar, then print its energy account
 (J, start and end, and the balance error) and, with ``--probe I,J``, the dominant frequencies
-(Hz) of probed particles with the nearest normal modes; ``--json`` prints the same as JSON.
+(Hz) of probed particles with the nearest normal modes, and with ``--sound PATH.wav`` their
+motion as sound (``sim.instruments.sound``); ``--json`` prints the same as JSON.
 
 Exit codes: 0 done, 2 bad input, 3 the run blew up (the summary is still printed).
 """
@@ -30,7 +31,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "run", help="run a scene headless and print an energy summary",
         description="Run a scene without a viewer; prints progress and the energy account.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=EPILOG + SOUND_EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_scene_arguments(parser)
     add_length_arguments(parser, "number of steps (default: the scene's duration, see `scenes`)")
@@ -46,8 +47,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(those of `oscillators choose`'s errors: SAMPLES evenly spaced times, the last at the "
         "end) with the energy-balance error at each, as arrays times (s), fields (samples, dim, "
         "ny, nx) m and energy_balance_errors in a NumPy .npz file")
+    parser.add_argument(
+        "--sound", metavar="PATH.wav",
+        help="write the probes' motion as sound to this WAV file: the last seconds of the run "
+        "sped up by a round factor that brings the dominant frequency to 190-475 Hz (one probe: "
+        "mono; two: stereo, the first left); needs --probe")
+    parser.add_argument("--force", action="store_true", help="replace an existing --sound file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_run)
+
+
+SOUND_EXAMPLE = """
+hearing a probe (docs/instruments.md, "Hearing a probe"):
+  oscillators run chain --set linear=true --duration 600 --probe 2,0 --sound chain.wav
+      # the chain's modes at x500 (0.487 Hz sounds as 244 Hz): 1.2 s of sound
+  oscillators run chain --set linear=true --set drag=0.01 --duration 600 --probe 2,0 \
+      --probe 0,0 --sound decay.wav
+      # stereo: the middle particle left, the first right; the sound dies away as the run does
+"""
 
 
 def command_run(arguments: argparse.Namespace) -> int:
@@ -55,6 +72,7 @@ def command_run(arguments: argparse.Namespace) -> int:
 
     from sim import BlowUpError
 
+    sound = _check_sound(arguments)
     simulation = simulation_from_arguments(arguments)
     steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
     fields = _Fields(arguments.fields, simulation, steps) if arguments.fields else None
@@ -113,6 +131,8 @@ def command_run(arguments: argparse.Namespace) -> int:
     }
     if probes is not None:
         summary["probes"] = _probe_report(probes)
+    if sound is not None:
+        summary.update(_write_sound(probes, sound, arguments.force))
     if fields is not None:
         summary["fields"] = fields.save()
     if arguments.json:
@@ -150,6 +170,8 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
         ) or "no motion"
         print(f"probe particle {probe['particle']} (column {probe['column']}, row "
               f"{probe['row']}), {probe['component']} motion: {peaks}")
+    if "sound_file" in summary:
+        print(f"sound: {summary['sound_file']}: {summary['sound_description']}")
 
 
 def _probe_report(probes: Any) -> list[dict[str, Any]]:
@@ -173,6 +195,45 @@ def _probe_report(probes: Any) -> list[dict[str, Any]]:
         report.append({"particle": particle, "column": column, "row": row,
                        "component": POLARISATION_NAMES[component], "peaks": peaks})
     return report
+
+
+def _check_sound(arguments: argparse.Namespace) -> Any:
+    """The --sound target, checked before anything runs (None without --sound)."""
+    if not arguments.sound:
+        return None
+    from pathlib import Path
+
+    from sim.instruments.sound import MAX_CHANNELS
+    from sim.storage.files import check_target
+
+    if not arguments.probe:
+        raise ValueError("--sound needs --probe I,J (the particle to hear)")
+    if len(arguments.probe) > MAX_CHANNELS:
+        raise ValueError(f"--sound plays one or two probes (mono or stereo), got "
+                         f"{len(arguments.probe)}: give at most two --probe")
+    try:
+        return check_target(Path(arguments.sound), arguments.force, suffix=".wav")
+    except ValueError as error:
+        raise ValueError(f"--sound: {error}") from None
+
+
+def _write_sound(probes: Any, path: Any, force: bool) -> dict[str, Any]:
+    """Write the probes' sound (each probe's strongest component) to ``path`` atomically; the
+    summary's sound entries."""
+    from sim.instruments.sound import probe_sound
+    from sim.storage.files import write_bytes
+
+    displacements = probes.displacements
+    strongest = displacements.std(axis=0).argmax(axis=1)  # (probes,) component of each
+    values = displacements[:, np.arange(len(probes.particles)), strongest]
+    try:
+        sound = probe_sound(probes.times, values)
+        written = write_bytes(path, sound.wav, overwrite=force)
+    except ValueError as error:
+        raise ValueError(f"--sound: {error}") from None
+    return {"sound_file": str(written.resolve()), "sound_factor": sound.factor,
+            "sound_seconds": sound.seconds, "sound_frequency": sound.frequency,
+            "sound_description": sound.describe()}
 
 
 class _Fields:
