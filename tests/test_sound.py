@@ -166,3 +166,54 @@ def test_run_refuses_a_sound_it_cannot_make(arguments, message, tmp_path, monkey
     error = capsys.readouterr().err
     assert error.startswith("error: --sound") and message in error and "Traceback" not in error
     assert not list(tmp_path.iterdir())
+
+
+def test_the_page_plays_the_probes_and_forgets_them_on_reset(tmp_path):
+    import base64
+    import re
+
+    from app.web.app import WebApp
+    from app.web.folders.probes import SOUND_RATE, SOUND_SECONDS
+    from tests.helpers import free_port, wait_for
+    from tests.test_web_safety import press, settle
+
+    simulation = mirrored_sources(math.pi)
+    scene = sim.Scene(name="mirrored", model=simulation.model, integrator="verlet", dt=0.02,
+                      duration=1000.0)
+    app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path,
+                 recordings_dir=tmp_path)
+    app.start()
+    try:
+        assert wait_for(lambda: app.view.last_positions is not None)
+        probes = app.panel.probes
+        press(probes.hear_button)
+        assert "probe particles first" in probes.player.content
+        nx = simulation.model.nx
+        app.set_selection(np.array([4 * nx + 3, 4 * nx + 17, 4 * nx + 18]))
+        press(probes.probe_button)
+        assert probes.player.content == ""
+        probes.component.value = "y"
+        app.panel.run.speed.value = "as fast as it can"
+        app.runner.steps_per_frame = 10
+        app.runner.play()
+        assert wait_for(lambda: (probes.series.last_time or 0) > 60, timeout=60)
+        app.runner.pause()
+        settle(app)
+        press(probes.hear_button)
+        content = probes.player.content
+        found = re.search(r'<audio controls src="data:audio/wav;base64,([A-Za-z0-9+/=]+)"', content)
+        assert found, content
+        assert len(found.group(1)) <= 4 / 3 * (44 + SOUND_RATE * SOUND_SECONDS * 4) + 4
+        samples, rate = read_wav(base64.b64decode(found.group(1)))
+        assert rate == SOUND_RATE and samples.shape[1] == 2  # the first two of three probes
+        assert "probe 1 left, probe 2 right (of 3 probes)" in content
+        assert "sounds as" in content
+        # the two are mirror images in antiphase (the test above): the sum is silent
+        assert np.abs(samples.sum(axis=1)).max() <= 1 and np.abs(samples).max() > 10000
+        app.control.reset().result(timeout=5)
+        assert wait_for(lambda: probes.player.content == "")
+        press(probes.hear_button)
+        press(probes.clear_button)
+        assert probes.player.content == ""
+    finally:
+        app.stop()
