@@ -60,10 +60,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 SOUND_EXAMPLE = """
 hearing a probe (docs/instruments.md, "Hearing a probe"):
   oscillators run chain --set linear=true --duration 600 --probe 2,0 --sound chain.wav
-      # the chain's modes at x500 (0.487 Hz sounds as 244 Hz): 1.2 s of sound
-  oscillators run chain --set linear=true --set drag=0.01 --duration 600 --probe 2,0 \
-      --probe 0,0 --sound decay.wav
-      # stereo: the middle particle left, the first right; the sound dies away as the run does
+      # the chain's modes 1, 3 and 5 at x200 (1.332 Hz sounds as 266 Hz): the last 3 s
+  oscillators run chain --set drag=0.01 --duration 600 --probe 2,0 --probe 0,0 --sound decay.wav
+      # stereo, the middle particle left and the first right, dying away as exp(-0.005 t)
 """
 
 
