@@ -152,6 +152,19 @@ def test_run_writes_the_sound_of_its_probes(tmp_path, capsys):
     assert not list(tmp_path.glob("*.partial"))
 
 
+def test_run_prints_its_summary_when_there_is_nothing_to_hear(tmp_path, capsys):
+    from app.cli import main
+
+    target = tmp_path / "short.wav"
+    assert main(["run", "chain", "--probe", "2,0", "--duration", "10", "--quiet", "--json",
+                 "--sound", str(target)]) == 2
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    assert "too short" in summary["sound_error"] and summary["probes"]
+    assert captured.err.splitlines()[-1].startswith("error: --sound:")
+    assert not list(tmp_path.iterdir())
+
+
 @pytest.mark.parametrize("arguments, message", [
     (["--sound", "x.wav"], "--sound needs --probe"),
     (["--probe", "0,0", "--probe", "1,0", "--probe", "2,0", "--sound", "x.wav"], "two"),

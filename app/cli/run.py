@@ -3,7 +3,8 @@
 (Hz) of probed particles with the nearest normal modes, and with ``--sound PATH.wav`` their
 motion as sound (``sim.instruments.sound``); ``--json`` prints the same as JSON.
 
-Exit codes: 0 done, 2 bad input, 3 the run blew up (the summary is still printed).
+Exit codes: 0 done, 2 bad input or nothing to hear for ``--sound`` (then the summary is still
+printed, and no file written), 3 the run blew up (the summary is still printed).
 """
 
 from __future__ import annotations
@@ -130,14 +131,21 @@ def command_run(arguments: argparse.Namespace) -> int:
     }
     if probes is not None:
         summary["probes"] = _probe_report(probes)
+    refused = None
     if sound is not None:
-        summary.update(_write_sound(probes, sound, arguments.force))
+        try:
+            summary.update(_write_sound(probes, sound, arguments.force))
+        except ValueError as error:  # nothing to hear: the run's summary is still printed
+            refused = summary["sound_error"] = str(error)
     if fields is not None:
         summary["fields"] = fields.save()
     if arguments.json:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(simulation, summary, start_energy, end_energy, elapsed)
+    if refused is not None:
+        print(f"error: {refused}", file=sys.stderr)
+        status = status or 2
     return status
 
 
