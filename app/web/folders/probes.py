@@ -174,7 +174,10 @@ class ProbesFolder(Folder):
         data = base64.b64encode(sound.wav).decode("ascii")
         self.player.content = (
             f'<audio controls src="data:audio/wav;base64,{data}" style="width: 100%"></audio>'
-            + as_html(f"{sound.describe()}; {which}, {POLARISATION_NAMES[component]} motion"))
+            + as_html(f"{sound.describe()}; {which}, {POLARISATION_NAMES[component]} motion"
+                      + (f" (each second of sound needs {sound.factor:g} s of the run: probe "
+                         "longer for a longer sound)" if sound.seconds < SOUND_SECONDS - 0.01
+                         else "")))
         self._heard_until = float(times[-1])
 
     def clear_player(self) -> None:
