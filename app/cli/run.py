@@ -1,9 +1,11 @@
 """``oscillators run``: run a scene headless with a progress bar, then print its energy account
 (J, start and end, and the balance error) and, with ``--probe I,J``, the dominant frequencies
-(Hz) of probed particles with the nearest normal modes, and with ``--packet QX,QY[,POL]`` a wave
-packet's measured group and phase speeds against theory; ``--json`` prints the same as JSON.
+(Hz) of probed particles with the nearest normal modes (with ``--sound PATH.wav`` their motion
+as sound, ``sim.instruments.sound``), and with ``--packet QX,QY[,POL]`` a wave packet's measured
+group and phase speeds against theory; ``--json`` prints the same as JSON.
 
-Exit codes: 0 done, 2 bad input, 3 the run blew up (the summary is still printed).
+Exit codes: 0 done, 2 bad input or nothing to hear for ``--sound`` (then the summary is still
+printed, and no file written), 3 the run blew up (the summary is still printed).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "run", help="run a scene headless and print an energy summary",
         description="Run a scene without a viewer; prints progress and the energy account.",
-        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=EPILOG + SOUND_EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_scene_arguments(parser)
     add_length_arguments(parser, "number of steps (default: the scene's duration, see `scenes`)")
@@ -49,8 +51,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "end) with the energy-balance error at each, as arrays times (s), fields (samples, dim, "
         "ny, nx) m and energy_balance_errors in a NumPy .npz file")
     add_packet_argument(parser)
+    parser.add_argument(
+        "--sound", metavar="PATH.wav",
+        help="write the probes' motion as sound to this WAV file: the last seconds of the run "
+        "sped up by a round factor that brings the dominant frequency to 190-475 Hz (one probe: "
+        "mono; two: stereo, the first left); needs --probe")
+    parser.add_argument("--force", action="store_true", help="replace an existing --sound file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_run)
+
+
+SOUND_EXAMPLE = """
+hearing a probe (docs/instruments.md, "Hearing a probe"):
+  oscillators run chain --set linear=true --duration 600 --probe 2,0 --sound chain.wav
+      # the chain's modes 1, 3 and 5 at x200 (1.332 Hz sounds as 266 Hz): the last 3 s
+  oscillators run chain --set drag=0.01 --duration 600 --probe 2,0 --probe 0,0 --sound decay.wav
+      # stereo, the middle particle left and the first right, dying away as exp(-0.005 t)
+"""
 
 
 def command_run(arguments: argparse.Namespace) -> int:
@@ -59,6 +76,7 @@ def command_run(arguments: argparse.Namespace) -> int:
     from sim import BlowUpError
     from sim.runtime.blowup import CHECKS_PER_RUN
 
+    sound = _check_sound(arguments)
     simulation = simulation_from_arguments(arguments)
     packet = PacketRun(simulation, arguments.packet) if arguments.packet else None
     duration = arguments.duration
@@ -125,6 +143,12 @@ def command_run(arguments: argparse.Namespace) -> int:
     }
     if probes is not None:
         summary["probes"] = _probe_report(probes)
+    refused = None
+    if sound is not None:
+        try:
+            summary.update(_write_sound(probes, sound, arguments.force))
+        except ValueError as error:  # nothing to hear: the run's summary is still printed
+            refused = summary["sound_error"] = str(error)
     if fields is not None:
         summary["fields"] = fields.save()
     if packet is not None:
@@ -133,6 +157,9 @@ def command_run(arguments: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(simulation, summary, start_energy, end_energy, elapsed)
+    if refused is not None:
+        print(f"error: {refused}", file=sys.stderr)
+        status = status or 2
     return status
 
 
@@ -166,6 +193,8 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
               f"{probe['row']}), {probe['component']} motion: {peaks}")
     if "packet" in summary:
         print_packet(summary)
+    if "sound_file" in summary:
+        print(f"sound: {summary['sound_file']}: {summary['sound_description']}")
 
 
 def _probe_report(probes: Any) -> list[dict[str, Any]]:
@@ -189,6 +218,45 @@ def _probe_report(probes: Any) -> list[dict[str, Any]]:
         report.append({"particle": particle, "column": column, "row": row,
                        "component": POLARISATION_NAMES[component], "peaks": peaks})
     return report
+
+
+def _check_sound(arguments: argparse.Namespace) -> Any:
+    """The --sound target, checked before anything runs (None without --sound)."""
+    if not arguments.sound:
+        return None
+    from pathlib import Path
+
+    from sim.instruments.sound import MAX_CHANNELS
+    from sim.storage.files import check_target
+
+    if not arguments.probe:
+        raise ValueError("--sound needs --probe I,J (the particle to hear)")
+    if len(arguments.probe) > MAX_CHANNELS:
+        raise ValueError(f"--sound plays one or two probes (mono or stereo), got "
+                         f"{len(arguments.probe)}: give at most two --probe")
+    try:
+        return check_target(Path(arguments.sound), arguments.force, suffix=".wav")
+    except ValueError as error:
+        raise ValueError(f"--sound: {error}") from None
+
+
+def _write_sound(probes: Any, path: Any, force: bool) -> dict[str, Any]:
+    """Write the probes' sound (each probe's strongest component) to ``path`` atomically; the
+    summary's sound entries."""
+    from sim.instruments.sound import probe_sound
+    from sim.storage.files import write_bytes
+
+    displacements = probes.displacements
+    strongest = displacements.std(axis=0).argmax(axis=1)  # (probes,) component of each
+    values = displacements[:, np.arange(len(probes.particles)), strongest]
+    try:
+        sound = probe_sound(probes.times, values)
+        written = write_bytes(path, sound.wav, overwrite=force)
+    except ValueError as error:
+        raise ValueError(f"--sound: {error}") from None
+    return {"sound_file": str(written.resolve()), "sound_factor": sound.factor,
+            "sound_seconds": sound.seconds, "sound_frequency": sound.frequency,
+            "sound_description": sound.describe()}
 
 
 class _Fields:

@@ -159,6 +159,22 @@ class ProbeSeries:
     def times(self) -> np.ndarray:
         return np.asarray(self._times)
 
+    def samples(self) -> tuple[np.ndarray, np.ndarray]:
+        """(times, displacements) of the same length, while the run may be adding a sample
+        (a sample's time is stored before its displacements)."""
+        times = self.times
+        displacements = self.displacements
+        count = min(times.size, displacements.shape[0])
+        return times[:count], displacements[:count]
+
+    @property
+    def last_time(self) -> float | None:
+        """The latest sample's time (s), None before the first; cheap (no array is made)."""
+        try:
+            return self._times[-1]
+        except IndexError:
+            return None
+
     @property
     def displacements(self) -> np.ndarray:
         if not self._values:

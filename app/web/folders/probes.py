@@ -7,10 +7,18 @@ chosen component against time and its spectrum (amplitude against frequency), an
 dominant frequencies with the nearest normal modes of the lattice (equal masses).  A reset or a
 new scene starts the series again and empties the plots at once.  The plots' value axes take the
 SI prefix that keeps their ticks readable (``app.web.plots.LivePlot``).
+
+*Hear the probes* renders the last seconds of the first one or two probes' chosen component as
+sound (``sim.instruments.sound``: the motion sped up by a round factor, stereo for two) into an
+``<audio controls>`` player with the WAV inline as a data URL, under the factor ("×500: 0.487 Hz
+sounds as 244 Hz").  It is made on demand only; the player goes with a reset, a new scene, new
+probes or Stop probing.  At ``SOUND_RATE`` for at most ``SOUND_SECONDS`` the WAV is at most
+192 kB (256 kB as base64 in the page).
 """
 
 from __future__ import annotations
 
+import base64
 import threading
 from typing import Any
 
@@ -23,6 +31,7 @@ from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, wa
 from app.web.plots import LivePlot
 from app.web.widgets import PlotAxis
 from sim.instruments.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
+from sim.instruments.sound import MAX_CHANNELS, probe_sound
 from sim.runtime.runner import Frame
 from sim.theory.modes import POLARISATION_NAMES
 
@@ -30,6 +39,10 @@ MAX_PROBES = 4
 """Particles probed at once (one line each in the plots)."""
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
 REFRESH_SECONDS = 0.5
+SOUND_RATE = 16000
+"""Audio samples per second of the page's player (Hz): 8 kHz of sound, far above the tones."""
+SOUND_SECONDS = 3.0
+"""The most sound the player gets (s): with ``SOUND_RATE``, stereo, a 192 kB WAV."""
 
 
 def shown_band(frequencies: np.ndarray, columns: list[np.ndarray]) -> tuple[np.ndarray, ...]:
@@ -64,6 +77,13 @@ class ProbesFolder(Folder):
             self.clear_button = gui.add_button("Stop probing", icon=viser.Icon.X)
             self.component = gui.add_dropdown("Component", ["x", "y"], initial_value="y")
             self.text = gui.add_html(as_html("Select particles, then press Probe the selection."))
+            self.hear_button = gui.add_button(
+                "Hear the probes", icon=viser.Icon.VOLUME,
+                hint="the last seconds of the probes' motion as sound, sped up into hearing "
+                "(the first two probes: left and right)")
+            self.player = gui.add_html("")
+            self._heard_until: float | None = None
+            """The series' last time when the player was made (None: no player)."""
             self.time_plot: LivePlot | None = None
             self.spectrum_plot: LivePlot | None = None
             self._plotted = False
@@ -89,6 +109,11 @@ class ProbesFolder(Folder):
         @from_user
         def _(_: viser.GuiEvent) -> None:
             self._last = 0.0
+
+        @self.hear_button.on_click
+        @from_user
+        def _(_: viser.GuiEvent) -> None:
+            self.hear()
 
     # --- probing -------------------------------------------------------------------------------
 
@@ -121,6 +146,45 @@ class ProbesFolder(Folder):
             self._unsubscribe = None
         with self._lock:
             self.series = None
+        self.clear_player()
+
+    # --- hearing ---------------------------------------------------------------------------------
+
+    def hear(self) -> None:
+        """Put the sound of the first one or two probes' chosen component in the player."""
+        with self._lock:
+            series = self.series
+        if series is None:
+            self.player.content = warning_html("probe particles first (Probe the selection)")
+            return
+        try:
+            component = POLARISATION_NAMES.index(
+                choice(self.component.value, "component",
+                       list(POLARISATION_NAMES[: series.model.dim])))
+            times, displacements = series.samples()
+            values = displacements[:, :MAX_CHANNELS, component]
+            sound = probe_sound(times, values, rate=SOUND_RATE, longest=SOUND_SECONDS)
+        except (InputRefused, ValueError) as error:
+            self.player.content = warning_html(f"nothing to hear yet: {error}")
+            self._heard_until = series.last_time
+            return
+        used = len(series.particles)
+        which = ("probe 1" if used == 1 else
+                 "probe 1 left, probe 2 right" + (f" (of {used} probes)" if used > 2 else ""))
+        data = base64.b64encode(sound.wav).decode("ascii")
+        self.player.content = (
+            f'<audio controls src="data:audio/wav;base64,{data}" style="width: 100%"></audio>'
+            + as_html(f"{sound.describe()}; {which}, {POLARISATION_NAMES[component]} motion"
+                      + (f" (each second of sound needs {sound.factor:g} s of the run: probe "
+                         "longer for a longer sound)" if sound.seconds < SOUND_SECONDS - 0.01
+                         else "")))
+        self._heard_until = float(times[-1])
+
+    def clear_player(self) -> None:
+        """No player (a reset, a new scene, new probes or none)."""
+        self._heard_until = None
+        if self.player.content:
+            self.player.content = ""
 
     def _build_plots(self, count: int) -> None:
         for plot in (self.time_plot, self.spectrum_plot):
@@ -151,6 +215,10 @@ class ProbesFolder(Folder):
     def update(self, frame: Frame, now: float) -> None:
         with self._lock:
             series = self.series
+        if self._heard_until is not None:
+            last = None if series is None else series.last_time
+            if last is None or last < self._heard_until:  # a reset: the old run's sound goes
+                self.clear_player()
         if (self._plotted and series is not None and self.time_plot is not None
                 and len(series.times) < 8):  # started again (a reset): the old lines go at once
             self.spectrum_plot.clear()  # the spectrum first: an empty time plot means both are
@@ -168,8 +236,8 @@ class ProbesFolder(Folder):
         except InputRefused as error:
             self.text.content = warning_html(str(error))
             return
-        times = series.times
-        values = series.displacements[:, :, component]
+        times, displacements = series.samples()
+        values = displacements[:, :, component]
         self.time_plot.show(times, values.T)
         self._plotted = True
         columns = []
