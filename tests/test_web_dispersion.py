@@ -1,0 +1,73 @@
+"""The page's Dispersion folder without a browser: it follows the scene, the integrator and the
+time step, draws the integrator's numerical dispersion of the current dt, describes the chosen
+wave and refuses bad values in red."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim.theory.bands import verlet_omega
+from tests.helpers import wait_for
+from tests.test_web_safety import press, send, settle
+
+
+def plotted(folder, label: str) -> np.ndarray:
+    """The values of the plotted line ``label``."""
+    labels = [series["label"] for series in folder.plot.series]
+    return np.asarray(folder.plot.data[labels.index(label)])
+
+
+def test_the_folder_follows_the_integrator_and_the_time_step(web_app):
+    panel = web_app.panel
+    folder = panel.dispersion
+    assert folder.plot is not None and "x by rk4" in [s["label"] for s in folder.plot.series]
+    send(panel.integrator.method, "verlet")
+    settle(web_app)
+    web_app.runner.play()
+    assert wait_for(lambda: "y by verlet" in [s["label"] for s in folder.plot.series])
+    send(panel.integrator.dt, 0.2)
+    settle(web_app)
+    assert wait_for(lambda: "dt = 0.2 s" in folder.summary.content)
+    web_app.runner.pause()
+    bands = plotted(folder, "x")
+    numerical = plotted(folder, "x by verlet")
+    expected = verlet_omega(bands, 0.2)
+    stable = bands * 0.2 < 2.0
+    assert np.allclose(numerical[stable], expected[stable], rtol=1e-9)
+    # the grid's highest waves (11.8 rad/s) grow at dt = 0.2 s: their line leaves the plot
+    top = folder.plot.scales["y"]["range"][1]
+    assert (~stable).any() and np.all(numerical[~stable] > top)
+    assert "grow" in folder.summary.content
+
+
+def test_the_chosen_wave_is_described_and_bad_values_are_refused(web_app):
+    folder = web_app.panel.dispersion
+    send(folder.branch, "x")
+    send(folder.position, 0.1)  # on Gamma-X: q along x, a tenth of the path's 2 + sqrt 2
+    q = 0.1 * (2 + math.sqrt(2)) * math.pi
+    assert f"|q| = {q:.4g} rad/m" in folder.point_text.content
+    omega = 2 * math.sqrt(35.0) * math.sin(q / 2)
+    assert f"ω = {omega:.4g} rad/s" in folder.point_text.content
+    marker = plotted(folder, "chosen wave")
+    assert np.nanmax(marker) == omega or abs(np.nanmax(marker) - omega) < 0.05 * omega
+    send(folder.position, float("nan"))
+    assert "refused" in folder.message.content and "c0392b" in folder.message.content
+    send(folder.branch, "<b>P</b>")
+    assert "refused" in folder.message.content and "<b>P</b>" not in folder.message.content
+    assert folder.branch.value == "x"
+
+
+def test_a_new_scene_redraws_the_bands(web_app):
+    panel = web_app.panel
+    send(panel.scene.preset, "ionic")
+    press(panel.scene.build_button)
+    settle(web_app)
+    folder = panel.dispersion
+    assert wait_for(lambda: "ionic lattice" in folder.summary.content)
+    assert list(folder.branch.options) == ["x acoustic", "x optical", "y acoustic", "y optical"]
+    assert "ionic lattice" in folder.summary.content
+    optical = plotted(folder, "x optical")
+    assert np.min(optical) == np.min(optical)  # finite
+    assert math.isclose(float(np.min(optical)), math.sqrt(2 * 35.0 / 1.0), rel_tol=1e-3)
