@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from sim.theory.bands import verlet_omega
 from tests.helpers import wait_for
@@ -71,3 +72,15 @@ def test_a_new_scene_redraws_the_bands(web_app):
     optical = plotted(folder, "x optical")
     assert np.min(optical) == np.min(optical)  # finite
     assert math.isclose(float(np.min(optical)), math.sqrt(2 * 35.0 / 1.0), rel_tol=1e-3)
+
+
+def test_the_modes_folder_draws_the_density_of_states(web_app):
+    spectrum = web_app.panel.spectrum
+    web_app.runner.play()
+    assert wait_for(lambda: spectrum.density_plot is not None)
+    web_app.runner.pause()
+    centres, density = (np.asarray(column) for column in spectrum.density_plot.data)
+    model = web_app.runner.simulation.model
+    width = centres[1] - centres[0]
+    assert float(density.sum() * width) == pytest.approx(model.n_particles * model.dim)
+    assert f"{model.n_particles * model.dim:,} exact normal-mode" in spectrum.density_text.content

@@ -336,7 +336,12 @@ def mode_frequencies(model: Model) -> np.ndarray:
 def density_of_states(model: Model, bins: int = 40) -> tuple[np.ndarray, np.ndarray]:
     """(bin centres (rad/s), modes per rad/s in each bin) of the exact mode frequencies; the
     densities times the bin width add up to the number of modes (particles x dimensions)."""
-    frequencies = mode_frequencies(model)
+    return density_from(mode_frequencies(model), bins)
+
+
+def density_from(frequencies: np.ndarray, bins: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    """``density_of_states`` of these mode frequencies (rad/s)."""
+    frequencies = np.asarray(frequencies, dtype=float)
     top = float(frequencies.max()) if frequencies.size else 0.0
     if top <= 0.0:
         raise ModelError("every mode has zero frequency: no density of states")
