@@ -317,7 +317,7 @@ class DispersionFolder(Folder):
             self.plot = self._gui.add_uplot(
                 data=tuple(data), series=tuple(series), order=self._plot_order, aspect=1.3,
                 padding=PADDING, scales={"x": {"time": False}, "y": {"range": [0.0, top]}},
-                axes=({"label": f"q along Γ–X–M–Γ (π/a = {1 / scale:.3g} rad/m): {corners}"},
+                axes=({"label": "q along Γ–X–M–Γ (π/a)"},
                       {"label": "ω (rad/s)", "size": 50}),
             )
         unstable = [n for n, f in zip(bands.names, numerical, strict=True)
@@ -329,7 +329,8 @@ class DispersionFolder(Folder):
         else:
             how = f"dotted: the frequency {integrator} at dt = {dt:g} s gives each wave"
         text = (f"{structure.kind} lattice, branches {', '.join(bands.names)}; solid: ω(q), "
-                f"dashed: continuum ω = c|q|; {how}. Path corners: Γ at 0, {corners} (π/a).")
+                f"dashed: continuum ω = c|q|; {how}. Path (units of π/a = {1 / scale:.3g} rad/m): "
+                f"Γ at 0, {corners}.")
         self.summary.content = as_html(text)
         if unstable:
             self.summary.content = as_html(text) + warning_html(

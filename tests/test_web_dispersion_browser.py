@@ -1,0 +1,68 @@
+"""In a real (headless) Chromium: the Dispersion folder's plot is drawn (its branches' colours and
+the chosen wave's point on the canvas), and Launch this wave sets the lattice moving."""
+
+from __future__ import annotations
+
+import io
+import time
+
+import numpy as np
+import pytest
+
+import sim
+from app.web.app import WebApp
+from app.web.folders.dispersion import COLOURS
+from tests.helpers import free_port, wait_for
+from tests.test_web_plots_browser import chart
+
+pytestmark = pytest.mark.browser
+
+
+def colour_pixels(pixels: np.ndarray, colour: str) -> int:
+    rgb = np.array([int(colour[k:k + 2], 16) for k in (1, 3, 5)])
+    return int((np.abs(pixels - rgb).max(axis=2) < 40).sum())
+
+
+@pytest.fixture
+def grid_app(tmp_path):
+    app = WebApp(sim.Simulation(sim.scenes.build("grid", nx=24, ny=16), integrator="verlet",
+                                dt=0.02),
+                 port=free_port(), scenes_dir=tmp_path / "scenes",
+                 recordings_dir=tmp_path / "recordings")
+    app.start()
+    assert wait_for(lambda: app.view.last_positions is not None, timeout=120)
+    yield app
+    app.stop()
+
+
+def test_the_dispersion_plot_is_drawn_and_a_launched_wave_moves_the_lattice(grid_app, browser):
+    from PIL import Image
+
+    app = grid_app
+    page = browser.new_page(viewport={"width": 1366, "height": 900})
+    page.goto(app.url)
+    page.get_by_text("Connected").wait_for(timeout=60_000)
+    page.get_by_text("Dispersion", exact=True).first.click()  # open the folder
+    assert wait_for(lambda: chart(page, "chosen wave") is not None, timeout=30)
+    drawn = chart(page, "chosen wave")
+    assert {"x", "y", "x continuum", "x by verlet"} <= set(drawn["labels"])
+    time.sleep(1.0)  # the chart paints
+    canvas = page.locator(".uplot-container", has_text="chosen wave").locator("canvas").first
+    canvas.scroll_into_view_if_needed()
+    pixels = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGB")).astype(int)
+    assert colour_pixels(pixels, COLOURS[0]) > 200 and colour_pixels(pixels, COLOURS[1]) > 200
+    assert colour_pixels(pixels, "#000000") > 20  # the chosen wave's point (and the axes' text)
+
+    try:
+        import sim.scenes.packet  # noqa: F401
+    except ImportError:
+        pytest.skip("sim.scenes.packet (the wave packet launcher) is not in this build")
+    start = app.runner.simulation.positions.copy()
+    page.get_by_role("button", name="Launch this wave").click()
+    assert wait_for(lambda: "launched a packet" in app.panel.dispersion.message.content,
+                    timeout=30)
+    app.runner.play()
+    assert wait_for(lambda: app.runner.simulation.time > 1.0, timeout=60)
+    app.runner.pause()
+    moved = np.abs(app.runner.simulation.positions - start).max()
+    assert moved > 1e-6 * app.runner.simulation.model.spacing
