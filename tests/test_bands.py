@@ -162,3 +162,28 @@ def test_density_of_states_counts_every_mode():
     assert float(density.sum() * width) == pytest.approx(model.n_particles * model.dim)
     expected = hand_built_frequencies(model, K * 0.2)
     assert bands.mode_frequencies(model) == pytest.approx(expected, rel=1e-10, abs=1e-10)
+
+
+def test_the_command_draws_a_scene_s_bands_and_refuses_chain_options(tmp_path, capsys):
+    import json
+
+    from PIL import Image
+
+    from app.cli import main
+
+    picture = tmp_path / "ionic.png"
+    assert main(["dispersion", "ionic", "--integrator", "verlet", "--dt", "0.2", "--json",
+                 "--plot", str(picture)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["branches"] == ["x acoustic", "x optical", "y acoustic", "y optical"]
+    heavy, light = 4.0, 1.0
+    assert data["gaps"][0]["low"] == pytest.approx(math.sqrt(2 * K / heavy))
+    assert data["gaps"][0]["high"] == pytest.approx(math.sqrt(2 * K / light))
+    top = math.sqrt(2 * K * (1 / heavy + 1 / light))
+    assert data["highest_omega"] == pytest.approx(top, rel=1e-4)
+    assert data["highest_omega_numerical"] == pytest.approx(
+        float(bands.verlet_omega(data["highest_omega"], 0.2)), rel=1e-9)
+    image = np.asarray(Image.open(picture).convert("L"))
+    assert image.shape[0] > 300 and image.std() > 10  # a drawn picture, not a blank one
+    assert main(["dispersion", "--dt", "0.1"]) == 2
+    assert "applies to a SCENE" in capsys.readouterr().err
