@@ -84,3 +84,29 @@ def test_the_modes_folder_draws_the_density_of_states(web_app):
     width = centres[1] - centres[0]
     assert float(density.sum() * width) == pytest.approx(model.n_particles * model.dim)
     assert f"{model.n_particles * model.dim:,} exact normal-mode" in spectrum.density_text.content
+
+
+def test_launch_puts_the_chosen_packet_in_the_lattice_and_refuses_what_it_cannot(web_app):
+    from sim.scenes.packet import PacketSpec, packet_state
+
+    folder = web_app.panel.dispersion
+    send(folder.branch, "y")
+    send(folder.position, 0.0)
+    press(folder.launch_button)
+    assert "refused" in folder.message.content and "Γ" in folder.message.content
+    send(folder.position, 0.6)  # on X-M
+    press(folder.launch_button)
+    settle(web_app)
+    assert "launched a packet on branch y" in folder.message.content
+    model = web_app.runner.simulation.model
+    _, qx, qy = folder.structure.point(0.6)
+    expected, _ = packet_state(model, PacketSpec(qx, qy, "y"), None)
+    assert np.allclose(web_app.runner.simulation.positions, expected)
+    panel = web_app.panel
+    send(panel.scene.preset, "ionic")
+    press(panel.scene.build_button)
+    settle(web_app)
+    assert wait_for(lambda: "ionic lattice" in folder.summary.content)
+    send(folder.position, 0.3)
+    press(folder.launch_button)
+    assert "could not launch" in folder.message.content and "equal masses" in folder.message.content

@@ -172,10 +172,10 @@ class DispersionFolder(Folder):
     # --- launching -------------------------------------------------------------------------------
 
     def launch(self) -> None:
-        """Post the command that puts a packet of the chosen wave into the lattice, and follow it
-        with a tracker (``sim.scenes.packet``, ``sim.instruments.packet_tracker``)."""
+        """Post the command that puts a packet of the chosen wave into the lattice
+        (``sim.scenes.packet``), and follow it with a tracker
+        (``sim.instruments.packet_tracker``) when this build has one."""
         fraction, branch = self._chosen()
-        from sim.instruments.packet_tracker import PacketTracker
         from sim.scenes.packet import PacketSpec, launch_packet
 
         structure = self.structure
@@ -184,10 +184,18 @@ class DispersionFolder(Folder):
         if math.hypot(qx, qy) == 0.0:
             raise InputRefused("at Γ the wave has no wavelength: move along the path")
         spec = PacketSpec(qx, qy, branch)
-        model = self.host.runner.simulation.model
         self.host.runner.post(lambda simulation: launch_packet(simulation, spec)).result(timeout=30)
-        tracker = PacketTracker(model, spec)
+        model = self.host.runner.simulation.model
         self._stop_tracking()
+        said = ok_html(f"launched a packet on branch {branch} at q = ({qx:.4g}, {qy:.4g}) rad/m; "
+                       "press Play")
+        try:
+            from sim.instruments.packet_tracker import PacketTracker
+        except ImportError:
+            self.message.content = said + amber_html(
+                "this build has no packet tracker: the speeds are not measured")
+            return
+        tracker = PacketTracker(model, spec)
         with self._lock:
             self._tracker, self._tracked = tracker, (model, branch, qx, qy)
             self._measured = (None, None)
@@ -206,8 +214,7 @@ class DispersionFolder(Folder):
             current.add(frame.time, frame.positions)
 
         self._unsubscribe = self.host.runner.subscribe(receive)
-        self.message.content = ok_html(f"launched a packet on branch {branch} at q = "
-                                       f"({qx:.4g}, {qy:.4g}) rad/m; press Play")
+        self.message.content = said
 
     def _stop_tracking(self) -> None:
         if self._unsubscribe is not None:
