@@ -110,3 +110,45 @@ def test_launch_puts_the_chosen_packet_in_the_lattice_and_refuses_what_it_cannot
     send(folder.position, 0.3)
     press(folder.launch_button)
     assert "could not launch" in folder.message.content and "equal masses" in folder.message.content
+
+
+class StandInTracker:
+    """A tracker that reports fixed speeds (m/s) once it has seen frames: the folder's display
+    of measured speeds is tested apart from the measurement."""
+
+    def __init__(self, model, spec) -> None:
+        self.frames = 0
+
+    def add(self, time: float, positions) -> None:
+        self.frames += 1
+
+    def speeds(self) -> dict[str, float]:
+        if self.frames < 3:
+            raise ValueError("too few frames")
+        return {"group": 3.25, "phase": 4.5}
+
+
+def test_measured_speeds_are_shown_and_a_reset_takes_them_away(web_app, monkeypatch):
+    import sys
+    import types
+
+    module = types.ModuleType("sim.instruments.packet_tracker")
+    module.PacketTracker = StandInTracker
+    monkeypatch.setitem(sys.modules, "sim.instruments.packet_tracker", module)
+    folder = web_app.panel.dispersion
+    send(folder.branch, "x")
+    send(folder.position, 0.1)
+    press(folder.launch_button)
+    settle(web_app)
+    web_app.runner.play()
+    assert wait_for(lambda: "measured group speed 3.25 m/s" in folder.point_text.content)
+    web_app.runner.pause()
+    assert "phase speed 4.5 m/s" in folder.point_text.content
+    measured = plotted(folder, "measured")
+    size = 0.1 * (2 + math.sqrt(2)) * math.pi  # |q| on Gamma-X (a = 1 m)
+    chosen = int(np.flatnonzero(np.isfinite(plotted(folder, "chosen wave")))[0])
+    assert measured[chosen] == pytest.approx(4.5 * size, rel=1e-9)
+    press(web_app.panel.run.reset_button)
+    settle(web_app)
+    assert wait_for(lambda: "measured" not in folder.point_text.content)
+    assert wait_for(lambda: not np.isfinite(plotted(folder, "measured")).any())
