@@ -1,6 +1,7 @@
 """``oscillators run``: run a scene headless with a progress bar, then print its energy account
 (J, start and end, and the balance error) and, with ``--probe I,J``, the dominant frequencies
-(Hz) of probed particles with the nearest normal modes; ``--json`` prints the same as JSON.
+(Hz) of probed particles with the nearest normal modes, and with ``--packet QX,QY[,POL]`` a wave
+packet's measured group and phase speeds against theory; ``--json`` prints the same as JSON.
 
 Exit codes: 0 done, 2 bad input, 3 the run blew up (the summary is still printed).
 """
@@ -23,6 +24,7 @@ from app.cli.arguments import (
     simulation_from_arguments,
 )
 from app.cli.limits import planned_steps
+from app.cli.packets import PacketRun, add_packet_argument, print_packet
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -46,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(those of `oscillators choose`'s errors: SAMPLES evenly spaced times, the last at the "
         "end) with the energy-balance error at each, as arrays times (s), fields (samples, dim, "
         "ny, nx) m and energy_balance_errors in a NumPy .npz file")
+    add_packet_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_run)
 
@@ -56,7 +59,11 @@ def command_run(arguments: argparse.Namespace) -> int:
     from sim import BlowUpError
 
     simulation = simulation_from_arguments(arguments)
-    steps = planned_steps(simulation, steps=arguments.steps, duration=arguments.duration)
+    packet = PacketRun(simulation, arguments.packet) if arguments.packet else None
+    duration = arguments.duration
+    if packet is not None and arguments.steps is None and duration is None:
+        duration = packet.duration()
+    steps = planned_steps(simulation, steps=arguments.steps, duration=duration)
     fields = _Fields(arguments.fields, simulation, steps) if arguments.fields else None
     limit = simulation.stability()
     talk = sys.stderr if arguments.json else sys.stdout  # --json: stdout is the document alone
@@ -81,6 +88,8 @@ def command_run(arguments: argparse.Namespace) -> int:
         probes.add(simulation.time, simulation.state.particle_positions())
         # sample four times per period of the fastest mode (twice the Nyquist rate)
         chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
+    if packet is not None:
+        chunk = min(chunk, packet.chunk(simulation.dt))
     started = time.perf_counter()
     status = 0
     stopped = None
@@ -94,6 +103,8 @@ def command_run(arguments: argparse.Namespace) -> int:
                 bar.update(n)
                 if probes is not None:
                     probes.add(simulation.time, simulation.state.particle_positions())
+                if packet is not None:
+                    packet.add(simulation)
                 if fields is not None and done == fields.next_step:
                     fields.add(simulation, done)
         except BlowUpError as error:
@@ -115,6 +126,8 @@ def command_run(arguments: argparse.Namespace) -> int:
         summary["probes"] = _probe_report(probes)
     if fields is not None:
         summary["fields"] = fields.save()
+    if packet is not None:
+        summary.update(packet.report())
     if arguments.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -150,6 +163,8 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
         ) or "no motion"
         print(f"probe particle {probe['particle']} (column {probe['column']}, row "
               f"{probe['row']}), {probe['component']} motion: {peaks}")
+    if "packet" in summary:
+        print_packet(summary)
 
 
 def _probe_report(probes: Any) -> list[dict[str, Any]]:

@@ -356,3 +356,13 @@ def packet_state(model: Model, spec: PacketSpec,
         velocity[:, component] = np.fft.ifft2(omega * part).imag.ravel()
     equilibrium = static_offset(model).reshape(model.dim, -1).T
     return rest + equilibrium + displacement, velocity
+
+
+def default_polarisation(model: Model, qx: float, qy: float) -> str:
+    """The first of ``polarisation_names(model)`` that carries a wave at (qx, qy) (rad/m):
+    "x" (or "S" with diagonal springs) unless no spring resists that motion at q."""
+    names = polarisation_names(model)
+    for name in names:
+        if float(branch(model, name).omega(qx, qy)) > 0:
+            return name
+    return names[0]
