@@ -166,7 +166,6 @@ class DispersionFolder(Folder):
         distance, qx, qy = structure.point(fraction)
         wave = structure.wave(branch, qx, qy)
         wave["x"] = distance * structure.spacing / math.pi
-        wave["branch_index"] = structure.branch(branch)
         return wave
 
     # --- launching -------------------------------------------------------------------------------
@@ -381,28 +380,45 @@ class DispersionFolder(Folder):
             theory = self.structure.wave(branch, qx, qy)
             text += (f"\nlaunched packet (branch {branch}, |q| = {size:.4g} rad/m): measured "
                      f"group speed {_speed(group)} (theory {theory['group_speed']:.4g} m/s), "
-                     f"phase speed {_speed(phase)} (theory {theory['phase_speed']:.4g} m/s)")
-            if phase is not None and branch == self.branch.value:
+                     f"phase speed {_speed(phase)} (theory {theory['phase_speed']:.4g} m/s")
+            if integrator is not None and frame_dt is not None:
+                found = numerical_omegas(integrator, np.array([theory["omega"]]), frame_dt)
+                if found is not None and not found.exact and found.stable[0]:
+                    text += (f"; {integrator} at this dt: "
+                             f"{found.omega_numerical[0] / size:.4g} m/s")
+            text += ")"
+            launched = self._launched_index(qx, qy)
+            if phase is not None and launched is not None:
                 omega = phase * size
-                measured_line[index] = omega
+                measured_line[launched] = omega
                 if group is not None and theory["group_speed"] > 0:
                     # the measured slope along the path: the theory's, scaled by measured/theory
-                    slope = self._path_slope(wave) * group / theory["group_speed"]
-                    near = np.abs(x - x[index]) <= 0.08
-                    measured_line[near] = omega + slope * (x[near] - x[index])
+                    slope = self._path_slope(x[launched], branch) \
+                        * group / theory["group_speed"]
+                    near = np.abs(x - x[launched]) <= 0.08
+                    measured_line[near] = omega + slope * (x[near] - x[launched])
         data[self._marker_index] = marker
         data[self._marker_index + 1] = measured_line
         self.plot.data = tuple(data)
         self.point_text.content = as_html(text)
 
-    def _path_slope(self, wave: dict[str, float]) -> float:
-        """d omega / d x (rad/s per pi/a) of the chosen branch along the plot at the wave."""
+    def _launched_index(self, qx: float, qy: float) -> int | None:
+        """The plot's sample nearest the launched wave vector (None: it is not on the path)."""
+        structure = self.structure
+        assert structure is not None
+        _, path_x, path_y, _ = structure.path(SAMPLES)
+        gaps = np.hypot(path_x - qx, path_y - qy)
+        index = int(np.argmin(gaps))
+        return index if gaps[index] <= 0.05 * math.pi / structure.spacing else None
+
+    def _path_slope(self, at: float, branch: str) -> float:
+        """d omega / d x (rad/s per pi/a) of ``branch`` along the plot at ``at`` (pi/a)."""
         structure = self.structure
         assert structure is not None
         _, qx, qy, _ = structure.path(SAMPLES)
-        row = structure.omegas(qx, qy)[int(wave["branch_index"])]
+        row = structure.omegas(qx, qy)[structure.branch(branch)]
         x = self._data[0]
-        return float(np.interp(wave["x"], x, np.gradient(row, x)))
+        return float(np.interp(at, x, np.gradient(row, x)))
 
 
 def _speed(value: float | None) -> str:
