@@ -213,6 +213,14 @@ class DispersionFolder(Folder):
             current.add(frame.time, frame.positions)
 
         self._unsubscribe = self.host.runner.subscribe(receive)
+        clear = getattr(tracker, "clear_time", None)
+        if clear is not None and clear <= 0.0:
+            said += amber_html("this packet is too wide for the lattice (it touches a wall from "
+                               "the start): its speeds cannot be measured; a larger lattice or "
+                               "a shorter wavelength can")
+        elif clear is not None:
+            said += as_html(f"its speeds are measured until it nears a wall, {clear:.3g} s "
+                            "after the launch")
         self.message.content = said
 
     def _stop_tracking(self) -> None:
@@ -382,10 +390,7 @@ class DispersionFolder(Folder):
                      f"group speed {_speed(group)} (theory {theory['group_speed']:.4g} m/s), "
                      f"phase speed {_speed(phase)} (theory {theory['phase_speed']:.4g} m/s")
             if integrator is not None and frame_dt is not None:
-                found = numerical_omegas(integrator, np.array([theory["omega"]]), frame_dt)
-                if found is not None and not found.exact and found.stable[0]:
-                    text += (f"; {integrator} at this dt: "
-                             f"{found.omega_numerical[0] / size:.4g} m/s")
+                text += _integrator_speeds(integrator, frame_dt, theory)
             text += ")"
             launched = self._launched_index(qx, qy)
             if phase is not None and launched is not None:
@@ -419,6 +424,20 @@ class DispersionFolder(Folder):
         row = structure.omegas(qx, qy)[structure.branch(branch)]
         x = self._data[0]
         return float(np.interp(at, x, np.gradient(row, x)))
+
+
+def _integrator_speeds(integrator: str, dt: float, theory: dict[str, float]) -> str:
+    """What the integrator at ``dt`` makes of the wave ``theory`` (``BandStructure.wave``): its
+    phase speed omega_num / |q| and group speed (d omega_num / d omega) |v_g| (m/s), as text
+    ("" for a method without time-step error or one whose matrices are not known)."""
+    omega, size = theory["omega"], theory["q"]
+    step = 1e-6 * max(omega, 1e-12)
+    found = numerical_omegas(integrator, np.array([omega, omega - step, omega + step]), dt)
+    if found is None or found.exact or not found.stable.all():
+        return ""
+    turned = found.omega_numerical
+    group = (turned[2] - turned[1]) / (2 * step) * theory["group_speed"]
+    return f"; {integrator} at this dt: group {group:.4g} m/s, phase {turned[0] / size:.4g} m/s"
 
 
 def _speed(value: float | None) -> str:
