@@ -125,7 +125,7 @@ class StandInTracker:
     def speeds(self) -> dict[str, float]:
         if self.frames < 3:
             raise ValueError("too few frames")
-        return {"group": 3.25, "phase": 4.5}
+        return {"group_speed": 3.25, "phase_speed": 4.5}
 
 
 def test_measured_speeds_are_shown_and_a_reset_takes_them_away(web_app, monkeypatch):

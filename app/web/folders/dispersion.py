@@ -53,20 +53,10 @@ OFF_PLOT = 10.0
 """A growing wave's numerical line is drawn at this many times the plot's top: off the plot."""
 
 
-def speed_pair(measured: Any) -> tuple[float | None, float | None]:
-    """(group, phase) speed (m/s) from what ``PacketTracker.speeds()`` returns: a mapping with
-    'group'/'phase' entries (or '..._speed'), an object with such attributes, or a pair."""
-    def pick(kind: str) -> float | None:
-        for key in (kind, f"{kind}_speed", f"{kind}_velocity"):
-            value = measured.get(key) if isinstance(measured, dict) else \
-                getattr(measured, key, None)
-            if value is not None:
-                return float(value)
-        return None
-
-    if isinstance(measured, tuple | list) and len(measured) == 2:
-        return tuple(None if v is None else float(v) for v in measured)  # type: ignore[return-value]
-    return pick("group"), pick("phase")
+def speed_pair(measured: dict) -> tuple[float | None, float | None]:
+    """(group, phase) speed (m/s) from ``PacketTracker.speeds()`` (None: not measured yet)."""
+    group, phase = measured.get("group_speed"), measured.get("phase_speed")
+    return (None if group is None else float(group), None if phase is None else float(phase))
 
 
 class DispersionFolder(Folder):

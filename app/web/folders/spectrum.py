@@ -208,6 +208,7 @@ class SpectrumFolder(Folder):
         self.polarisation.options = names
         self.excite_button.disabled = not model.uniform_mass or model.periodic
         self._last = 0.0
+        self._basis = None  # the density of states is drawn again with the next picture
         self._show_frequency()
         self._show_density(None, "computed with the first picture")
 
