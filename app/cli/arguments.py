@@ -25,6 +25,7 @@ EPILOG = """examples:
   oscillators run grid --set nx=40 --set ny=30 --duration 20
   oscillators run catenary --duration 30            # watch it settle under gravity
   oscillators run resonance --probe 0,0             # driven at its 3rd mode: the probe finds it
+  oscillators run grid --set nx=400 --set ny=1 --packet 0.5,0   # a wave packet's group speed
   oscillators run chain --set driver=column=0,frequency=0.6,amplitude=0.02,kind=force
   oscillators run grid --set nx=120 --set ny=1 --set boundary=absorbing --set sponge_width=20
   oscillators serve grid                            # the web app on http://127.0.0.1:8080

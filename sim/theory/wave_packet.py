@@ -26,9 +26,9 @@ wavelengths; across q it is at least as wide, and wider when the group velocity 
 wave vector across q (a narrow packet holds wave vectors across q whose group velocities differ:
 the envelope is made wide enough that its centroid moves within ``ACROSS_BIAS`` of the group
 velocity at q).  The packet starts as far back against the group velocity as it fits, its
-``EDGE``-sigma ellipse inside the walls, and ``clear_time`` is when that ellipse (growing by
-dispersion, Sigma(t) = Sigma0 + t^2 H Sigma0^-1 H, H the Hessian of omega) first reaches a wall:
-measurements of its speeds hold until then.
+``EDGE``-sigma ellipse inside the walls (inside an absorbing layer), and ``clear_time`` is when
+that ellipse (growing by dispersion, Sigma(t) = Sigma0 + t^2 H Sigma0^-1 H, H the Hessian of
+omega) first reaches a wall: measurements of its speeds hold until then.
 
 Units: m, kg, s; q in rad/m, omega in rad/s, speeds in m/s.
 """
@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 import numpy as np
 
@@ -189,7 +190,8 @@ def check_spec(model: Model, spec: PacketSpec) -> None:
     or a length that is not a positive number (WaveError)."""
     edge = math.pi / model.spacing
     for name, value in (("qx", spec.qx), ("qy", spec.qy)):
-        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+        if isinstance(value, bool) or not (isinstance(value, numbers.Real)
+                                           and math.isfinite(value)):
             raise WaveError(f"{name} must be a finite number of rad/m, got {value!r}")
         if abs(value) > edge * (1 + 1e-12):
             raise WaveError(f"{name} = {value:g} rad/m is outside the first zone: |{name}| <= "
@@ -252,9 +254,17 @@ def plan(model: Model, spec: PacketSpec) -> Packet:
     return dataclasses.replace(packet, clear_time=_clear_time(packet))
 
 
-def _walls(model: Model) -> np.ndarray:
-    """Distances (m) from the lattice's centre to the walls along x and y."""
-    return np.array([(model.nx + 1) / 2, (model.ny + 1) / 2]) * model.spacing
+def _region(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest, highest) (x, y) (m) the packet may reach: the walls, or the inner edges of an
+    absorbing layer."""
+    half = np.array([(model.nx + 1) / 2, (model.ny + 1) / 2]) * model.spacing
+    low, high = -half, half.copy()
+    if model.walls.absorbing:
+        inset = model.sponge_width * model.spacing
+        sides = model.sponge_sides
+        low = low + inset * np.array(["left" in sides, "bottom" in sides])
+        high = high - inset * np.array(["right" in sides, "top" in sides])
+    return low, high
 
 
 def _independent_across(frequency, q: np.ndarray, across: np.ndarray, a: float) -> bool:
@@ -267,25 +277,29 @@ def _independent_across(frequency, q: np.ndarray, across: np.ndarray, a: float) 
 def _start(packet: Packet) -> np.ndarray:
     """The centre (m) as far back against the group velocity as the packet's edge fits."""
     if not np.any(packet.group_velocity):
-        return np.zeros(2)
+        low, high = _region(packet.model)
+        return 0.5 * (low + high)
     direction = packet.direction
-    room = _walls(packet.model) - packet.extent(0.0)
+    low, high = _region(packet.model)
+    middle = 0.5 * (low + high)
+    room = 0.5 * (high - low) - packet.extent(0.0)
     back = [room[i] / abs(direction[i]) for i in range(2) if abs(direction[i]) > 1e-12]
-    return -max(0.0, min(back)) * direction
+    return middle - max(0.0, min(back)) * direction
 
 
 def _clear_time(packet: Packet) -> float:
     """The first time (s) the packet's edge reaches a wall (0: it does not fit at launch)."""
-    walls = _walls(packet.model)
+    low, high = _region(packet.model)
 
     def fits(time: float) -> bool:
         centre = packet.centre + packet.group_velocity * time
-        return bool(np.all(np.abs(centre) + packet.extent(time) <= walls))
+        extent = packet.extent(time)
+        return bool(np.all(centre - extent >= low) and np.all(centre + extent <= high))
 
     if not fits(0.0):
         return 0.0
     speed = float(np.hypot(*packet.group_velocity))
-    horizon = 4 * float(walls.max()) / speed if speed > 0 else 1e4 * 2 * math.pi / packet.omega
+    horizon = 2 * float(np.max(high - low)) / speed if speed > 0 else 1e4 * 2 * math.pi / packet.omega
     times = np.linspace(0.0, horizon, 2001)
     bad = [time for time in times[1:] if not fits(float(time))]
     if not bad:
