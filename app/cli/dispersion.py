@@ -1,5 +1,7 @@
 """``oscillators dispersion``: the continuum limit, the wave speed and the dispersion relation
-measured on long chains (``app.study.dispersion``), as a table or JSON and an optional picture.
+measured on long chains (``app.study.dispersion``), as a table or JSON and an optional picture;
+with a SCENE, that scene's band structure and its integrator's numerical dispersion
+(``app.study.bands``).
 """
 
 from __future__ import annotations
@@ -7,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from app.cli.arguments import bounded_int, positive_float
+from app.cli.arguments import IntegratorChoices, bounded_int, positive_float, scene_from_arguments
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -38,6 +40,12 @@ With --diagonal-stiffness K2 > 0 the lattice is an elastic solid instead (neares
 diagonal springs K2; isotropic at K2 = k/2): the P and S wave speeds are measured on the
 elastic-solid scene and compared with sqrt((lambda + 2 mu)/rho) and sqrt(mu/rho), and both
 in-plane branches along an axis are measured against the dispersion relation.
+
+With a SCENE (a preset name or a scene file) nothing is run: the scene's band structure is
+computed (omega(q) of every branch along Gamma-X-M-Gamma: x, y, z for nearest springs, S and P
+with diagonal springs, acoustic and optical branches of the ionic checkerboard), with the
+continuum lines omega = c |q| and what the scene's integrator at its dt makes of each frequency;
+--plot draws them.
 """
 
 EPILOG = """\
@@ -45,6 +53,8 @@ examples:
   oscillators dispersion --plot docs/images/dispersion.png
   oscillators dispersion --particles 2000 --json
   oscillators dispersion --diagonal-stiffness 17.5
+  oscillators dispersion ionic --plot ionic-bands.png
+  oscillators dispersion elastic-solid --integrator rk4 --dt 0.05 --plot bands.png
 """
 
 
@@ -59,6 +69,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "dispersion", help="wave speed and dispersion relation measured on long chains",
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.add_argument("scene", nargs="?", default=None,
+                        help="preset name or .toml/.zip scene file: draw its band structure "
+                        "instead of running the chain study")
+    parser.add_argument("--integrator", choices=IntegratorChoices(),
+                        help="with a SCENE: the integrator whose numerical dispersion is drawn "
+                        "(default: the scene's)")
+    parser.add_argument("--dt", type=positive_float,
+                        help="with a SCENE: its time step in s (default: the scene's)")
+    parser.add_argument("--set", dest="overrides", action="append", metavar="KEY=VALUE",
+                        help="with a SCENE: override a scene parameter (as in `oscillators run`)")
     parser.add_argument("--particles", type=bounded_int(*DISPERSION_PARTICLES), default=400,
                         help="particles in the chain (default 400; from {} to {})".format(
                             *DISPERSION_PARTICLES))
@@ -78,6 +98,12 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
     from app.study import dispersion
 
     check_plot_path(arguments)
+    if arguments.scene is not None:
+        return _scene_bands(arguments)
+    for option in ("integrator", "dt", "overrides"):
+        if getattr(arguments, option):
+            raise ValueError(f"--{option.replace('overrides', 'set')} applies to a SCENE's bands; "
+                             "the chain study runs the most accurate integrator")
     if arguments.diagonal_stiffness > 0:
         return _elastic_solid(arguments)
     lightest = min(arguments.mass, arguments.heavy)
@@ -94,6 +120,23 @@ def command_dispersion(arguments: argparse.Namespace) -> int:
     if arguments.plot:
         write_picture(arguments.plot, dispersion.plot_dispersion, study)
     emit(arguments, study.as_dict(), dispersion.format_report(study))
+    return 0
+
+
+def _scene_bands(arguments: argparse.Namespace) -> int:
+    """The band structure of the named scene (``app.study.bands``), nothing run."""
+    import sim
+    from app.study import bands
+
+    if arguments.diagonal_stiffness > 0:
+        raise ValueError("--diagonal-stiffness belongs to the chain study; give the scene's "
+                         "diagonal springs with --set diagonal_stiffness=K2")
+    scene = scene_from_arguments(arguments)
+    simulation = sim.Simulation(scene, integrator=arguments.integrator, dt=arguments.dt)
+    picture = bands.band_picture(simulation)
+    if arguments.plot:
+        write_picture(arguments.plot, bands.plot_bands, picture)
+    emit(arguments, picture.as_dict(), bands.format_report(picture))
     return 0
 
 

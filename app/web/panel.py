@@ -31,6 +31,7 @@ import numpy as np
 import sim
 from app.web.folders.accuracy import AccuracyFolder
 from app.web.folders.barrier import BarrierFolder
+from app.web.folders.dispersion import DispersionFolder
 from app.web.folders.drive import DriveFolder
 from app.web.folders.energy import EnergyFolder
 from app.web.folders.integrator import IntegratorFolder
@@ -62,6 +63,7 @@ FOLDERS: tuple[type[Folder], ...] = (
     PhysicsFolder,
     SelectionFolder,
     SpectrumFolder,
+    DispersionFolder,
     ProbesFolder,
     DriveFolder,
     ViewSettingsFolder,

@@ -22,7 +22,7 @@ from app.web.widgets import PlotAxis
 
 PADDING = (10, 24, 0, 0)
 """Space (CSS px: top, right, bottom, left) around a plot: the top tick's label is not cut."""
-_ENTERING = threading.Lock()
+ENTERING = threading.Lock()
 """Held while a plot is added into its folder: a viser folder may be entered (``with folder``)
 by one thread at a time, and a reset (the frame pump) and a new scene (a page's callback) may
 rebuild plots at the same moment."""
@@ -59,7 +59,7 @@ class LivePlot:
         with self._lock:
             order = self.handle.order
             self.handle.remove()
-            with _ENTERING, self._folder:
+            with ENTERING, self._folder:
                 self.handle = self._add(data, layout, order)
             self._layout = layout
 

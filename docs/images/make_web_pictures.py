@@ -2,7 +2,8 @@
 laptop's size (1366x768 CSS pixels):
 
 * ``web_before_play.png``: ``oscillators serve grid`` as it opens, before Play;
-* ``web_interference.png``: ``oscillators serve interference`` after 25 s of play (wall time).
+* ``web_interference.png``: ``oscillators serve interference`` after 25 s of play (wall time);
+* ``web_dispersion.png``: the Dispersion folder of ``oscillators serve ionic`` (the panel only).
 
 Each is saved as a full-colour PNG.  Run from the repository root (about a minute)::
 
@@ -24,8 +25,12 @@ import sim  # noqa: E402
 from app.web.app import WebApp  # noqa: E402
 from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
 
-PICTURES = {"web_before_play": ("grid", 0.0), "web_interference": ("interference", 25.0)}
+PICTURES = {"web_before_play": ("grid", 0.0), "web_interference": ("interference", 25.0),
+            "web_dispersion": ("ionic", 0.0)}
 """Picture name -> (preset, seconds of play before the screenshot)."""
+FOLDERS = {"web_dispersion": ("Dispersion", "chosen wave", "Launch this wave")}
+"""Pictures of one folder of the panel: name -> (folder, a label of the plot it shows, its last
+button: the picture goes from above the plot to below that button)."""
 
 
 def take(name: str, preset: str, play: float, browser) -> Path:
@@ -34,7 +39,8 @@ def take(name: str, preset: str, play: float, browser) -> Path:
     app = WebApp(sim.Simulation(sim.scenes.build(preset)), port=free_port())
     app.start()
     try:
-        page = browser.new_page(viewport={"width": 1366, "height": 768})
+        height = 1300 if name in FOLDERS else 768  # a folder's picture: room for all of it
+        page = browser.new_page(viewport={"width": 1366, "height": height})
         page.goto(app.url)
         page.get_by_text("Connected").wait_for(timeout=60_000)
         # the notice that the browser draws without a graphics card is not the product's
@@ -47,8 +53,21 @@ def take(name: str, preset: str, play: float, browser) -> Path:
             assert wait_for(lambda: app.runner.simulation.step_count > 0, timeout=60)
             time.sleep(play)
             app.runner.pause()
+        clip = None
+        if name in FOLDERS:
+            folder, label, last = FOLDERS[name]
+            page.get_by_text(folder, exact=True).first.click()
+            plot = page.locator(".uplot-container", has_text=label).first
+            plot.wait_for(timeout=30_000)
+            button = page.get_by_role("button", name=last)
+            button.scroll_into_view_if_needed()
+            time.sleep(1.0)
+            box, end = plot.bounding_box(), button.bounding_box()
+            top = max(box["y"] - 140, 0)
+            clip = {"x": box["x"] - 12, "y": top, "width": box["width"] + 24,
+                    "height": min(end["y"] + end["height"] + 60, height) - top}
         time.sleep(3.0)
-        shot = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+        shot = Image.open(io.BytesIO(page.screenshot(clip=clip))).convert("RGB")
         path = HERE / f"{name}.png"
         shot.save(path, optimize=True)  # full colour: 256 colours band the colour bar
         return path

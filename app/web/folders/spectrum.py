@@ -11,6 +11,11 @@ picture is energy against frequency, and exciting one mode is not offered.
 
 In a linear scene without damping each mode's energy stays constant; with nonlinear springs
 students watch energy move between modes.
+
+Below the picture, the density of states: a histogram of the exact normal-mode frequencies of the
+lattice (``sim.theory.bands.density_from``), when they can be computed (equal masses at any size,
+unequal masses up to ``sim.theory.modes.DENSE_PARTICLE_LIMIT`` particles; the folder says why not
+otherwise).
 """
 
 from __future__ import annotations
@@ -33,8 +38,10 @@ from app.web.inputs import (
     warning_html,
     whole_number,
 )
+from app.web.plots import ENTERING, PADDING
 from app.web.widgets import MATPLOTLIB_LOCK, say
 from sim.runtime.runner import Frame
+from sim.theory.bands import density_from
 from sim.theory.modes import (
     POLARISATION_NAMES,
     ModalBasis,
@@ -45,6 +52,8 @@ from sim.theory.modes import (
 
 REFRESH_SECONDS = 1.0
 """Seconds between two pictures of the spectrum (more on large lattices, see ``_interval``)."""
+DENSITY_BINS = 30
+"""Bins of the density of states' histogram."""
 DYNAMIC_RANGE = 1e-10
 """The colour scale spans this fraction of the largest mode energy up to the largest."""
 
@@ -105,12 +114,18 @@ class SpectrumFolder(Folder):
         self._last = 0.0
         self.last_energies: list[np.ndarray] | None = None
         model = host.runner.simulation.model
-        with gui.add_folder("Modes", expand_by_default=False):
+        with gui.add_folder("Modes", expand_by_default=False) as self._folder:
             self.polarisation = gui.add_dropdown(
                 "Polarisation", list(POLARISATION_NAMES[: model.dim]), initial_value="y",
                 hint="x: motion along the rows, y: along the columns, z: out of the plane",
             )
             self.picture = gui.add_image(np.full((8, 8, 3), 255, np.uint8))
+            self.density_text = gui.add_html(as_html("density of states: computed with the "
+                                                     "first picture"))
+            place = gui.add_html("")  # where the density of states' plot goes
+            self._density_order = place.order
+            place.remove()
+            self.density_plot = None
             self.m = gui.add_number("m (along x)", 1, step=1)
             self.n = gui.add_number("n (along y)", 1, step=1)
             self.amplitude = gui.add_number("Amplitude (a)", 0.2, step=0.05,
@@ -193,7 +208,40 @@ class SpectrumFolder(Folder):
         self.polarisation.options = names
         self.excite_button.disabled = not model.uniform_mass or model.periodic
         self._last = 0.0
+        self._basis = None  # the density of states is drawn again with the next picture
         self._show_frequency()
+        self._show_density(None, "computed with the first picture")
+
+    def _show_density(self, basis: ModalBasis | None, reason: str) -> None:
+        """The density of states of the exact modes (all polarisations) as a small plot, or why
+        there is none (the lattice too large to solve exactly, diagonal springs)."""
+        if self.density_plot is not None:
+            self.density_plot.remove()
+            self.density_plot = None
+        if basis is None:
+            self.density_text.content = as_html(f"density of states: {reason}")
+            return
+        frequencies = np.sqrt(np.maximum(np.concatenate(
+            [np.ravel(values) for values in basis.omega_squared]), 0.0))
+        try:
+            centres, density = density_from(frequencies, DENSITY_BINS)
+        except sim.ModelError as error:
+            self.density_text.content = as_html(f"density of states: {error}")
+            return
+        top = float(density.max()) * 1.1
+        with ENTERING, self._folder:
+            self.density_plot = self.host.server.gui.add_uplot(
+                data=(centres, density), order=self._density_order, aspect=2.0,
+                series=({"label": "ω (rad/s)"},
+                        {"label": "modes per rad/s", "stroke": "#444444", "width": 1.5,
+                         "fill": "rgba(68, 68, 68, 0.15)"}),
+                padding=PADDING, scales={"x": {"time": False}, "y": {"range": [0.0, top]}},
+                axes=({"label": "angular frequency ω (rad/s)"},
+                      {"label": "modes per rad/s", "size": 50}))
+        self.density_text.content = as_html(
+            f"density of states: the {frequencies.size:,} exact normal-mode frequencies of this "
+            f"lattice (every polarisation) in {DENSITY_BINS} bins up to "
+            f"{float(frequencies.max()):.4g} rad/s")
 
     def _interval(self, model: sim.Model) -> float:
         return REFRESH_SECONDS * max(1.0, model.n_particles / 50_000)
@@ -220,6 +268,7 @@ class SpectrumFolder(Folder):
                     except sim.ModelError as error:
                         basis, reason = None, str(error)
                     self._basis = (id(model), basis, reason)
+                    self._show_density(basis, reason)
                 _, basis, reason = self._basis
                 if basis is None:
                     self.message.content = as_html(f"no spectrum: {reason}")
