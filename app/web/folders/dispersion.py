@@ -206,8 +206,9 @@ class DispersionFolder(Folder):
         clear = getattr(tracker, "clear_time", None)
         if clear is not None and clear <= 0.0:
             said += amber_html("this packet is too wide for the lattice (it touches a wall from "
-                               "the start): its speeds cannot be measured; a larger lattice or "
-                               "a shorter wavelength can")
+                               "the start): its speeds cannot be measured; a shorter wavelength "
+                               "or a larger lattice can (the elastic-solid or interference "
+                               "presets, or more particles in the Scene folder)")
         elif clear is not None:
             said += as_html(f"its speeds are measured until it nears a wall, {clear:.3g} s "
                             "after the launch")
