@@ -260,3 +260,30 @@ def test_the_tracker_starts_again_after_a_reset_and_reads_sparse_samples():
     assert measured["unwrapped_about_theory"]
     assert measured["omega"] == pytest.approx(expected["omega"], rel=1e-3)
     assert measured["group_speed"] == pytest.approx(expected["group_speed"], rel=TOLERANCE)
+
+
+def test_the_speeds_can_be_read_while_another_thread_adds_frames() -> None:
+    """The page reads a tracker's speeds in its own thread while the simulation's thread adds
+    frames: every read sees whole samples (no arrays of different lengths)."""
+    import threading
+
+    scene = sim.scenes.build("grid", nx=200, ny=1)
+    spec = PacketSpec(0.5, 0.0, "x")
+    positions, _ = packet_state(scene.model, spec)
+    tracker = PacketTracker(scene.model, spec)
+    done = threading.Event()
+
+    def feed() -> None:
+        for k in range(4000):
+            tracker.add(0.001 * k, positions)
+        done.set()
+
+    feeder = threading.Thread(target=feed)
+    feeder.start()
+    reads = 0
+    while not done.is_set() or reads < 10:
+        result = tracker.speeds()
+        assert result["samples"] >= 0
+        reads += 1
+    feeder.join()
+    assert tracker.speeds()["samples"] > 3

@@ -53,25 +53,26 @@ class PacketTracker:
         self.xy = np.ascontiguousarray(model.rest_positions[:, :2])
         self.carrier = np.exp(-1j * (self.xy @ self.packet.q))
         self.clear_time = self.packet.clear_time
-        self._times: list[float] = []
-        self._centroids: list[tuple[float, float]] = []
-        self._coefficients: list[complex] = []
+        self._samples: list[tuple[float, float, float, complex]] = []
+        """(time, centroid x, centroid y, Fourier coefficient) per kept frame: one tuple
+        appended at a time, so a reader in another thread (the page's) always sees whole
+        samples, and ``clear`` puts a new list in place."""
 
     def clear(self) -> None:
-        self._times.clear()
-        self._centroids.clear()
-        self._coefficients.clear()
+        self._samples = []
 
     def add(self, time: float, positions: np.ndarray) -> None:
         """Keep the centroid and Fourier coefficient of a frame at ``time`` (s) with
         (n_particles, dim) ``positions`` (m).  An earlier time than the last starts again
         (the run was reset); frames after the clear time are not kept."""
         time = float(time)
-        if self._times:
-            if time < self._times[-1]:
+        samples = self._samples
+        if samples:
+            first, last = samples[0][0], samples[-1][0]
+            if time < last:
                 self.clear()
-            elif time == self._times[-1] or time - self._times[0] > self.clear_time \
-                    or len(self._times) >= LIMIT:
+                samples = self._samples
+            elif time == last or time - first > self.clear_time or len(samples) >= LIMIT:
                 return
         field = (np.asarray(positions, dtype=float) - self.rest) @ self.vector
         weights = field * field
@@ -80,19 +81,17 @@ class PacketTracker:
             centroid = tuple(float(v) for v in weights @ self.xy / total)
         else:
             centroid = (math.nan, math.nan)
-        self._times.append(time)
-        self._centroids.append(centroid)  # type: ignore[arg-type]
-        self._coefficients.append(complex(field @ self.carrier))
+        samples.append((time, centroid[0], centroid[1], complex(field @ self.carrier)))
 
     @property
     def times(self) -> np.ndarray:
         """Times (s) of the kept samples."""
-        return np.asarray(self._times)
+        return np.array([sample[0] for sample in list(self._samples)])
 
     @property
     def centroids(self) -> np.ndarray:
         """(samples, 2) centroids (m) of u^2."""
-        return np.asarray(self._centroids).reshape(-1, 2)
+        return np.array([sample[1:3] for sample in list(self._samples)]).reshape(-1, 2)
 
     def speeds(self) -> dict:
         """The measured speeds: ``group_velocity`` (vx, vy) (m/s) of the centroid,
@@ -100,7 +99,8 @@ class PacketTracker:
         the Fourier coefficient at q, ``phase_speed`` = omega / |q| (m/s), and ``samples``,
         ``span`` (s) and ``unwrapped_about_theory`` (whether the samples were too sparse to
         unwrap the phase alone).  None where fewer than three samples were kept."""
-        times = self.times
+        samples = list(self._samples)  # one consistent snapshot, whatever add() does meanwhile
+        times = np.array([sample[0] for sample in samples])
         result: dict = {"group_velocity": None, "group_speed": None, "omega": None,
                         "phase_speed": None, "samples": int(times.size),
                         "span": float(times[-1] - times[0]) if times.size else 0.0,
@@ -108,12 +108,12 @@ class PacketTracker:
         if times.size < 3 or not times[-1] > times[0]:
             return result
         elapsed = times - times[0]
-        centroids = self.centroids
+        centroids = np.array([sample[1:3] for sample in samples]).reshape(-1, 2)
         if np.all(np.isfinite(centroids)):
             velocity = [float(np.polyfit(elapsed, centroids[:, i], 1)[0]) for i in range(2)]
             result["group_velocity"] = velocity
             result["group_speed"] = float(np.dot(velocity, self.packet.direction))
-        coefficients = np.asarray(self._coefficients)
+        coefficients = np.array([sample[3] for sample in samples])
         if np.all(coefficients != 0):
             omega_theory = self.packet.omega
             sparse = float(np.diff(elapsed).max()) > 0.5 * math.pi / omega_theory
