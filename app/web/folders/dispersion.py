@@ -322,7 +322,9 @@ class DispersionFolder(Folder):
             self.plot = self._gui.add_uplot(
                 data=tuple(data), series=tuple(series), order=self._plot_order, aspect=1.3,
                 padding=PADDING, scales={"x": {"time": False}, "y": {"range": [0.0, top]}},
-                axes=({"label": "q along Γ–X–M–Γ (π/a)"},
+                axes=({"label": "wave vector q along the path",
+                       "splits": tuple(float(distance * scale) for _, distance in bands.corners),
+                       "values": tuple(label for label, _ in bands.corners)},
                       {"label": "ω (rad/s)", "size": 50}),
             )
         unstable = [n for n, f in zip(bands.names, numerical, strict=True)
