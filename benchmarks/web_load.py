@@ -1,9 +1,10 @@
 """A class on the wire: N websocket clients watching ``oscillators serve interference --play``.
 
-It starts the server as a separate process (the command a teacher types), then for each client
-count opens that many websocket clients speaking viser's protocol as a browser does (msgpack
-windows, see ``benchmarks/web_speed.py``) and, after a warm-up, counts for each client the bytes
-received per second and the lattice frames per second (windows that update
+It starts the server as a separate process (the command a teacher types, on the preset saved as
+a scene file that lasts ``LONG_RUN`` seconds: the page pauses a run at its scene's duration),
+then for each client count opens that many websocket clients speaking viser's protocol as a
+browser does (msgpack windows, see ``benchmarks/web_speed.py``) and, after a warm-up, counts for
+each client the bytes received per second and the lattice frames per second (windows that update
 ``/lattice/particles``).  Meanwhile it samples the server's resident memory and reads the
 simulation's step counter from the page's status line (so one sees whether the simulation slows
 down with more clients).  ``--slow K`` adds K clients that read like a page on a 1 Mbit/s link,
@@ -220,11 +221,29 @@ def report(count: int, clients: list[Client], rss: int, seconds: float) -> None:
             print(f"    a {kind} client: {c.bytes / seconds / 1e3:.0f} kB/s{frames}")
 
 
+LONG_RUN = 1e6
+"""Simulated seconds the served scene lasts: the page pauses a run at its scene's duration (the
+flagship's 150 s take about 30 s on an idle 2-core machine), so the scene is served from a
+scene file of the preset with this duration, and the clients never watch a paused run."""
+
+
+def long_scene(scene: str, folder: Path) -> Path:
+    """The preset ``scene`` as a scene file in ``folder`` lasting ``LONG_RUN`` seconds."""
+    import dataclasses
+
+    import sim
+    from sim.scenes import scene_files
+
+    built = dataclasses.replace(sim.scenes.build(scene), duration=LONG_RUN)
+    return scene_files.save(built, folder / f"{scene}.toml")
+
+
 def start_server(port: int, scene: str, log: Path) -> subprocess.Popen:
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    served = str(long_scene(scene, log.parent))
     with log.open("w") as output:
         process = subprocess.Popen(
-            [sys.executable, "-m", "app.cli", "serve", scene, "--play", "--port", str(port)],
+            [sys.executable, "-m", "app.cli", "serve", served, "--play", "--port", str(port)],
             cwd=ROOT, env=environment, stdout=output, stderr=subprocess.STDOUT, text=True,
         )
     deadline = time.monotonic() + 300
