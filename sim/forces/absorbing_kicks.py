@@ -74,7 +74,7 @@ class LayerArguments(NamedTuple):
     inverse_masses: object
 
 
-SHIFT = 0.05
+SHIFT = 0.02
 """The layer's frequency shift, in units of each field's own rate sigma: a held force relaxes as
 h' = sigma (f - h) - SHIFT sigma h, toward f / (1 + SHIFT) at the rate (1 + SHIFT) sigma (its
 factor e = exp(-(1 + SHIFT) sigma tau / 2), ``MatchedLayer.factors``), and phi likewise.  In the

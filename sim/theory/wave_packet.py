@@ -260,7 +260,7 @@ def _region(model: Model) -> tuple[np.ndarray, np.ndarray]:
     half = np.array([(model.nx + 1) / 2, (model.ny + 1) / 2]) * model.spacing
     low, high = -half, half.copy()
     if model.walls.absorbing:
-        inset = model.sponge_width * model.spacing
+        inset = (model.sponge_width + 1) * model.spacing  # the first particle none of whose springs the layer relaxes
         sides = model.sponge_sides
         low = low + inset * np.array(["left" in sides, "bottom" in sides])
         high = high - inset * np.array(["right" in sides, "top" in sides])
