@@ -342,3 +342,22 @@ def test_a_driven_out_of_plane_lattice_runs_in_float32_as_in_float64():
     moved = np.abs(runs["float64"] - runs["rest"]).max()
     assert moved > 1e-3  # the drive moved the lattice
     assert np.abs(runs["float32"] - runs["float64"]).max() < 1e-3 * moved
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+def test_a_kick_inside_the_sponge_is_absorbed_not_amplified(integrator):
+    """A particle inside the layer of a chain at rest is given a small velocity: the layer must
+    take that energy out, not turn it into a drift of the chain (a layer that cannot hold a
+    static stress drifts as a piston and feeds the lattice)."""
+    model = sim.Model.create(30, 1, stiffness=STIFFNESS, linear=True, boundary="absorbing")
+    velocities = np.zeros_like(model.rest_positions)
+    velocities[1, 0] = 1e-3
+    scene = sim.scenes.Scene(name="kick", model=model, initial_positions=model.rest_positions.copy(),
+                             initial_velocities=velocities)
+    simulation = sim.Simulation(scene, integrator=integrator, dt=0.02)
+    given = simulation.energy().total
+    simulation.step(15000)  # 300 s: fifty crossings of the chain
+    energy = simulation.energy()
+    assert energy.kinetic + energy.potential < 0.1 * given
+    assert energy.dissipated > 0.9 * given
+    assert abs(simulation.energy_balance_error()) < 1e-2

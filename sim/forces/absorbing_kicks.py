@@ -74,10 +74,25 @@ class LayerArguments(NamedTuple):
     inverse_masses: object
 
 
+SHIFT = 0.02
+"""The layer's frequency shift, in units of each field's own rate sigma: a held force relaxes as
+h' = sigma (f - h) - SHIFT sigma h, toward f / (1 + SHIFT) at the rate (1 + SHIFT) sigma (its
+factor e = exp(-(1 + SHIFT) sigma tau / 2), ``MatchedLayer.factors``), and phi likewise.  In the
+frequency domain the stretch becomes s = 1 + sigma / (SHIFT sigma + i omega): unchanged for waves
+with omega >> SHIFT sigma, and finite at omega = 0.  Without it (0) the layer forgets any static
+stress in it (h -> f), so a displacement or velocity put into the layer from outside (an initial
+state, a poke) has nothing to restore it: the layer's zero-frequency modes grow linearly in time
+and the layer drifts as a piston, feeding energy into the lattice."""
+RETAINED = 1.0 / (1.0 + SHIFT)
+"""The part of its spring's force a held force tends to (f / (1 + SHIFT))."""
+
+
 @njit(**_JIT)
 def relax(force, held, factor):
-    """A held force relaxed toward the spring's force: f + (h - f) e."""
-    return force + (held - force) * factor
+    """A held force relaxed toward the part ``RETAINED`` of the spring's force:
+    f' + (h - f') e, f' = f / (1 + SHIFT)."""
+    target = force * RETAINED
+    return target + (held - target) * factor
 
 
 @njit(**_JIT)

@@ -48,6 +48,7 @@ from numba import njit
 from sim.forces.absorbing_kicks import (
     BAND,
     NONE,
+    SHIFT,
     LayerArguments,
     band_act,
     rest_tension,
@@ -231,7 +232,7 @@ class MatchedLayer:
         left, right, bottom, top = widths
         nx, ny, dim = model.nx, model.ny, model.dim
         omega_0 = math.sqrt(model.stiffness / float(np.mean(model.masses)))
-        peak = strength * omega_0
+        peak = strength * omega_0 * (1.0 + SHIFT)  # the fields' rates, frequency shift included
         self.rates = dict(  # 1/s
             node_x=peak * depth_profile(nx, left, right, 0.0) ** POWER,
             spring_x=peak * depth_profile(nx, left, right, -0.5) ** POWER,

@@ -50,7 +50,8 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
     spring is computed here from positions that have not moved yet.
 
     The absorbing layer (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``, None
-    compiles it out) kicks from the springs the rows' passes computed (``sim.forces.absorbing_kicks``;
+    compiles it out, its relaxations frequency-shifted by ``SHIFT``) kicks from the springs the
+    rows' passes computed (``sim.forces.absorbing_kicks``;
     ``under`` (3, nx) scratch, ``tension`` the rest tension, N): a band row's y-layer after its
     pass, the side strips' x-layer once all the rows are swept.  The drive table (``sim.forces.drive_table``,
     None compiles it out) acts last: the driven particles get their drive at ``time`` (s;

@@ -138,7 +138,8 @@ def verlet_steps(
     forces use the predicted velocity v + dt a, which keeps it explicit and second order.
     Instruments (None compiles them out): a drive table (``sim.forces.drive_table``) acts on the new
     forces of each step at its end time (``time`` is the start, s); the absorbing layer
-    (``sponge``: the arguments of ``sim.forces.absorbing_layer.act_on``) acts over dt / 2 at the end of
+    (``sponge``: the arguments of ``sim.forces.absorbing_layer.act_on``, frequency-shifted
+    relaxations included) acts over dt / 2 at the end of
     each step and the start of the next, the caller before the first and after the last.  ``totals`` (2,)
     receives the drive's work and the layer's take (J), the accelerations of the driven rows
     on entry already hold the drive at ``time``.

@@ -63,7 +63,7 @@ FIXED = register(Boundary(
 ))
 DEFAULT_LAYER_WIDTH = 3
 """Depth of the absorbing walls' layer in particles: at the default strength
-(``DEFAULT_LAYER_STRENGTH``) it reflects at most 0.42 % of the energy of a wave of 5 to 80
+(``DEFAULT_LAYER_STRENGTH``) it reflects at most 0.43 % of the energy of a wave of 5 to 80
 spacings at 0 and 45 degrees (``oscillators reflection``, docs/instruments.md; the
 requirement is 1 %).  A deeper one reflects less (4 particles at strength 1: 0.2 %) but costs
 a step more and hides more of the lattice."""

@@ -255,12 +255,14 @@ def plan(model: Model, spec: PacketSpec) -> Packet:
 
 
 def _region(model: Model) -> tuple[np.ndarray, np.ndarray]:
-    """(lowest, highest) (x, y) (m) the packet may reach: the walls, or the inner edges of an
-    absorbing layer."""
+    """(lowest, highest) (x, y) (m) the packet may reach: the walls, or one spacing inside the
+    inner edges of an absorbing layer."""
     half = np.array([(model.nx + 1) / 2, (model.ny + 1) / 2]) * model.spacing
     low, high = -half, half.copy()
     if model.walls.absorbing:
-        inset = model.sponge_width * model.spacing
+        # to the first particle none of whose springs the layer relaxes: what starts inside
+        # the layer excites its slow zero-frequency modes (``sim.forces.absorbing_kicks.SHIFT``)
+        inset = (model.sponge_width + 1) * model.spacing
         sides = model.sponge_sides
         low = low + inset * np.array(["left" in sides, "bottom" in sides])
         high = high - inset * np.array(["right" in sides, "top" in sides])
