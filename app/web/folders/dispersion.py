@@ -177,7 +177,8 @@ class DispersionFolder(Folder):
         model = self.host.runner.simulation.model
         self._stop_tracking()
         said = ok_html(f"launched a packet on branch {branch} at q = ({qx:.4g}, {qy:.4g}) rad/m; "
-                       "press Play")
+                       + ("it moves as the run plays" if self.host.runner.playing
+                          else "press Play"))
         try:
             from sim.instruments.packet_tracker import PacketTracker
         except ImportError:
