@@ -16,9 +16,10 @@ import fcntl
 import os
 import shutil
 import struct
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import rerun as rr
 
@@ -52,7 +53,7 @@ def free_bytes(directory: Path) -> int:
 def explain_failure(error: BaseException, directory: Path) -> BaseException:
     """``error`` (a write that failed) said in the user's words when the disk is what failed
     (less than ``RESERVE_BYTES`` free): rerun's writer only says it shut down."""
-    if isinstance(error, RecordingError) and "disk" in str(error):
+    if isinstance(error, RecordingError):  # already said in the user's words
         return error
     try:
         free = free_bytes(directory)
@@ -116,29 +117,37 @@ class ReadablePart:
                 f"readable ({self.messages} whole messages; the rest was cut off)")
 
 
+def _whole_messages(stream: Any, total: int) -> Iterator[tuple[int, int]]:
+    """(kind, end position) of each whole message of an open ``.rrd`` ``stream`` of ``total``
+    bytes, from its first stream header on (headers only read; streams appended to the file
+    are stepped over); stops at a cut message and after the end message (kind 0)."""
+    position = _STREAM_HEADER_BYTES
+    while position + _HEADER.size <= total:
+        stream.seek(position)
+        header = stream.read(_HEADER.size)
+        if header[:4] == _MAGIC:  # a further stream appended to the file
+            position += _STREAM_HEADER_BYTES
+            continue
+        kind, length = _HEADER.unpack(header)
+        end = position + _HEADER.size + length
+        if end > total:
+            return
+        yield kind, end
+        if kind == 0:
+            return
+        position = end
+
+
 def readable_part(path: str | os.PathLike) -> ReadablePart:
     """Scan ``path`` message by message (headers only) and say how much is whole."""
     with open(path, "rb") as stream:
         total = os.fstat(stream.fileno()).st_size
         if stream.read(4) != _MAGIC:
             raise RecordingError(f"{path} is not a rerun recording")
-        position, messages, complete = _STREAM_HEADER_BYTES, 0, False
-        readable = position if total >= position else 0
-        while position + _HEADER.size <= total:
-            stream.seek(position)
-            header = stream.read(_HEADER.size)
-            if header[:4] == _MAGIC:  # a further stream appended to the file
-                position += _STREAM_HEADER_BYTES
-                continue
-            kind, length = _HEADER.unpack(header)
-            end = position + _HEADER.size + length
-            if end > total:
-                break
-            position = readable = end
-            messages += 1
-            if kind == 0:
-                complete = True
-                break
+        readable = _STREAM_HEADER_BYTES if total >= _STREAM_HEADER_BYTES else 0
+        messages, complete = 0, False
+        for kind, end in _whole_messages(stream, total):
+            readable, messages, complete = end, messages + 1, kind == 0
     return ReadablePart(readable, total, messages, complete)
 
 
@@ -254,19 +263,5 @@ def _write_at(descriptor: int, payload: bytes, position: int) -> bool:
 
 def message_ends(path: str | os.PathLike) -> list[int]:
     """The byte positions at which each whole message of ``path`` ends (headers only read)."""
-    ends: list[int] = []
     with open(path, "rb") as stream:
-        total = os.fstat(stream.fileno()).st_size
-        position = _STREAM_HEADER_BYTES
-        while position + _HEADER.size <= total:
-            stream.seek(position)
-            header = stream.read(_HEADER.size)
-            if header[:4] == _MAGIC:
-                position += _STREAM_HEADER_BYTES
-                continue
-            _, length = _HEADER.unpack(header)
-            if position + _HEADER.size + length > total:
-                break
-            position += _HEADER.size + length
-            ends.append(position)
-    return ends
+        return [end for _, end in _whole_messages(stream, os.fstat(stream.fileno()).st_size)]

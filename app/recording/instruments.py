@@ -287,7 +287,6 @@ class ModeLog:
         self.bottom, self.top = mode_colour_range(top_energy)
         self.model = model
         self.basis = basis if basis is not None else modal_basis(model)
-        self.enabled = True
 
     def log_static(self, stream: rr.RecordingStream) -> None:
         """Nothing: the colour legend is the recording's (``mode_legend_png``)."""
@@ -304,8 +303,7 @@ class ModeLog:
         self.model = model
         try:
             self.basis = modal_basis(model)
-        except ValueError as error:
-            self.enabled = False
+        except ValueError as error:  # the track drops this view
             return f"mode energies stop here: {error}"
         return None
 
@@ -325,7 +323,7 @@ class ModeLog:
     def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
         """Every ``every``-th frame that carries velocities: each mode's energy."""
         positions, velocities = frame.positions, frame.velocities
-        if not self.enabled or velocities is None or index % self.every:
+        if velocities is None or index % self.every:
             return
         table = MAGNITUDE.table()
         for name, energies in zip(self.polarisations, self.energies(positions, velocities),

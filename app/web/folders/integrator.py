@@ -24,6 +24,7 @@ from app.web.inputs import InputRefused, choice, from_user, number, ok_html, war
 from app.web.widgets import say
 from sim.integrators.registry import PRECISIONS
 from sim.runtime.runner import Frame
+from sim.theory.observables import StabilityLimit
 
 MAX_DT = 10.0
 """Largest time step (s) the page accepts."""
@@ -54,12 +55,10 @@ class IntegratorFolder(Folder):
         simulation = host.runner.simulation
         self._stability_for: tuple[sim.Model, str] | None = None
         """(model, integrator) the stability line was computed for."""
-        self._stable_dt: float | None = None
-        self._run_dt: float | None = None
-        """Where the scene's own run was measured to stop, if known and below ``_stable_dt``."""
+        self._limit: StabilityLimit | None = None
+        """The stability limit of the scene and integrator shown (None until it is known)."""
         self._shown_dt: float | None = None
         """The dt of the last frame shown in the dt box (s)."""
-        self._stability_text = ""
         with gui.add_folder("Integrator"):
             self.method = gui.add_dropdown(
                 "Method", sim.integrators.names(simulation.model),
@@ -140,29 +139,28 @@ class IntegratorFolder(Folder):
 
             def done(result: Any) -> None:
                 if result.exception() is None:
-                    limit = result.result()
-                    self._stable_dt = limit.dt
-                    self._run_dt = limit.run_dt
-                    self._stability_text = limit.reason
+                    self._limit = result.result()
 
             future.add_done_callback(done)
-        stable = self._stable_dt
+        limit = self._limit
+        stable = None if limit is None else limit.dt
+        run_dt = None if limit is None else limit.run_dt
         if stable is None:
             text = warning_html(f"no stable dt for {frame.integrator} here (add damping or change "
-                                "integrator)") if self._stability_text else ""
+                                "integrator)") if limit is not None else ""
         elif math.isinf(stable):
             text = ok_html("stable for any dt")
         elif frame.dt > stable:
             text = warning_html(f"dt = {frame.dt:.4g} s exceeds the stability limit "
                                 f"{stable:.4g} s: the run will blow up")
-        elif self._run_dt is not None and frame.dt > self._run_dt:
+        elif run_dt is not None and frame.dt > run_dt:
             text = warning_html(f"dt = {frame.dt:.4g} s is below the small-amplitude limit "
-                                f"{stable:.4g} s but above {self._run_dt:.4g} s, where this "
+                                f"{stable:.4g} s but above {run_dt:.4g} s, where this "
                                 "scene's own run was measured to stop: its large motion "
                                 "stiffens the springs")
-        elif self._run_dt is not None:
-            text = ok_html(f"this scene's run was measured stable up to dt = {self._run_dt:.4g} s "
-                           f"({frame.dt / self._run_dt:.0%} of it; small-amplitude limit "
+        elif run_dt is not None:
+            text = ok_html(f"this scene's run was measured stable up to dt = {run_dt:.4g} s "
+                           f"({frame.dt / run_dt:.0%} of it; small-amplitude limit "
                            f"{stable:.4g} s)")
         else:
             text = ok_html(f"stable for dt ≤ {stable:.4g} s ({frame.dt / stable:.0%} of the limit)")
