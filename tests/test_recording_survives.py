@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+import rerun as rr
 from rerun.chunk import RrdReader
 
 import sim
@@ -76,6 +77,39 @@ def test_a_disk_that_fills_during_the_run_ends_the_file_with_footer_and_error(tm
     chunks = read_chunks(path)
     errors = errors_in(chunks)
     assert errors and "disk nearly full" in errors[-1][1]
+
+
+def test_a_disk_that_fills_before_the_first_write_says_so_and_leaves_no_file(
+        tmp_path, monkeypatch, capsys):
+    """The space check passed, then another writer took the disk before rerun wrote a byte:
+    exit 2, one line naming the full disk, no file and no ``.partial`` left behind."""
+    free = {"bytes": 10**9}
+    monkeypatch.setattr(destination, "free_bytes", lambda directory: free["bytes"])
+
+    def writer_finds_the_disk_full(stream, *args, **kwargs):
+        free["bytes"] = 1_000
+        raise RuntimeError("Failed to create file sink: No space left on device (os error 28)")
+
+    monkeypatch.setattr(rr.RecordingStream, "save", writer_finds_the_disk_full)
+    path = tmp_path / "late.rrd"
+    assert main(["record", "grid", "--steps", "20", "--quiet", "-o", str(path)]) == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith("error: recording failed") and "is full" in last, last
+    assert "nothing was recorded" in last
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_writer_error_at_the_start_on_a_disk_with_room_is_not_called_a_full_disk(
+        tmp_path, monkeypatch):
+    def writer_fails(stream, *args, **kwargs):
+        raise RuntimeError("sink refused")
+
+    monkeypatch.setattr(rr.RecordingStream, "save", writer_fails)
+    path = tmp_path / "refused.rrd"
+    with pytest.raises(RuntimeError, match="sink refused") as caught:
+        Recorder(path, sim.scenes.build("grid"), expected_frames=10)
+    assert not isinstance(caught.value, RecordingError)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.slow
@@ -143,8 +177,10 @@ def test_recordings_on_a_small_real_filesystem_that_another_writer_fills_all_rea
             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             for k in range(4)]
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and sum(
-                path.stat().st_size for path in disk.glob("*.partial")) < 4_000_000:
+        while time.monotonic() < deadline:  # every recorder has written, 4 MB in all
+            sizes = [path.stat().st_size for path in disk.glob("*.partial")]
+            if len(sizes) == 4 and min(sizes) > 0 and sum(sizes) >= 4_000_000:
+                break
             time.sleep(0.2)
         with open(disk / "filler", "wb") as filler:  # another writer takes what is left
             try:

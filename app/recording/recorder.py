@@ -39,6 +39,7 @@ every view shows, the colour bars are at ``/legend`` (``app.recording.legends``)
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import queue
@@ -150,43 +151,54 @@ class Recorder:
         self.frame_interval = (max(DEFAULT_FRAME_INTERVAL, scene.duration / 1000)
                                if interval is None else float(interval))
 
-        self.recording_id = str(uuid.uuid4())
-        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
-                                         batcher_config=_SMALL_CHUNKS)
-        legends = colour_legends(self.plan, self.scales, self.exaggeration)
-        bp = blueprint(
-            self.trees, dim=self.model.dim,
-            show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
-            legends=len(legends), probes=bool(self.plan.probes),
-            modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
-        )
-        self.stream.save(self._output.library_path, default_blueprint=bp)
-        self.stream.send_blueprint(bp, make_active=True, make_default=True)
-        self.stream.send_recording_name(f"{scene.name}")
-        self.document = scene_document(
-            scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
-            scales=self.scales, run=self.run, trees=self.trees,
-            exaggeration=self.exaggeration, field_policy=self.field_policy,
-        ) + f"\n\nLogged: {self.plan.describe()}."
-        """The read-me logged at ``/scene`` (logged again at the end with the probes' spectra)."""
-        self.stream.log(
-            SCENE_ENTITY, rr.TextDocument(self.document, media_type=rr.MediaType.MARKDOWN),
-            static=True,
-        )
-        offset = 0.0
-        for name, (png, height) in legends.items():
-            entity = f"{LEGEND_ENTITY}/{name}"
-            placed = rr.Transform3D(translation=[0.0, offset, 0.0])
-            if png is None:  # the field's bar is logged frame by frame (FieldLegend)
-                self.stream.log(entity, placed, static=True)
-            else:
-                self.stream.log(entity, rr.EncodedImage(contents=png, media_type="image/png"),
-                                placed, static=True)
-            offset += height + 8
-        self.field_legend = (FieldLegend(f"{LEGEND_ENTITY}/field",
-                                         field_label(self.plan, self.scales.axis),
-                                         self.plan.quantity) if self.plan.field else None)
-        """The field's colour bar, redrawn when the numbers of its scale change."""
+        try:
+            self.recording_id = str(uuid.uuid4())
+            self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
+                                             batcher_config=_SMALL_CHUNKS)
+            legends = colour_legends(self.plan, self.scales, self.exaggeration)
+            bp = blueprint(
+                self.trees, dim=self.model.dim,
+                show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
+                legends=len(legends), probes=bool(self.plan.probes),
+                modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
+            )
+            self.stream.save(self._output.library_path, default_blueprint=bp)
+            self.stream.send_blueprint(bp, make_active=True, make_default=True)
+            self.stream.send_recording_name(f"{scene.name}")
+            self.document = scene_document(
+                scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
+                scales=self.scales, run=self.run, trees=self.trees,
+                exaggeration=self.exaggeration, field_policy=self.field_policy,
+            ) + f"\n\nLogged: {self.plan.describe()}."
+            """The read-me logged at ``/scene`` (logged again at the end with the probes' spectra)."""
+            self.stream.log(
+                SCENE_ENTITY, rr.TextDocument(self.document, media_type=rr.MediaType.MARKDOWN),
+                static=True,
+            )
+            offset = 0.0
+            for name, (png, height) in legends.items():
+                entity = f"{LEGEND_ENTITY}/{name}"
+                placed = rr.Transform3D(translation=[0.0, offset, 0.0])
+                if png is None:  # the field's bar is logged frame by frame (FieldLegend)
+                    self.stream.log(entity, placed, static=True)
+                else:
+                    self.stream.log(entity, rr.EncodedImage(contents=png, media_type="image/png"),
+                                    placed, static=True)
+                offset += height + 8
+            self.field_legend = (FieldLegend(f"{LEGEND_ENTITY}/field",
+                                             field_label(self.plan, self.scales.axis),
+                                             self.plan.quantity) if self.plan.field else None)
+            """The field's colour bar, redrawn when the numbers of its scale change."""
+        except BaseException as error:  # nothing was logged yet: leave no file behind
+            stream = getattr(self, "stream", None)
+            if stream is not None:
+                with contextlib.suppress(Exception):
+                    stream.disconnect()
+            self._output.discard()
+            explained = destination.explain_failure(error, self.path.parent)
+            if explained is error:
+                raise
+            raise RecordingError(f"recording failed: {explained}; nothing was recorded") from error
         self.tracks: dict[str | None, Track] = {}
         self._last_enqueued: dict[str | None, float] = {}
         self._unsubscribers: list[Callable[[], None]] = []
