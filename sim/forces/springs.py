@@ -272,19 +272,30 @@ def _vertical_springs(j, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpo
 
 
 @njit(**_JIT)
+def as_row(j):
+    """The row index ``j`` as an ordinary integer.  numba types a constant argument (a caller's
+    ``vertical_springs(0, ...)``) as that literal and compiles every function it is passed on to
+    once more for it: passed through here, the springs below are compiled once per kernel."""
+    return np.intp(j)
+
+
+@njit(**_JIT)
 def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, out):
     """Forces (3, nx) on the lower ends of the springs between row j-1 and row j (j = 0: from
     the bottom wall anchors; j = ny: from row ny-1 to the top anchors), written into ``out``
     (``sim.forces.diagonal.ROWS``, nx), the diagonal springs' net forces in its rows 3 .. 8.
 
-    ``parameters`` is a ``SpringParameters`` record in the precision of the arrays.
+    ``parameters`` is a ``SpringParameters`` record in the precision of the arrays; ``linear``
+    None for the nonlinear law, True for the linearised one (a compile-time choice, as
+    ``out_of_plane``: a kernel carries one law, never False for the nonlinear one).
     ``ny`` is the number of rows of the lattice; the arrays may hold fewer rows, as a ring buffer
     in which row j is stored at index j % rows (a full array is the case rows == ny).
     Returns the power dissipated by the dashpots of those springs (W).
     """
-    if linear:
-        return _vertical_springs(j, ny, x, y, z, vx, vy, vz, True, parameters, dashpot, out)
-    return _vertical_springs(j, ny, x, y, z, vx, vy, vz, None, parameters, dashpot, out)
+    j = as_row(j)
+    if linear is None:
+        return _vertical_springs(j, ny, x, y, z, vx, vy, vz, None, parameters, dashpot, out)
+    return _vertical_springs(j, ny, x, y, z, vx, vy, vz, True, parameters, dashpot, out)
 
 
 @njit(**_JIT)
@@ -406,12 +417,12 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, paramete
     less).  Returns the power dissipated in row j by the horizontal springs, the springs above it
     and drag (W).
     """
-    if linear:
+    if linear is None:
         return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                                  True, parameters, dashpot, drag, gravity, below, above,
+                                  None, parameters, dashpot, drag, gravity, below, above,
                                   horizontal, out)
     return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                              None, parameters, dashpot, drag, gravity, below, above, horizontal,
+                              True, parameters, dashpot, drag, gravity, below, above, horizontal,
                               out)
 
 

@@ -28,11 +28,13 @@ from sim.model.state import State
 class KernelArguments(NamedTuple):
     """The model as the compiled kernels take it, in one precision (None marks an absent term).
 
-    ``inverse_mass`` (ny, nx) 1/kg; ``uniform_inverse_mass`` replaces it for equal masses;
-    ``parameters`` the spring constants; ``gravity`` (3,) m/s^2.
+    ``linear`` None for the nonlinear springs, True for the linearised ones (a compile-time
+    choice, ``sim.forces.springs.vertical_springs``); ``inverse_mass`` (ny, nx) 1/kg;
+    ``uniform_inverse_mass`` replaces it for equal masses; ``parameters`` the spring constants;
+    ``gravity`` (3,) m/s^2.
     """
 
-    linear: bool
+    linear: object
     out_of_plane: object
     inverse_mass: np.ndarray
     uniform_inverse_mass: np.floating | None
@@ -48,7 +50,7 @@ class KernelArguments(NamedTuple):
         (``sim.loops.host_tuning.LOOPS``) in float64."""
         scalar = np.dtype(dtype).type
         return cls(
-            linear=model.linear,
+            linear=True if model.linear else None,
             out_of_plane=None if model.dim == 2 else True,
             inverse_mass=read_only(np.ascontiguousarray(model.inverse_masses, dtype=dtype)),
             uniform_inverse_mass=(

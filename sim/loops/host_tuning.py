@@ -67,7 +67,7 @@ def _loop_seconds(loop: str, estimate: object) -> float:
         def run() -> None:
             leapfrog_steps(*arguments)
     else:
-        arguments = (False, None, position, velocity, inverse_mass, 1.0, parameters, None, None,
+        arguments = (None, None, position, velocity, inverse_mass, 1.0, parameters, None, None,
                      None, out)
 
         def run() -> None:

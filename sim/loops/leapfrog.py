@@ -158,7 +158,7 @@ def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, unifor
         tension = rest_tension(sponge.linearised, sponge.parameters)
     for step in range(n):
         for b in range(blocks + 1):
-            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, False, parameters, None,
+            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, None, parameters, None,
                              boundary[b])
         for b in range(blocks):
             below[b, :, :] = boundary[b]
@@ -207,7 +207,7 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
     numba's parallel transformation leaves its body alone)."""
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
-    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, False, parameters,
+    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, None, parameters,
                      None, boundary[b])
 
 

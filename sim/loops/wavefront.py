@@ -122,30 +122,26 @@ def wavefront(
                 continue
             below = vertical[stage, j % 2]
             above = vertical[stage, (j + 1) % 2]
+            # one call site per piece (not one per branch): each call site is compiled anew
             if stage == 0:  # the stage input is the state itself
-                p = _stage_forces(j, first, ny, x, y, z, vx, vy, vz, linear, inverse_mass,
-                                  uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
-                                  above, horizontal, row, powers, stage)
+                sx, sy, sz, svx, svy, svz, slot = x, y, z, vx, vy, vz, j
             else:
-                p = _stage_forces(j, first, ny, xs, ys, zs, vxs, vys, vzs, linear, inverse_mass,
-                                  uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
-                                  above, horizontal, row, powers, stage)
+                sx, sy, sz, svx, svy, svz, slot = xs, ys, zs, vxs, vys, vzs, j % ring
+            p = _stage_forces(j, first, ny, sx, sy, sz, svx, svy, svz, linear, inverse_mass,
+                              uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
+                              above, horizontal, row, powers, stage)
             if drive is not None:
                 at = time + stage_time(table, stage) * dt
-                if stage == 0:
-                    q = drive_row(j, at, drive, -1, row, vx, vy, vz, j)
-                else:
-                    q = drive_row(j, at, drive, -1, row, vxs, vys, vzs, j % ring)
+                q = drive_row(j, at, drive, -1, row, svx, svy, svz, slot)
                 if j >= j0 and j < j1:
                     drive_powers[stage] += q
             if j >= j0 and j < j1:
                 powers[stage] += p
             deferred = deferred_slot(j, j0, j1, ny, halo)
             if deferred < 0:
-                stage_update(table, stage, j, j % ring, dt, position, velocity, row,
-                             stage_velocity, stage_position, stage_velocity, sum_position,
-                             sum_velocity, position, velocity, j)
+                new_position, new_velocity, k = position, velocity, j
             else:
-                stage_update(table, stage, j, j % ring, dt, position, velocity, row,
-                             stage_velocity, stage_position, stage_velocity, sum_position,
-                             sum_velocity, deferred_position, deferred_velocity, deferred)
+                new_position, new_velocity, k = deferred_position, deferred_velocity, deferred
+            stage_update(table, stage, j, j % ring, dt, position, velocity, row, stage_velocity,
+                         stage_position, stage_velocity, sum_position, sum_velocity, new_position,
+                         new_velocity, k)
