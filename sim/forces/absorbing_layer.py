@@ -57,7 +57,7 @@ from sim.forces.absorbing_kicks import (
     sides_under,
     strip,
 )
-from sim.forces.springs import components, site, spring_force
+from sim.forces.springs import as_row, components, site, spring_force
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -130,6 +130,7 @@ def _y_span(lower, upper, j, start, stop, x, y, z, linearised, parameters, tensi
 @njit(**_JIT)
 def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
     """The y-springs below row j (j = 0: from the bottom anchors; j = ny: to the top ones)."""
+    j = as_row(j)  # a literal 0 would compile the spans once more
     ny = x.shape[0]
     if j == 0:
         _y_span(None, 0, j, start, stop, x, y, z, linearised, parameters, tension, out)
