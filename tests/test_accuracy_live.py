@@ -103,11 +103,11 @@ def test_prediction_matches_the_measured_error_on_linear_scenes(name, integrator
 
 
 LONGEST_SMALL_RUNS = ("membrane", "catenary", "two-sources", "single-slit", "double-slit",
-                      "bandgap")
+                      "bandgap", "elastic-solid")
 """Smaller presets whose whole run takes the longest (3-D with its own kernels; gravity with
 dashpots over many steps; the absorbing walls of the ripple tanks and the band-gap chain, 40-60 s
-each): with the slow tests,
-like the paper-sized ones."""
+each; the diagonal springs' own kernels, whose physics ``test_diagonal_springs`` checks): with the
+slow tests, like the paper-sized ones."""
 
 
 def _presets_large_ones_slow() -> list:
@@ -238,10 +238,10 @@ def test_accuracy_command_writes_its_picture_by_default_and_says_where(tmp_path,
     from app.cli import main
 
     monkeypatch.chdir(tmp_path)
-    status = main(["accuracy", "chain", "--set", "linear=true", "--integrators", "rk4",
+    status = main(["accuracy", "single", "--set", "linear=true", "--integrators", "rk4",
                    "--dts", "0.02", "--until", "1", "--quiet"])
     assert status == 0
-    picture = tmp_path / "pictures" / "chain-work-precision.png"  # never the current folder
+    picture = tmp_path / "pictures" / "single-work-precision.png"  # never the current folder
     assert picture.stat().st_size > 10_000
     assert not list(tmp_path.glob("*.png"))
     assert str(picture.relative_to(tmp_path)) in capsys.readouterr().out

@@ -196,6 +196,7 @@ def test_the_stability_limit_of_a_free_chain():
             run.step(20_000)
 
 
+@pytest.mark.slow  # free ends' own kernels; their energy balance stays in the default run
 def test_the_exact_solver_and_mode_energies_follow_free_ends():
     scene = sim.scenes.build("grid", nx=7, ny=3, boundary="free", linear=True, rest_length=0.9)
     exact = sim.Simulation(scene, integrator="exact", dt=0.5)
@@ -239,6 +240,7 @@ def free_chain_equilibrium(particles: int, rest_length: float) -> np.ndarray:
     return np.linalg.solve(matrix, pull)
 
 
+@pytest.mark.slow  # free ends with tension: kernels of their own
 def test_a_free_ended_pre_tensioned_chain_contracts_to_the_equilibrium_of_its_tension():
     """The rest tension of the springs pulls the free ends inward; with drag the chain settles
     where the end tension is balanced (an independent linear solve), and the energy the

@@ -84,6 +84,7 @@ def test_the_chosen_setting_meets_the_tolerance_against_the_exact_modes() -> Non
     assert all(cost(run) >= cost(answer) for run in choice.runs if run.meets)
 
 
+@pytest.mark.slow  # a study of many runs
 def test_a_blown_up_or_missing_run_is_never_the_answer_and_a_miss_is_said() -> None:
     scene = _linear_chain()
     choice = choose(scene, 1e-13, integrators=["euler", "verlet"])

@@ -35,7 +35,8 @@ def steady_amplitude(simulation: sim.Simulation, omega: float, periods: int,
 
 
 @pytest.mark.parametrize("ratio", [0.5, 0.95, 1.0, 1.6])
-@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+@pytest.mark.parametrize("integrator", [  # Runge-Kutta with a driver: by default below
+    pytest.param("rk4", marks=pytest.mark.slow), "verlet"])
 def test_driven_damped_oscillator_settles_to_the_analytic_amplitude(ratio, integrator):
     """One particle between two springs along x (omega_0^2 = 2k/m), drag gamma m, driven by
     F0 sin(omega t): amplitude F0 / (m sqrt((omega_0^2 - omega^2)^2 + (gamma omega)^2))."""
@@ -110,7 +111,8 @@ def test_driving_the_ionic_chain_inside_the_gap_gives_an_evanescent_response():
 
 
 @pytest.mark.parametrize("integrator, kind", [
-    ("verlet", "force"), ("verlet", "displacement"), ("rk4", "displacement"),
+    ("verlet", "force"), ("verlet", "displacement"),
+    pytest.param("rk4", "displacement", marks=pytest.mark.slow),  # kernels of their own
     pytest.param("rk4", "force", marks=pytest.mark.slow),  # its own kernels: a minute cold
 ])
 def test_the_energy_balance_closes_with_the_driver_work(integrator, kind):
@@ -168,7 +170,8 @@ def prescribed_chain_exact(particles: int, driven: int, amplitude: float, freque
     return displacement
 
 
-@pytest.mark.parametrize(("integrator", "steps", "order"), [("verlet", 400, 1.8), ("rk4", 100, 3.5)])
+@pytest.mark.parametrize(("integrator", "steps", "order"), [
+    pytest.param("verlet", 400, 1.8, marks=pytest.mark.slow), ("rk4", 100, 3.5)])
 def test_a_displacement_driver_with_dashpots_converges_at_the_integrators_order(integrator, steps,
                                                                                 order):
     """The neighbours of a prescribed particle feel a position and velocity consistent with its
@@ -223,6 +226,7 @@ def test_the_sponge_reflects_at_most_one_percent_of_waves_ten_spacings_and_longe
     assert reflected_fraction(wavelength, "fixed") > 0.9  # the same measurement sees a wall
 
 
+@pytest.mark.slow  # the layer's kernels on another scene; its reflection stays in the default run
 def test_the_sponge_takes_out_what_it_absorbs_and_the_balance_closes():
     scene = sim.scenes.build("interference-open", nx=140, ny=100)
     simulation = sim.Simulation(scene, integrator="rk4", dt=0.01)
@@ -232,6 +236,7 @@ def test_the_sponge_takes_out_what_it_absorbs_and_the_balance_closes():
     assert abs(simulation.energy_balance_error()) < 1e-4
 
 
+@pytest.mark.slow  # the layer's kernels on another scene; its reflection stays in the default run
 def test_the_sponge_does_not_lower_the_stable_step():
     """The layer's drag is integrated exactly, so Verlet just below the undamped limit stays
     bounded with it."""

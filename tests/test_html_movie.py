@@ -70,6 +70,7 @@ def check_plays(browser, path: Path, shots: str) -> tuple[np.ndarray, np.ndarray
     return early, late
 
 
+@pytest.mark.slow  # a movie rendered, then played in Chromium (other browser tests run by default)
 def test_the_grid_as_one_html_file_plays_offline(tmp_path, browser):
     path = tmp_path / "grid.html"
     assert main(["movie", "grid", "-o", str(path), "--duration", "10", "--quiet"]) == 0

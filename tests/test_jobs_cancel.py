@@ -60,6 +60,7 @@ def _time_to_stop(cancel, running) -> float:
     return time.monotonic() - started
 
 
+@pytest.mark.slow  # renders a movie to cancel it
 def test_a_page_movie_of_a_long_scene_stops_within_a_second_of_cancel(tmp_path) -> None:
     # 1e7 s in at most 30 frames: a million RK4 steps of the grid between two frames
     scene = dataclasses.replace(sim.scenes.build("grid"), duration=1e7)

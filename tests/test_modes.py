@@ -66,6 +66,7 @@ def test_unequal_masses_use_eigenvectors_and_still_add_up():
     assert total(energies) == pytest.approx(energy.kinetic + energy.spring, rel=1e-10)
 
 
+@pytest.mark.slow  # a page with kernels of its own; the modes themselves are checked in the default run
 def test_the_page_excites_a_mode_and_draws_the_spectrum(tmp_path):
     from app.web.app import WebApp
     from tests.helpers import free_port

@@ -88,6 +88,7 @@ def test_chain_normal_modes_keep_shape_and_frequency(mode, linear):
         assert np.abs(transverse).max() < 1e-12
 
 
+@pytest.mark.slow  # 3-D Runge-Kutta kernels of its own (3-D steps are checked by default)
 def test_membrane_drum_mode_frequency():
     nx, ny, rest_length, mass = 8, 6, 0.9, 1.0
     scene = sim.scenes.build("membrane", nx=nx, ny=ny, rest_length=rest_length, linear=True)

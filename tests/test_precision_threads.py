@@ -124,8 +124,9 @@ def _thread_matrix() -> list:
     return cases
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "verlet", pytest.param("heun", marks=pytest.mark.slow),
-                                        pytest.param("euler", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("integrator", [  # the block wavefronts are checked by default in test_physics
+    pytest.param("rk4", marks=pytest.mark.slow), "verlet",
+    pytest.param("heun", marks=pytest.mark.slow), pytest.param("euler", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("flags, ny", _thread_matrix())
 def test_every_integrator_on_threads_equals_one_thread(integrator, flags, ny):
     """Row blocks on 2 and 3 threads against the one-thread loop, every flag combination; ny = 10

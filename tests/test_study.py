@@ -39,7 +39,8 @@ def linear_grid_study():
 
 @pytest.mark.parametrize(
     "overrides",
-    [dict(), dict(damping=0.5), dict(gravity=9.81, rest_length=0.9),
+    [dict(), dict(damping=0.5),
+     pytest.param(dict(gravity=9.81, rest_length=0.9), marks=pytest.mark.slow),
      pytest.param(dict(drag=0.3, dim=3, rest_length=0.8), marks=pytest.mark.slow)],
     ids=["undamped", "dashpots", "gravity+tension", "drag+3d"],
 )

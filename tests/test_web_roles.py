@@ -229,6 +229,7 @@ def test_student_click_selects_a_particle_for_that_page_only(class_app):
     assert not app.roles.refused
 
 
+@pytest.mark.slow  # waits for the server to give up on a page
 def test_a_page_that_stops_reading_is_disconnected(tmp_path):
     app = WebApp(sim.Simulation(sim.scenes.build("interference", nx=40, ny=30)),
                  port=free_port(), play=True, scenes_dir=tmp_path / "s",

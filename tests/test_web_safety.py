@@ -366,6 +366,7 @@ def test_double_click_on_record_and_stopping_the_server_leave_valid_recordings(f
 # --- accuracy in the page ---------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # the absorbing layer's kernels on a page
 def test_the_page_shows_the_energy_balance_error_and_explains_it(web_app):
     panel = web_app.panel
     accuracy = panel.accuracy
