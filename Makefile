@@ -14,7 +14,7 @@ $(BIN)/oscillators: pyproject.toml
 
 install: $(BIN)/oscillators
 
-# warm: the served scene's kernels and its Gravity/Damping toggles are compiled before the page
+# warm: the served scene's kernels and its Physics toggles are compiled before the page
 # opens (once per machine, then read from numba's cache); the server compiles the other presets'
 # in the background (docs/web.md, "Kernels compiled ahead").
 run: install  ## install, then serve the web app on the default scene

@@ -161,3 +161,11 @@ def test_the_servers_background_warming_runs_at_the_lowest_priority_and_stops(mo
     finally:
         stop_background(process)
     assert process.poll() is not None
+
+
+def test_the_warmed_toggles_include_the_other_spring_law():
+    from app.cli.warm import toggles
+
+    labels = [combination.label for combination in toggles("grid")]
+    assert labels == ["grid (gravity on)", "grid (damping on)", "grid (gravity on, damping on)",
+                      "grid (linear on)"]

@@ -79,7 +79,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "(default: a new random one each start)")
     parser.add_argument("--no-warm", action="store_true",
                         help="do not compile the other presets' kernels in the background "
-                        "(by default a low-priority process does, this scene's Gravity/Damping "
+                        "(by default a low-priority process does, this scene's Physics "
                         "toggles first, so the page seldom waits for a compile)")
     parser.set_defaults(handler=command_serve)
 

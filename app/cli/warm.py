@@ -4,8 +4,8 @@ numba compiles a kernel variant for each combination of a scene's flags on first
 (seconds to a minute each) and keeps it in its on-disk cache.  This command runs every preset
 (or the ones named) for a few steps as the web app runs it (``sim.runtime.warming.rehearse``), with a
 progress bar, and says what it compiled and what was already in the cache.  ``--toggles`` adds the
-Physics folder's Gravity and Damping ticked or unticked; ``serve`` starts this command in the
-background (``--background --served SCENE``) with its scene's toggles first.
+Physics folder's Gravity, Damping and Linearised springs ticked or unticked; ``serve`` starts this
+command in the background (``--background --served SCENE``) with its scene's toggles first.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any
 EPILOG = """examples:
   oscillators warm                     # every preset as the web app runs it
   oscillators warm grid catenary       # only these presets
-  oscillators warm --toggles           # also with the Physics folder's Gravity / Damping flipped
+  oscillators warm --toggles           # also with Gravity / Damping / Linearised springs flipped
 
 `make run` runs `oscillators warm` before it serves.  Kernels are kept in numba's cache beside
 the sources (or in NUMBA_CACHE_DIR); a later run of this command finds them there in seconds.
@@ -44,10 +44,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("names", nargs="*", metavar="PRESET",
                         help="only these presets (default: every preset)")
     parser.add_argument("--toggles", action="store_true",
-                        help="also each preset with the Physics folder's Gravity and Damping "
-                        "ticked or unticked")
+                        help="also each preset with the Physics folder's Gravity, Damping and "
+                        "Linearised springs ticked or unticked")
     parser.add_argument("--served", metavar="PRESET",
-                        help="the preset a server shows: its Gravity/Damping toggles come first, "
+                        help="the preset a server shows: its Physics toggles come first, "
                         "its own kernels are left to the server")
     parser.add_argument("--background", action="store_true",
                         help="lowest CPU priority, no progress bar, stop when the process that "
@@ -78,14 +78,16 @@ class Combination:
 
 
 def toggles(preset: str) -> list[Combination]:
-    """``preset`` with Gravity, Damping, and both, flipped from the preset's own."""
+    """``preset`` with Gravity, Damping, and both, flipped from the preset's own, and with its
+    springs linearised (or not): a kernel carries one spring law."""
     from sim.scenes import building as scenes
 
     model = scenes.build(preset).model
     gravity = ("gravity", 0.0 if model.has_gravity else TOGGLED_GRAVITY)
     damping = ("damping", 0.0 if model.damping > 0 else TOGGLED_DAMPING)
+    linear = ("linear", not model.linear)
     return [Combination(preset, (gravity,)), Combination(preset, (damping,)),
-            Combination(preset, (gravity, damping))]
+            Combination(preset, (gravity, damping)), Combination(preset, (linear,))]
 
 
 def plan(names: list[str], with_toggles: bool, served: str | None) -> list[Combination]:
