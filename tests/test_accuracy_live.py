@@ -233,6 +233,7 @@ def test_exact_interference_agrees_with_fine_rk4_to_its_error():
     assert difference <= 2 * rk4_error + 1e-12
 
 
+@pytest.mark.slow  # kernels of their own
 def test_accuracy_command_writes_its_picture_by_default_and_says_where(tmp_path, monkeypatch,
                                                                        capsys):
     from app.cli import main

@@ -124,6 +124,7 @@ def test_cli_json_is_one_document_and_writes_no_file(tmp_path: Path) -> None:
     assert json.loads(run.stdout)["steps"] == data["steps"]
 
 
+@pytest.mark.slow  # a study of many runs
 def test_cli_says_when_nothing_meets_and_exits_nonzero(tmp_path: Path) -> None:
     result = _cli(tmp_path, "choose", "chain", "--set", "linear=true", "--tolerance", "1e-13",
                   "--integrators", "verlet", "--quiet", "-o", str(tmp_path / "choice.json"))

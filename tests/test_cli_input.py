@@ -72,6 +72,7 @@ def test_run_refuses_values_beyond_what_can_run_before_running(capsys, arguments
     assert "ran " not in capsys.readouterr().out, line
 
 
+@pytest.mark.slow  # kernels of their own
 def test_run_still_accepts_sensible_input(capsys):
     assert run_cli(["run", "chain", "--dt", "0.01", "--duration", "0.5", "--quiet"]) == 0
     assert "ran 50 steps" in capsys.readouterr().out

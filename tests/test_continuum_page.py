@@ -14,7 +14,8 @@ pytestmark = pytest.mark.browser
 
 
 
-@pytest.mark.parametrize("kind", ["string", pytest.param("membrane", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("kind", [pytest.param("string", marks=pytest.mark.slow),
+                                  pytest.param("membrane", marks=pytest.mark.slow)])
 def test_the_page_runs_every_n_on_one_clock_and_shows_the_distances(kind, browser, tmp_path):
     particles = (4, 16, 64) if kind == "string" else (4, 16)
     page_app = ContinuumPage(Body(kind=kind, shape=Shape("gaussian")), particles,

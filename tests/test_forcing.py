@@ -294,6 +294,7 @@ def instrumented_grid(**changes) -> sim.scenes.Scene:
     return sim.scenes.build("grid", **{**parameters, **changes})
 
 
+@pytest.mark.slow  # kernels of their own (leapfrog with both)
 def test_a_driver_and_a_sponge_run_inside_the_fused_steps(monkeypatch):
     simulation = sim.Simulation(instrumented_grid(), integrator="verlet")
     calls = []
@@ -349,7 +350,7 @@ def test_a_driven_out_of_plane_lattice_runs_in_float32_as_in_float64():
     assert np.abs(runs["float32"] - runs["float64"]).max() < 1e-3 * moved
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+@pytest.mark.parametrize("integrator", ["rk4", pytest.param("verlet", marks=pytest.mark.slow)])
 def test_a_kick_inside_the_sponge_is_absorbed_not_amplified(integrator):
     """A particle inside the layer of a chain at rest is given a small velocity: the layer must
     take that energy out, not turn it into a drift of the chain (a layer that cannot hold a

@@ -14,7 +14,7 @@ from app.colours import SIGNED_FIELD
 from tests.test_movie import decoded, picture_box, pixel_of
 
 LARGE = ("interference", "interference-open")
-PRESETS = [name if name not in ("single-slit", "double-slit")  # two-sources: the ripple tank
+PRESETS = [name if name not in ("single-slit", "double-slit", "bandgap")  # two-sources: the ripple tank
            else pytest.param(name, marks=pytest.mark.slow)
            for name in sim.scenes.names() if name not in LARGE] + [
     pytest.param("interference-open", marks=pytest.mark.slow)]

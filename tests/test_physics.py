@@ -231,6 +231,7 @@ def test_energy_drift_signatures_of_the_integrators():
 # --- statics and energy balance -----------------------------------------------------------------
 
 
+@pytest.mark.slow  # kernels of their own (the energy balance checks both)
 def test_gravity_with_damping_settles_to_static_solution():
     nx, ny, gravity = 6, 4, 9.81
     masses = np.linspace(0.5, 2.0, nx * ny).reshape(ny, nx)

@@ -164,7 +164,7 @@ def test_threaded_float32_equals_one_thread(integrator):
     np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=20 * EPS32 * extent * math.sqrt(50))
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "verlet"])
+@pytest.mark.parametrize("integrator", [pytest.param("rk4", marks=pytest.mark.slow), "verlet"])
 def test_threaded_energy_conserved(integrator):
     """Undamped nonlinear grid on 2 threads: the energy stays within the method's own error."""
     scene = sim.scenes.build("grid", ny=24).with_displacement(40, (0.05, 0.03))
@@ -188,7 +188,8 @@ def test_threaded_damped_energy_balance():
     assert balance == pytest.approx(start, rel=1e-4)
 
 
-@pytest.mark.parametrize("integrator", [pytest.param("rk4", marks=pytest.mark.slow), "verlet"])
+@pytest.mark.parametrize("integrator", [pytest.param("rk4", marks=pytest.mark.slow),
+                                        pytest.param("verlet", marks=pytest.mark.slow)])
 def test_threaded_stability_limit_unchanged(integrator):
     """Just below the analysed limit a threaded run stays bounded; just above it grows, as on one
     thread."""

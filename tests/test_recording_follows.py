@@ -78,6 +78,7 @@ def test_a_colour_read_back_gives_the_value_on_its_scale(policy):
                                    atol=1e-9)
 
 
+@pytest.mark.slow  # records the flagship
 def test_a_shortened_flagship_recording_shows_the_waves_late_and_fixed_does_not(tmp_path):
     """The flagship's scene (smaller, 30 s): late in the run the default recording's field image
     shows the waves on a third of the lattice or more, its colour bar was redrawn as the scale
@@ -103,6 +104,7 @@ def test_a_shortened_flagship_recording_shows_the_waves_late_and_fixed_does_not(
             read_chunks(fixed), "/colour_scale/field", "Scalars:scalars").values()}) == 1
 
 
+@pytest.mark.slow  # records the flagship
 def test_a_movie_of_a_shortened_flagship_recording_shows_the_waves(tmp_path):
     """``movie REC.rrd`` reads each frame on the scale it was recorded with and draws it with
     the recording's policy: late frames show the waves on a third of the picture or more."""

@@ -80,6 +80,7 @@ def test_a_probe_at_a_node_does_not_show_the_mode():
     assert [line.label for line in lines] == [f"n={n}" for n in range(1, 14, 2)]
 
 
+@pytest.mark.slow  # a study of many runs
 def test_reflection_prints_a_table_and_writes_a_picture(tmp_path, capsys):
     picture = tmp_path / "reflection.png"
     status = main(["reflection", "--widths", "30", "--wavelengths", "10", "--quiet",

@@ -395,6 +395,7 @@ def test_choose_for_me_sets_a_run_that_meets_the_tolerance(web_app):
     assert answer.error <= 1e-3  # verified by running it over the scene's duration
 
 
+@pytest.mark.slow  # the linearised springs' own kernels on a page
 def test_linearised_springs_offer_the_exact_solver(web_app):
     panel = web_app.panel
     assert "exact" not in panel.integrator.method.options
