@@ -62,6 +62,7 @@ def test_exact_solution_refuses_nonlinear_springs():
         ExactLinearSolution(scene.model, scene.model.rest_positions.T, scene.initial_velocities.T)
 
 
+@pytest.mark.slow  # float32 kernels of their own
 def test_reference_is_exact_for_linear_scene(linear_grid_study):
     reference = linear_grid_study.reference
     assert reference.kind == "exact normal modes"

@@ -413,6 +413,7 @@ def test_linearised_springs_offer_the_exact_solver(web_app):
     assert wait_for(lambda: "no time-step error" in panel.accuracy.predicted.content)
 
 
+@pytest.mark.slow  # float32 and threaded kernels of their own
 def test_precision_and_threads_from_the_page_are_checked_and_applied(web_app):
     panel = web_app.panel
     send(panel.integrator.precision, "float16")
