@@ -358,6 +358,7 @@ def test_cli_duration_and_output(tmp_path):
 # --- large scenes ------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # records the flagship (the size estimate is checked by default)
 def test_interference_default_recording_fits_the_budget(tmp_path):
     """Budget: 1000 frames of interference in under 50 MB; extrapolated from a few frames."""
     scene = sim.scenes.build("interference")

@@ -110,6 +110,7 @@ def test_phase_and_energy_errors_shrink_with_dt_at_the_theoretical_rate(
             assert errors[i] / errors[i - 1] >= expected / 2, (integrator, quantity, errors)
 
 
+@pytest.mark.slow  # fine reference runs of a nonlinear lattice
 def test_nonlinear_reference_reports_its_own_error():
     scene = sim.scenes.build("grid", nx=6, ny=4)
     study = accuracy_study(scene, integrators=["verlet", "rk4"], dts=[0.02, 0.01], until=1.0,
