@@ -22,7 +22,8 @@ from app import colours
 from app.web.frames import encode, field_picture
 
 CHOICES = [(image_format, quality) for image_format in ("jpeg", "jpeg444", "webp")
-           for quality in (60, 70, 80, 90)] + [("png", 0)]
+           for quality in (60, 70, 80, 90)] + [("jpeg444", quality) for quality in (40, 50, 75)] + [
+    ("png", 0)]
 
 
 def psnr(reference: np.ndarray, decoded: np.ndarray) -> float:

@@ -36,6 +36,34 @@ def test_each_particle_is_its_own_pixel_with_row_zero_at_the_bottom():
     assert lit.tolist() == [[2, 4]]  # the bottom-right pixel
 
 
+def _field(wavelength: float) -> np.ndarray:
+    """A flagship-sized picture (383 x 682) of interfering waves of about ``wavelength`` pixels,
+    coloured with the page's magnitude map."""
+    from app import colours
+
+    y, x = np.mgrid[0:383, 0:682].astype(float)
+    k = 2 * np.pi / wavelength
+    field = sum(np.cos(k * (x * np.cos(a) + y * np.sin(a)) + 3 * a) for a in np.linspace(0, 3, 9))
+    values = np.abs(field).ravel()
+    return colours.MAGNITUDE.map(values, float(np.percentile(values, 99.5))).reshape(383, 682, 3)
+
+
+def test_fine_grained_pictures_step_down_in_quality_to_keep_five_a_second_in_the_budget():
+    fine, smooth = _field(3.0), _field(200.0)
+    assert len(frames.encode(fine, quality=frames.QUALITY)) > frames.PICTURE_BYTES  # too big
+    quality, sizes = frames.QUALITY, []
+    for _ in range(12):
+        sizes.append(len(frames.encode(fine, quality=quality)))
+        quality = frames.next_quality(quality, sizes[-1])
+    assert frames.LOWEST_QUALITY <= quality < frames.QUALITY
+    assert sizes[-1] < sizes[0]
+    assert sizes[-1] <= frames.PICTURE_BYTES or quality == frames.LOWEST_QUALITY
+    assert pacing.BYTES_PER_SECOND / frames.PICTURE_BYTES >= 5
+    for _ in range(12):  # the waves thin out again: back to full quality
+        quality = frames.next_quality(quality, len(frames.encode(smooth, quality=quality)))
+    assert quality == frames.QUALITY
+
+
 WINDOW = 12.0
 """Seconds the pages listen: long enough for a few pictures on a busy machine."""
 
