@@ -47,10 +47,11 @@ WebP, whose halved colour resolution blurs one-particle-wide wave crests, and en
 milliseconds where WebP takes 50-100 ms)."""
 QUALITY = 75
 """JPEG quality of the pictures while they are small (see ``benchmarks/frame_formats.py``)."""
-LOWEST_QUALITY = 50
+LOWEST_QUALITY = 40
 """The lowest JPEG quality a picture goes down to as the field grows fine-grained
 (``next_quality``).  The flagship at t = 180 s, 682x383 shown 1.5 times larger: 152 kB at 75, 88
-kB at 50 (24.9 and 21.7 dB), with no difference to see between the two at that size."""
+kB at 50, 72 kB at 40 (24.9, 21.7 and 20.9 dB), with no difference to see between them at that
+size."""
 PICTURE_BYTES = BYTES_PER_SECOND / 5.5
 """Bytes a picture aims at: five and a half pictures a second fit each page's byte budget."""
 QUALITY_STEP = 5
