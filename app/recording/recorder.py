@@ -152,43 +152,7 @@ class Recorder:
                                if interval is None else float(interval))
 
         try:
-            self.recording_id = str(uuid.uuid4())
-            self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
-                                             batcher_config=_SMALL_CHUNKS)
-            legends = colour_legends(self.plan, self.scales, self.exaggeration)
-            bp = blueprint(
-                self.trees, dim=self.model.dim,
-                show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
-                legends=len(legends), probes=bool(self.plan.probes),
-                modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
-            )
-            self.stream.save(self._output.library_path, default_blueprint=bp)
-            self.stream.send_blueprint(bp, make_active=True, make_default=True)
-            self.stream.send_recording_name(f"{scene.name}")
-            self.document = scene_document(
-                scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
-                scales=self.scales, run=self.run, trees=self.trees,
-                exaggeration=self.exaggeration, field_policy=self.field_policy,
-            ) + f"\n\nLogged: {self.plan.describe()}."
-            """The read-me logged at ``/scene`` (logged again at the end with the probes' spectra)."""
-            self.stream.log(
-                SCENE_ENTITY, rr.TextDocument(self.document, media_type=rr.MediaType.MARKDOWN),
-                static=True,
-            )
-            offset = 0.0
-            for name, (png, height) in legends.items():
-                entity = f"{LEGEND_ENTITY}/{name}"
-                placed = rr.Transform3D(translation=[0.0, offset, 0.0])
-                if png is None:  # the field's bar is logged frame by frame (FieldLegend)
-                    self.stream.log(entity, placed, static=True)
-                else:
-                    self.stream.log(entity, rr.EncodedImage(contents=png, media_type="image/png"),
-                                    placed, static=True)
-                offset += height + 8
-            self.field_legend = (FieldLegend(f"{LEGEND_ENTITY}/field",
-                                             field_label(self.plan, self.scales.axis),
-                                             self.plan.quantity) if self.plan.field else None)
-            """The field's colour bar, redrawn when the numbers of its scale change."""
+            self._start_stream(scene, integrator, dt)
         except BaseException as error:  # nothing was logged yet: leave no file behind
             stream = getattr(self, "stream", None)
             if stream is not None:
@@ -216,6 +180,47 @@ class Recorder:
             self._worker.start()
 
     # --- attaching --------------------------------------------------------------------------------
+
+    def _start_stream(self, scene: Any, integrator: str, dt: float) -> None:
+        """Open the rerun stream on the ``.partial`` file and log what a recording starts with:
+        the blueprint, the read-me at ``/scene`` and the colour bars."""
+        self.recording_id = str(uuid.uuid4())
+        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=self.recording_id,
+                                         batcher_config=_SMALL_CHUNKS)
+        legends = colour_legends(self.plan, self.scales, self.exaggeration)
+        bp = blueprint(
+            self.trees, dim=self.model.dim,
+            show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
+            legends=len(legends), probes=bool(self.plan.probes),
+            modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
+        )
+        self.stream.save(self._output.library_path, default_blueprint=bp)
+        self.stream.send_blueprint(bp, make_active=True, make_default=True)
+        self.stream.send_recording_name(f"{scene.name}")
+        self.document = scene_document(
+            scene, self.model, integrator=integrator, dt=dt, plan=self.plan,
+            scales=self.scales, run=self.run, trees=self.trees,
+            exaggeration=self.exaggeration, field_policy=self.field_policy,
+        ) + f"\n\nLogged: {self.plan.describe()}."
+        """The read-me logged at ``/scene`` (logged again at the end with the probes' spectra)."""
+        self.stream.log(
+            SCENE_ENTITY, rr.TextDocument(self.document, media_type=rr.MediaType.MARKDOWN),
+            static=True,
+        )
+        offset = 0.0
+        for name, (png, height) in legends.items():
+            entity = f"{LEGEND_ENTITY}/{name}"
+            placed = rr.Transform3D(translation=[0.0, offset, 0.0])
+            if png is None:  # the field's bar is logged frame by frame (FieldLegend)
+                self.stream.log(entity, placed, static=True)
+            else:
+                self.stream.log(entity, rr.EncodedImage(contents=png, media_type="image/png"),
+                                placed, static=True)
+            offset += height + 8
+        self.field_legend = (FieldLegend(f"{LEGEND_ENTITY}/field",
+                                         field_label(self.plan, self.scales.axis),
+                                         self.plan.quantity) if self.plan.field else None)
+        """The field's colour bar, redrawn when the numbers of its scale change."""
 
     def attach(self, runner: Runner, tree: str | None = None, snapshot: bool = False) -> Track:
         """Subscribe to ``runner``; its frames go to ``tree`` (None: the root).  With
