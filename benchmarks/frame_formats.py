@@ -23,7 +23,7 @@ from app.web.frames import encode, field_picture
 
 CHOICES = [(image_format, quality) for image_format in ("jpeg", "jpeg444", "webp")
            for quality in (60, 70, 80, 90)] + [("jpeg444", quality) for quality in (40, 50, 75)] + [
-    ("png", 0)]
+    ("jpeg", 40), ("jpeg", 50), ("png", 0)]
 
 
 def psnr(reference: np.ndarray, decoded: np.ndarray) -> float:

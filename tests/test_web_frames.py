@@ -50,18 +50,25 @@ def _field(wavelength: float) -> np.ndarray:
 
 def test_fine_grained_pictures_step_down_in_quality_to_keep_five_a_second_in_the_budget():
     fine, smooth = _field(3.0), _field(200.0)
-    assert len(frames.encode(fine, quality=frames.QUALITY)) > frames.PICTURE_BYTES  # too big
-    quality, sizes = frames.QUALITY, []
-    for _ in range(12):
-        sizes.append(len(frames.encode(fine, quality=quality)))
-        quality = frames.next_quality(quality, sizes[-1])
-    assert frames.LOWEST_QUALITY <= quality < frames.QUALITY
-    assert sizes[-1] < sizes[0]
-    assert sizes[-1] <= frames.PICTURE_BYTES or quality == frames.LOWEST_QUALITY
+    assert len(frames.encode(fine, *frames.PICTURE_STEPS[0])) > frames.PICTURE_BYTES  # too big
+    step, sizes = 0, []
+    for _ in range(len(frames.PICTURE_STEPS) + 2):
+        sizes.append(len(frames.encode(fine, *frames.PICTURE_STEPS[step])))
+        step = frames.next_step(step, sizes[-1])
+    assert step > 0
+    assert sizes[-1] < 0.6 * sizes[0]
+    assert sizes[-1] <= frames.PICTURE_BYTES or step == len(frames.PICTURE_STEPS) - 1
     assert pacing.BYTES_PER_SECOND / frames.PICTURE_BYTES >= 5
-    for _ in range(12):  # the waves thin out again: back to full quality
-        quality = frames.next_quality(quality, len(frames.encode(smooth, quality=quality)))
-    assert quality == frames.QUALITY
+    for _ in range(len(frames.PICTURE_STEPS) + 2):  # the waves thin out again: back to the best
+        step = frames.next_step(step, len(frames.encode(smooth, *frames.PICTURE_STEPS[step])))
+    assert step == 0
+
+
+def test_each_picture_step_is_smaller_than_the_one_before():
+    """Stepping down always saves bytes: the ladder's order is by size on a fine field."""
+    fine = _field(3.0)
+    sizes = [len(frames.encode(fine, *encoding)) for encoding in frames.PICTURE_STEPS]
+    assert all(later < earlier for earlier, later in zip(sizes, sizes[1:], strict=False)), sizes
 
 
 WINDOW = 12.0

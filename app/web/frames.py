@@ -11,7 +11,7 @@ node, in the lattice plane z = 0, one lattice spacing per pixel) and replaces it
   the same bytes (viser appends them to its message without copying or compressing them);
 * ``FORMAT`` and ``QUALITY`` were chosen by ``benchmarks/frame_formats.py`` (bytes against
   peak signal-to-noise ratio on a running interference field); as the waves fill the lattice with
-  fine detail the quality steps down to ``LOWEST_QUALITY`` so that a picture stays near
+  fine detail the encoding steps down ``PICTURE_STEPS`` so that a picture stays near
   ``PICTURE_BYTES`` and each page still gets about five a second within its byte budget;
 * each page gets the newest picture as soon as it has drawn the previous one, at most
   ``MAX_FPS`` a second and ``BYTES_PER_SECOND`` per page (``app.web.pacing``): a page without
@@ -47,14 +47,16 @@ WebP, whose halved colour resolution blurs one-particle-wide wave crests, and en
 milliseconds where WebP takes 50-100 ms)."""
 QUALITY = 75
 """JPEG quality of the pictures while they are small (see ``benchmarks/frame_formats.py``)."""
-LOWEST_QUALITY = 40
-"""The lowest JPEG quality a picture goes down to as the field grows fine-grained
-(``next_quality``).  The flagship at t = 180 s, 682x383 shown 1.5 times larger: 152 kB at 75, 88
-kB at 50, 72 kB at 40 (24.9, 21.7 and 20.9 dB), with no difference to see between them at that
-size."""
+PICTURE_STEPS = tuple((FORMAT, quality) for quality in range(QUALITY, 35, -5)) + (
+    ("jpeg", 50), ("jpeg", 40))
+"""The encodings (format, JPEG quality) a picture steps down through as the field grows
+fine-grained (``next_step``), best first.  The flagship at t = 180 s, 682x383 shown 1.5 times
+larger: 152 kB at 4:4:4 quality 75, 88 kB at 50, 72 kB at 40, then 57 and 49 kB with colour at
+half resolution (4:2:0) at 50 and 40 (24.9, 21.7, 20.9, 20.0 and 19.7 dB), with no difference to
+see between them at that size; the halved colour only costs where the field is still smooth
+enough to afford full resolution, so it comes last."""
 PICTURE_BYTES = BYTES_PER_SECOND / 5.5
 """Bytes a picture aims at: five and a half pictures a second fit each page's byte budget."""
-QUALITY_STEP = 5
 DEFAULT_FPS = MAX_FPS
 """Pictures per second by default: as many as each page draws, up to ``MAX_FPS``."""
 PICTURE_RATES = (1.0, 2.0, 4.0, MAX_FPS)
@@ -88,17 +90,17 @@ def encode(picture: np.ndarray, image_format: str = FORMAT, quality: int = QUALI
     return buffer.getvalue()
 
 
-def next_quality(quality: int, picture_bytes: int) -> int:
-    """The JPEG quality of the next picture after one of ``picture_bytes`` at ``quality``: a step
-    lower while pictures are larger than ``PICTURE_BYTES`` (down to ``LOWEST_QUALITY``), a step
-    back up while they are under 70 % of it (up to ``QUALITY``).  Late in a run the waves fill the
-    lattice with fine detail and a picture at quality 75 takes 150-190 kB, so the byte budget
-    alone would hold each page under 3 pictures a second."""
-    if picture_bytes > PICTURE_BYTES and quality > LOWEST_QUALITY:
-        return max(LOWEST_QUALITY, quality - QUALITY_STEP)
-    if picture_bytes < 0.7 * PICTURE_BYTES and quality < QUALITY:
-        return min(QUALITY, quality + QUALITY_STEP)
-    return quality
+def next_step(step: int, picture_bytes: int) -> int:
+    """The encoding (index into ``PICTURE_STEPS``) of the next picture after one of
+    ``picture_bytes`` at ``step``: a step down while pictures are larger than ``PICTURE_BYTES``, a
+    step back up while they are under 70 % of it.  Late in a run the waves fill the lattice with
+    fine detail and a picture at quality 75 takes 150-190 kB, so the byte budget alone would hold
+    each page under 3 pictures a second."""
+    if picture_bytes > PICTURE_BYTES and step < len(PICTURE_STEPS) - 1:
+        return step + 1
+    if picture_bytes < 0.7 * PICTURE_BYTES and step > 0:
+        return step - 1
+    return step
 
 
 def image_pose(model: Model) -> tuple[tuple[float, float, float], float, float]:
@@ -127,8 +129,8 @@ class FieldImage:
         self.sent = 0
         self.bytes_sent = 0
         self.last_bytes = 0
-        self.quality = QUALITY
-        """The JPEG quality of the next picture (``next_quality``)."""
+        self.step = 0
+        """The encoding of the next picture, an index into ``PICTURE_STEPS`` (``next_step``)."""
         self.encode_seconds = 0.0
         self._last_encoded = -1e9
         self.frame: object = None
@@ -159,11 +161,11 @@ class FieldImage:
         now = time.perf_counter()
         if not force and not self.due_now():
             return False
-        data = encode(field_picture(self.model, colours), quality=self.quality)
+        data = encode(field_picture(self.model, colours), *PICTURE_STEPS[self.step])
         self.encode_seconds += time.perf_counter() - now
         self._last_encoded = now
         self.last_bytes = len(data)
-        self.quality = next_quality(self.quality, len(data))
+        self.step = next_step(self.step, len(data))
         self.sent += 1
         self.bytes_sent += len(data)
         self.pacer.publish(data)
