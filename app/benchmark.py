@@ -222,13 +222,15 @@ def _rk4_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int]
     with the classic RK4 table on ``common``."""
     from sim.integrators.butcher import CLASSIC_RK4
     from sim.loops import row_sweep as stepping
+    from sim.loops.stage_updates import Fields
 
     dim, _, nx = position.shape
-    work = [np.zeros((dim, CLASSIC_RK4.stages, nx)) for _ in range(4)]
+    stage, sums = (Fields(*(np.zeros((dim, CLASSIC_RK4.stages, nx)) for _ in range(2)))
+                   for _ in range(2))
     table = CLASSIC_RK4.coefficients
 
     def run(steps: int) -> None:
-        stepping.runge_kutta_steps(table, steps, dt, *common, *work)
+        stepping.runge_kutta_steps(table, steps, dt, *common, stage, sums)
 
     return run
 
@@ -258,7 +260,7 @@ def _specialisation(scene, seconds: float) -> dict | None:
     from sim.integrators.steppers import KernelArguments
 
     model = scene.model
-    arguments = KernelArguments.from_model(model)
+    arguments, parameters = KernelArguments.from_model(model)
     if not (arguments.dashpot is None and arguments.drag is None and arguments.gravity is None
             and arguments.uniform_inverse_mass is not None and model.dim == 2):
         return None  # the scene already runs the general kernel
@@ -266,24 +268,25 @@ def _specialisation(scene, seconds: float) -> dict | None:
     planar = (state.positions, state.velocities)
     volume = (np.concatenate([state.positions, np.zeros((1, model.ny, model.nx))]),
               np.concatenate([state.velocities, np.zeros((1, model.ny, model.nx))]))
-    zero_terms = (0.0, 0.0, np.zeros(3))
+    zero_terms = dict(dashpot=0.0, drag=0.0, gravity=np.zeros(3))
+    no_terms = dict(dashpot=None, drag=None, gravity=None)
     variants = {
         "specialised": dict(out_of_plane=None, arrays=planar, mass=arguments.uniform_inverse_mass,
-                            terms=(None, None, None)),
+                            terms=no_terms),
         "zero_damping_drag_gravity": dict(out_of_plane=None, arrays=planar,
                                           mass=arguments.uniform_inverse_mass, terms=zero_terms),
-        "inverse_mass_array": dict(out_of_plane=None, arrays=planar, mass=None,
-                                   terms=(None, None, None)),
+        "inverse_mass_array": dict(out_of_plane=None, arrays=planar, mass=None, terms=no_terms),
         "three_dimensional": dict(out_of_plane=True, arrays=volume,
-                                  mass=arguments.uniform_inverse_mass, terms=(None, None, None)),
+                                  mass=arguments.uniform_inverse_mass, terms=no_terms),
     }
     results: dict = {}
     for integrator, sweep in SPECIALISATION_SWEEPS:
         rates = {}
         for variant, setup in variants.items():
             position, velocity = (a.copy() for a in setup["arrays"])
-            common = (arguments.linear, setup["out_of_plane"], position, velocity,
-                      arguments.inverse_mass, setup["mass"], arguments.parameters, *setup["terms"])
+            terms = arguments._replace(out_of_plane=setup["out_of_plane"],
+                                       uniform_inverse_mass=setup["mass"], **setup["terms"])
+            common = (terms, parameters, position, velocity)
             run = sweep(scene.dt, common, position)
             rates[variant] = _best_rate(run, _burst(integrator), seconds)
         base = rates["specialised"]

@@ -21,7 +21,6 @@ import time
 import numpy as np
 
 import sim
-from sim.forces import absorbing_kicks as layer_kick
 from sim.loops import leapfrog
 
 
@@ -35,10 +34,8 @@ def sweep(simulation: sim.Simulation):
 
     def run(layer, steps: int) -> None:
         leapfrog.leapfrog_steps(
-            steps, dt, kernel.out_of_plane, state.positions, state.velocities,
-            kernel.inverse_mass, kernel.uniform_inverse_mass, kernel.parameters, kernel.gravity,
-            stepper._block_starts, stepper._boundary, stepper._below, stepper._horizontal,
-            stepper._under, 0.0, None, stepper._saved, layer, np.zeros((1, 2)))
+            steps, dt, *kernel, state.positions, state.velocities, stepper._block_starts,
+            stepper._leapfrog_work, 0.0, None, stepper._saved, layer, np.zeros((1, 2)))
     return run
 
 
@@ -46,17 +43,12 @@ def variants(simulation: sim.Simulation) -> dict:
     """The layer's tuple as the sweep takes it, and the same with parts emptied."""
     full = simulation._integrator.sponge.arguments(0.5 * simulation.dt, np.float64)
 
-    def emptied(**changes) -> tuple:
-        layer = list(full)
-        for name, value in changes.items():
-            layer[getattr(layer_kick, name)] = value
-        return tuple(layer)
-    no_strips = full[layer_kick.GEOMETRY].copy()
+    no_strips = full.geometry.copy()
     no_strips[:2] = 0
-    no_bands = np.zeros_like(full[layer_kick.NEEDS])
-    return {"layer": full, "bands only": emptied(GEOMETRY=no_strips),
-            "side strips only": emptied(NEEDS=no_bands),
-            "both emptied": emptied(GEOMETRY=no_strips, NEEDS=no_bands)}
+    no_bands = np.zeros_like(full.needs)
+    return {"layer": full, "bands only": full._replace(geometry=no_strips),
+            "side strips only": full._replace(needs=no_bands),
+            "both emptied": full._replace(geometry=no_strips, needs=no_bands)}
 
 
 def main() -> None:

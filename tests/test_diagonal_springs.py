@@ -37,11 +37,9 @@ def _displaced(model, scale=0.1, seed=1):
 
 def _kernel_forces(model, positions):
     """Forces (N) on every particle from the compiled row sweep."""
-    k = KernelArguments.from_model(model)
+    terms, parameters = KernelArguments.from_model(model)
     acceleration = np.zeros_like(positions)
-    row_sweep.accelerations(k.linear, k.out_of_plane, positions, np.zeros_like(positions),
-                            k.inverse_mass, k.uniform_inverse_mass, k.parameters, k.dashpot,
-                            k.drag, k.gravity, acceleration)
+    row_sweep.accelerations(terms, parameters, positions, np.zeros_like(positions), acceleration)
     return acceleration * model.masses
 
 

@@ -263,16 +263,20 @@ def keep_row(source, kept):
 
 
 @njit(**_JIT)
-def band_kick(c, j, tau, lead, second_half, pull, velocity, masses, inverse_masses, horizontal,
-              below, above, held_y, relaxed_y, e_below, e_above, e_node, shift, drift, position):
+def band_kick(c, j, tau, lead, second_half, pull, layer, horizontal, below, above, shift, drift,
+              position, velocity):
     """Component c of band row j's y-layer kick: per half action relax the held forces of each
     particle's y-springs (``e_below``, ``e_above``: their factors) and its phi (``e_node``) over
-    tau / 2, kick by tau, relax again.  ``shift`` (N) is taken off the y-springs' forces (their
-    rest tension along this component, or 0 when the forces given are beyond it).  A held force
+    tau / 2, kick by tau, relax again (``layer`` the layer's record).  ``shift`` (N) is taken
+    off the y-springs' forces (their rest tension along this component, or 0 when the forces
+    given are beyond it).  A held force
     relaxes toward a force that stays put, so after n relaxations it is f + (h - f) e^n: the
     second half's kick reads it after three.  The held forces are stored by the caller
     (``relax_row``) once both their rows have used them.  Returns the kinetic energy taken out
     (J)."""
+    masses, inverse_masses = layer.masses, layer.inverse_masses
+    held_y, relaxed_y = layer.held_y, layer.relaxed_y
+    e_below, e_above, e_node = layer.spring_y[j], layer.spring_y[j + 1], layer.node_y[j]
     taken = 0.0
     one = np.uint64(1)
     later_below = e_below * e_below * e_below  # three relaxations
@@ -338,10 +342,8 @@ def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizo
     pull = gravity_vector(layer.gravity, 0.0)
     taken = 0.0
     for c in range(velocity.shape[0]):
-        taken += band_kick(c, j, tau, lead, second_half, pull[c], velocity, layer.masses,
-                           layer.inverse_masses, horizontal, below, above, held_y,
-                           layer.relaxed_y, spring_y[j], spring_y[j + 1], layer.node_y[j],
-                           tension if c == 1 else 0.0, drift, position)
+        taken += band_kick(c, j, tau, lead, second_half, pull[c], layer, horizontal, below, above,
+                           tension if c == 1 else 0.0, drift, position, velocity)
     if spring_y[j] < 1.0 and not (first and j > 0):  # the springs under j served both rows
         relax_row(held_y, j, below, spring_y[j], second_half, tension)
     if j == ny - 1 and spring_y[ny] < 1.0:

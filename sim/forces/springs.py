@@ -45,6 +45,7 @@ import numpy as np
 from numba import njit
 
 from sim.forces.diagonal import diagonal_net, diagonal_springs
+from sim.forces.terms import inverse_mass_at
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -365,21 +366,40 @@ def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, 
 
 
 @njit(**_JIT)
-def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass, linearised,
-                       parameters, dashpot, drag, gravity, below, above, horizontal, out):
+def drag_power(drag, vx, vy, vz, r):
+    """Power (W) that ``drag`` (None: none) takes from the particles stored at row index r."""
+    power = 0.0
+    if drag is not None:
+        for i in range(vx.shape[1]):
+            speed_squared = vx[r, i] * vx[r, i] + vy[r, i] * vy[r, i]
+            if vz is not None:
+                speed_squared += vz[r, i] * vz[r, i]
+            power += drag * speed_squared
+    return power
+
+
+@njit(**_JIT)
+def row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, above, horizontal,
+                      out):
+    """Accelerations (3, nx) of the particles of row j, written into ``out``.
+
+    ``terms`` is the scene's ``sim.forces.terms.Terms`` record, ``parameters`` its
+    ``SpringParameters``.  ``below`` must hold ``vertical_springs(j)``; this function fills
+    ``above`` with ``vertical_springs(j + 1)`` (so the caller swaps the two buffers for the next
+    row) and uses ``horizontal`` (3, nx + 1) as scratch.  Returns the power dissipated in row j
+    by the horizontal springs, the springs above it and drag (W).
+    """
+    linearised, dashpot, drag = terms.linear, terms.dashpot, terms.drag
     power = _vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                               above)
     power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                                 horizontal)
     zero = type(parameters.spacing)(0.0)
-    pull = gravity_vector(gravity, zero)
+    pull = gravity_vector(terms.gravity, zero)
     k2 = parameters.diagonal_stiffness
     r = j % x.shape[0]
     for i in range(x.shape[1]):
-        if uniform_inverse_mass is not None:
-            w = uniform_inverse_mass
-        else:
-            w = inverse_mass[j, i]
+        w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
         if z is None:
             ax, ay, _ = particle_acceleration(
                 (horizontal[0, i], horizontal[1, i], zero),
@@ -396,34 +416,7 @@ def _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse
             )
         out[0, i] = ax
         out[1, i] = ay
-    if drag is not None:
-        for i in range(x.shape[1]):
-            speed_squared = vx[r, i] * vx[r, i] + vy[r, i] * vy[r, i]
-            if vz is not None:
-                speed_squared += vz[r, i] * vz[r, i]
-            power += drag * speed_squared
-    return power
-
-
-@njit(**_JIT)
-def row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters, dashpot, drag,
-                      gravity, below, above, horizontal, out, uniform_inverse_mass):
-    """Accelerations (3, nx) of the particles of row j, written into ``out``.
-
-    ``below`` must hold ``vertical_springs(j)``; this function fills ``above`` with
-    ``vertical_springs(j + 1)`` (so the caller swaps the two buffers for the next row) and uses
-    ``horizontal`` (3, nx + 1) as scratch.  ``uniform_inverse_mass`` (1/kg), when not None,
-    replaces the (ny, nx) ``inverse_mass`` array for lattices of equal masses (one memory stream
-    less).  Returns the power dissipated in row j by the horizontal springs, the springs above it
-    and drag (W).
-    """
-    if linear is None:
-        return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                                  None, parameters, dashpot, drag, gravity, below, above,
-                                  horizontal, out)
-    return _row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                              True, parameters, dashpot, drag, gravity, below, above, horizontal,
-                              out)
+    return power + drag_power(drag, vx, vy, vz, r)
 
 
 @njit(**_JIT)

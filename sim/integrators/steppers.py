@@ -18,30 +18,24 @@ import numpy as np
 
 from sim.forces import drive_table as instruments
 from sim.forces.springs import SpringParameters
+from sim.forces.terms import Terms
 from sim.integrators.butcher import ButcherTable
 from sim.loops import host_tuning, leapfrog, row_blocks, wavefront
 from sim.loops import row_sweep as stepping
+from sim.loops.leapfrog import LeapfrogWork
+from sim.loops.stage_updates import Fields
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
 
 
 class KernelArguments(NamedTuple):
-    """The model as the compiled kernels take it, in one precision (None marks an absent term).
+    """The model as the compiled kernels take it, in one precision: its ``terms``
+    (``sim.forces.terms.Terms``, None marking an absent term) and its spring constants
+    (``parameters``, ``sim.forces.springs.SpringParameters``), the two records every loop shape
+    takes side by side."""
 
-    ``linear`` None for the nonlinear springs, True for the linearised ones (a compile-time
-    choice, ``sim.forces.springs.vertical_springs``); ``inverse_mass`` (ny, nx) 1/kg;
-    ``uniform_inverse_mass`` replaces it for equal masses; ``parameters`` the spring constants;
-    ``gravity`` (3,) m/s^2.
-    """
-
-    linear: object
-    out_of_plane: object
-    inverse_mass: np.ndarray
-    uniform_inverse_mass: np.floating | None
+    terms: Terms
     parameters: SpringParameters
-    dashpot: np.floating | None
-    drag: np.floating | None
-    gravity: np.ndarray | None
 
     @classmethod
     def from_model(cls, model: Model, dtype: type[np.floating] = np.float64,
@@ -49,20 +43,21 @@ class KernelArguments(NamedTuple):
         """The arguments in ``dtype``, with the 1/sqrt variant measured fastest in ``loop``
         (``sim.loops.host_tuning.LOOPS``) in float64."""
         scalar = np.dtype(dtype).type
-        return cls(
+        terms = Terms(
             linear=True if model.linear else None,
             out_of_plane=None if model.dim == 2 else True,
             inverse_mass=read_only(np.ascontiguousarray(model.inverse_masses, dtype=dtype)),
             uniform_inverse_mass=(
                 scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),
-            parameters=model.kernel_parameters.as_type(
-                dtype, host_tuning.inverse_sqrt_estimate(loop) if scalar is np.float64 else None
-            ),
             dashpot=scalar(model.damping) if model.damping > 0 else None,
             drag=scalar(model.drag) if model.drag > 0 else None,
             gravity=np.array(model.gravity, dtype=dtype) if model.has_gravity else None,
         )
+        parameters = model.kernel_parameters.as_type(
+            dtype, host_tuning.inverse_sqrt_estimate(loop) if scalar is np.float64 else None
+        )
+        return cls(terms, parameters)
 
 
 class Integrator:
@@ -123,11 +118,8 @@ class Integrator:
         return frozenset()
 
     def _common(self, state: State) -> tuple:
-        k = self.kernel
-        return (
-            k.linear, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
-            k.uniform_inverse_mass, k.parameters, k.dashpot, k.drag, k.gravity,
-        )
+        """The arguments every loop takes first: (terms, parameters, position, velocity)."""
+        return (*self.kernel, state.positions, state.velocities)
 
     def _dt(self, dt: float) -> np.floating:
         return self.dtype(dt)
@@ -171,10 +163,12 @@ class Verlet(Integrator):
 
         self._leapfrog = self.loop_family(model) == "leapfrog"
         blocks = self._block_starts.size - 1
-        self._boundary = np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype)
-        self._below = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
-        self._under = np.zeros((blocks, 3, model.nx), dtype=self.dtype)
-        self._horizontal = np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype)
+        self._leapfrog_work = LeapfrogWork(
+            boundary=np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype),
+            below=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
+            horizontal=np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype),
+            under=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
+        )
         self._drive_power = 0.0
         self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
         self._block_totals = np.zeros((blocks, 2))
@@ -214,7 +208,7 @@ class Verlet(Integrator):
         layer = self.sponge
         if layer is not None:  # half the layer's action before the steps, half after them
             layer.act(state, 0.5 * dt)
-            if self.kernel.dashpot is not None or self.kernel.drag is not None:
+            if self.kernel.terms.dashpot is not None or self.kernel.terms.drag is not None:
                 self._cached_for = None  # the forces depend on the velocities it kicked
         if self._cached_for != stamp:
             self._driven_accelerations(state, state.time)
@@ -231,7 +225,6 @@ class Verlet(Integrator):
         # the drive's work is the trapezoid of its power at whole steps on every path: half
         # steps at the ends here, and F . (v_before + v_after) / 2 = F . v(t) per kick between
         if self._leapfrog and n >= 2:
-            k = self.kernel
             acceleration = self.work[0]
             half = 0.5 * dt
             state.driven += half * self._drive_power
@@ -239,10 +232,8 @@ class Verlet(Integrator):
             steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
             self._block_totals[:] = 0.0
             steps(
-                n - 1, step, k.out_of_plane, state.positions, state.velocities, k.inverse_mass,
-                k.uniform_inverse_mass, k.parameters, k.gravity, self._block_starts,
-                self._boundary, self._below, self._horizontal, self._under, start + dt, drive,
-                self._saved, sponge, self._block_totals,
+                n - 1, step, *self._common(state), self._block_starts, self._leapfrog_work,
+                start + dt, drive, self._saved, sponge, self._block_totals,
             )
             state.driven += float(self._block_totals[:, 0].sum())
             state.dissipated += float(self._block_totals[:, 1].sum())
@@ -294,14 +285,15 @@ class RungeKutta(Integrator):
         halo = wavefront.halo_rows(self.table.stages)
         blocks = min(self.threads, model.ny // (2 * (halo + 1)))
         self._blocks: np.ndarray | None = None
-        self._block_work: list[np.ndarray] = []
+        self._block_work: tuple[Fields, ...] = ()
         if blocks >= 2:
             self._blocks = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
             ring = (blocks, model.dim, wavefront.block_ring(self.table.stages), model.nx)
             edges = (blocks, model.dim, 2 * (halo + 1), model.nx)
-            self._block_work = [np.zeros(ring, dtype=self.dtype) for _ in range(4)] + [
-                np.zeros(edges, dtype=self.dtype) for _ in range(2)
-            ]
+            self._block_work = (  # stage inputs, sums, deferred rows
+                *(Fields(*(np.zeros(ring, dtype=self.dtype) for _ in range(2))) for _ in range(2)),
+                Fields(*(np.zeros(edges, dtype=self.dtype) for _ in range(2))),
+            )
 
     @property
     def in_step(self) -> frozenset[str]:
@@ -319,14 +311,16 @@ class RungeKutta(Integrator):
                 self._blocks, *instruments_arguments,
             )
         elif self.parallel:
+            full = self._full_arrays(6)  # stage inputs, next inputs, sums
             state.dissipated += row_blocks.runge_kutta_phases(
-                table, n, self._dt(dt), *self._common(state), *self._full_arrays(6),
-                self._block_starts, *instruments_arguments,
+                table, n, self._dt(dt), *self._common(state), Fields(*full[0:2]),
+                Fields(*full[2:4]), Fields(*full[4:6]), self._block_starts,
+                *instruments_arguments,
             )
         else:
             state.dissipated += stepping.runge_kutta_steps(
-                table, n, self._dt(dt), *self._common(state), *self.work,
-                *instruments_arguments,
+                table, n, self._dt(dt), *self._common(state), Fields(*self.work[0:2]),
+                Fields(*self.work[2:4]), *instruments_arguments,
             )
         state.driven += float(work[0])
         state.advance_clock(n, dt)

@@ -45,7 +45,8 @@ Heun, Euler, damped Verlet) and undamped Verlet's fused leapfrog (``sim.loops.le
 def _loop_seconds(loop: str, estimate: object) -> float:
     """Best time of ``loop`` (float64) over a 512 x 64 pre-tensioned lattice."""
     from sim.forces.springs import SpringParameters
-    from sim.loops.leapfrog import leapfrog_steps
+    from sim.forces.terms import Terms
+    from sim.loops.leapfrog import LeapfrogWork, leapfrog_steps
     from sim.loops.row_sweep import accelerations
 
     nx, ny = 512, 64
@@ -57,18 +58,20 @@ def _loop_seconds(loop: str, estimate: object) -> float:
     parameters = SpringParameters(1.0, 0.9, 0.1, 1.0, 0.0, 0.0, inverse_sqrt_estimate=estimate)
     inverse_mass = np.ones((ny, nx))
     inverse_mass.setflags(write=False)  # as the model's (``sim.model.read_only``)
-    if loop == "leapfrog":  # the arguments of a planar lattice of equal masses on one thread
+    # a planar lattice of equal masses, nonlinear springs, no other term
+    terms = Terms(linear=None, out_of_plane=None, inverse_mass=inverse_mass,
+                  uniform_inverse_mass=1.0, dashpot=None, drag=None, gravity=None)
+    if loop == "leapfrog":  # on one thread
         block_starts = np.array([0, ny], dtype=np.int64)
-        scratch = (np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)),
-                   np.zeros((1, 3, nx)))
-        arguments = (1, 0.01, None, position, velocity, inverse_mass, 1.0, parameters, None,
-                     block_starts, *scratch, 0.0, None, np.zeros((1, 3)), None, np.zeros((1, 2)))
+        work = LeapfrogWork(np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)),
+                            np.zeros((1, 3, nx)))
+        arguments = (1, 0.01, terms, parameters, position, velocity, block_starts, work, 0.0,
+                     None, np.zeros((1, 3)), None, np.zeros((1, 2)))
 
         def run() -> None:
             leapfrog_steps(*arguments)
     else:
-        arguments = (None, None, position, velocity, inverse_mass, 1.0, parameters, None, None,
-                     None, out)
+        arguments = (terms, parameters, position, velocity, out)
 
         def run() -> None:
             accelerations(*arguments)

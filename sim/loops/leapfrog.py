@@ -11,6 +11,9 @@ independently, so the result does not depend on how the rows are split into bloc
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit, prange
 
 from sim.forces.absorbing_kicks import (
@@ -32,37 +35,51 @@ from sim.forces.springs import (
     spring_force,
     vertical_springs,
 )
+from sim.forces.terms import inverse_mass_at
 from sim.loops.stage_updates import kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
-@njit(**_JIT)
-def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inverse_mass,
-                  parameters, gravity, below, above_last, horizontal, position, velocity, time,
-                  drive, saved, totals, sponge, under, tension):
-    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1, undamped
-    nonlinear springs, with each row's forces and update fused into one pass over it.
 
-    ``below`` (3, nx) holds the forces of the springs below row j0 on entry (it is reused as the
-    running buffer); ``above_last`` (3, nx) those of the springs above row j1 - 1, computed before
-    the sweep moved anything (the top wall springs, or a block boundary when the lattice is swept
-    as several row blocks in parallel).  ``horizontal`` (3, nx + 1) is scratch.  Every other
-    spring is computed here from positions that have not moved yet.
+class LeapfrogWork(NamedTuple):
+    """The leapfrog's scratch, one slice per row block: ``boundary`` (blocks + 1, 3, nx) the
+    springs below each block and the top wall's, computed before the blocks move; ``below`` and
+    ``under`` (blocks, 3, nx), ``horizontal`` (blocks, 3, nx + 1) the sweeps' buffers."""
+
+    boundary: np.ndarray
+    below: np.ndarray
+    horizontal: np.ndarray
+    under: np.ndarray
+
+@njit(**_JIT)
+def leapfrog_rows(j0, j1, dt, terms, parameters, position, velocity, work, b, time, drive, saved,
+                  totals, sponge):
+    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1 (row block b),
+    undamped nonlinear springs, with each row's forces and update fused into one pass over it.
+
+    Of the ``LeapfrogWork`` ``work``: ``below[b]`` holds the forces of the springs below row j0
+    on entry (it is reused as the running buffer); ``boundary[b + 1]`` those of the springs above
+    row j1 - 1, computed before the sweep moved anything (the top wall springs, or a block
+    boundary when the lattice is swept as several row blocks in parallel); ``horizontal[b]`` is
+    scratch.  Every other spring is computed here from positions that have not moved yet.
+    ``terms`` (``sim.forces.terms.Terms``): its masses, gravity and ``out_of_plane``.
 
     The absorbing layer (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``, None
     compiles it out, its relaxations frequency-shifted by ``SHIFT``) kicks from the springs the
     rows' passes computed (``sim.forces.absorbing_kicks``;
-    ``under`` (3, nx) scratch, ``tension`` the rest tension, N): a band row's y-layer after its
+    ``under[b]`` scratch): a band row's y-layer after its
     pass, the side strips' x-layer once all the rows are swept.  The drive table (``sim.forces.drive_table``,
     None compiles it out) acts last: the driven particles get their drive at ``time`` (s;
     velocities kept in ``saved`` (drives, 3) before their row's pass).  ``totals`` (2,) receives
-    the drive's work and the layer's take (J).  ``position``/``velocity`` are the full
-    (dim, ny, nx) arrays of the components.
+    the drive's work and the layer's take (J).
     """
-    zero = type(dt)(0.0)
-    pull = gravity_vector(gravity, zero)
-    nx = x.shape[1]
+    x, y, z = components(terms.out_of_plane, position)
+    vx, vy, vz = components(terms.out_of_plane, velocity)
+    below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
+    under = work.under[b]
+    tension = 0.0
     if sponge is not None:
+        tension = rest_tension(sponge.linearised, parameters)  # N
         needs = sponge.needs
         geometry = sponge.geometry
         side_forces = sponge.side_forces
@@ -73,44 +90,8 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
         if sponge is not None:
             if needs[j] != NONE:
                 keep_row(below, under)
-        horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
-        given = j + 1 == j1
-        for i in range(nx):
-            if uniform_inverse_mass is not None:
-                w = uniform_inverse_mass
-            else:
-                w = inverse_mass[j, i]
-            if z is None:
-                if given:
-                    above = (above_last[0, i], above_last[1, i], zero, 0.0)
-                else:  # no dashpot: the velocities do not enter the force
-                    above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
-                                         (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
-                                         None, parameters, None)
-                ax, ay, _ = particle_acceleration(
-                    (horizontal[0, i], horizontal[1, i], zero),
-                    (horizontal[0, i + 1], horizontal[1, i + 1], zero),
-                    (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
-                )
-            else:
-                if given:
-                    above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
-                else:
-                    above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
-                                         (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
-                                          zero), 1, None, parameters, None)
-                ax, ay, az = particle_acceleration(
-                    (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
-                    (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
-                    (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
-                    pull,
-                )
-                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
-                below[2, i] = above[2]
-            x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
-            y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
-            below[0, i] = above[0]
-            below[1, i] = above[1]
+        _kick_drift_row(j, j + 1 == j1, dt, x, y, z, vx, vy, vz, terms, parameters, below,
+                        above_last, horizontal)
         if sponge is not None:
             sides_row(j, j + 1 == j1, horizontal, below, side_forces, geometry, tension)
             if needs[j] != NONE:
@@ -131,51 +112,86 @@ def leapfrog_rows(j0, j1, ny, dt, x, y, z, vx, vy, vz, inverse_mass, uniform_inv
 
 
 @njit(**_JIT)
-def leapfrog_steps(n, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                   parameters, gravity, block_starts, boundary, below, horizontal, under, time=0.0,
+def _kick_drift_row(j, given, dt, x, y, z, vx, vy, vz, terms, parameters, below, above_last,
+                    horizontal):
+    """The fused pass over row j (``leapfrog_rows``): its horizontal springs, the springs above
+    it (from ``above_last`` when ``given``: the row below a block boundary), each particle's
+    acceleration, kick and drift; ``below`` then holds the springs above the row.  A function of
+    its own so that ``z`` is an argument (numba compiles the planar pass without it)."""
+    zero = type(dt)(0.0)
+    pull = gravity_vector(terms.gravity, zero)
+    nx = x.shape[1]
+    horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
+    for i in range(nx):
+        w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
+        if z is None:
+            if given:
+                above = (above_last[0, i], above_last[1, i], zero, 0.0)
+            else:  # no dashpot: the velocities do not enter the force
+                above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
+                                     (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
+                                     None, parameters, None)
+            ax, ay, _ = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], zero),
+                (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
+            )
+        else:
+            if given:
+                above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
+            else:
+                above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
+                                     (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
+                                      zero), 1, None, parameters, None)
+            ax, ay, az = particle_acceleration(
+                (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
+                pull,
+            )
+            z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
+            below[2, i] = above[2]
+        x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
+        y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
+        below[0, i] = above[0]
+        below[1, i] = above[1]
+
+
+@njit(**_JIT)
+def leapfrog_steps(n, dt, terms, parameters, position, velocity, block_starts, work, time=0.0,
                    drive=None, saved=None, sponge=None, totals=None):
     """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
 
-    The springs below each block (and the top wall springs) go into ``boundary``
-    (blocks + 1, 3, nx) before the blocks are swept (``leapfrog_rows``); ``below`` and
-    ``under`` (blocks, 3, nx) and ``horizontal`` (blocks, 3, nx + 1) are per-block scratch.
-    This one runs the blocks one after the other on the calling thread;
-    ``leapfrog_steps_parallel`` runs them on numba's threads and computes the same numbers.  The
-    drive as in ``leapfrog_rows`` (the kick of step s at ``time`` + s dt); the absorbing layer
-    (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``) acts over dt / 2 twice between
-    steps (as at the end of one step and the start of the next) at the positions each sweep
-    kicks with, inside the sweep (``leapfrog_rows``); ``totals`` (blocks, 2) receives the
-    drive's work and the layer's take (J).
+    The springs below each block (and the top wall springs) go into ``work.boundary`` before the
+    blocks are swept (``leapfrog_rows``; ``work`` a ``LeapfrogWork``).  This one runs the blocks
+    one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them on numba's
+    threads and computes the same numbers.  The drive as in ``leapfrog_rows`` (the kick of step
+    s at ``time`` + s dt); the absorbing layer (``sponge``:
+    ``sim.forces.absorbing_layer.MatchedLayer.arguments``) acts over dt / 2 twice between steps
+    (as at the end of one step and the start of the next) at the positions each sweep kicks
+    with, inside the sweep (``leapfrog_rows``); ``totals`` (blocks, 2) receives the drive's work
+    and the layer's take (J).
     """
     if parameters.diagonal_stiffness is not None:
         raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
-    x, y, z = components(out_of_plane, position)
-    vx, vy, vz = components(out_of_plane, velocity)
-    ny = position.shape[1]
     blocks = block_starts.size - 1
     tension = 0.0
     if sponge is not None:
         tension = rest_tension(sponge.linearised, sponge.parameters)
     for step in range(n):
         for b in range(blocks + 1):
-            vertical_springs(block_starts[b], ny, x, y, z, vx, vy, vz, None, parameters, None,
-                             boundary[b])
+            _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
+                              work.boundary)
         for b in range(blocks):
-            below[b, :, :] = boundary[b]
-            leapfrog_rows(block_starts[b], block_starts[b + 1], ny, dt, x, y, z, vx, vy, vz,
-                          inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
-                          boundary[b + 1], horizontal[b], position, velocity,
-                          time + step * float(dt), drive, saved, totals[b], sponge, under[b],
-                          tension)
+            _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
+                            time + step * float(dt), drive, saved, totals, sponge)
         if sponge is not None:
-            relax_block_edges(block_starts, boundary, sponge, tension)
+            relax_block_edges(block_starts, work.boundary, sponge, tension)
 
 
 @njit(parallel=True, **_JIT)
-def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mass,
-                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal, under, time=0.0, drive=None, saved=None,
-                            sponge=None, totals=None):
+def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_starts, work,
+                            time=0.0, drive=None, saved=None, sponge=None, totals=None):
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
     threads (``prange``; ``numba.set_num_threads`` sets how many), the layer's tuple without its
     springs' parameters (``MatchedLayer.arguments(threads=True)``: numba's parallel loops do
@@ -190,15 +206,13 @@ def leapfrog_steps_parallel(n, dt, out_of_plane, position, velocity, inverse_mas
         tension = rest_tension(sponge.linearised, parameters)
     for step in range(n):
         for b in prange(blocks + 1):
-            _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts,
-                              boundary)
+            _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
+                              work.boundary)
         for b in prange(blocks):
-            _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass,
-                            uniform_inverse_mass, parameters, gravity, block_starts, boundary,
-                            below, horizontal, under, time + step * float(dt), drive, saved,
-                            totals, sponge, tension)
+            _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
+                            time + step * float(dt), drive, saved, totals, sponge)
         if sponge is not None:
-            relax_block_edges(block_starts, boundary, sponge, tension)
+            relax_block_edges(block_starts, work.boundary, sponge, tension)
 
 
 @njit(**_JIT)
@@ -212,14 +226,9 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
 
 
 @njit(**_JIT)
-def _leapfrog_block(b, dt, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                    parameters, gravity, block_starts, boundary, below, horizontal, under, time,
-                    drive, saved, totals, sponge, tension):
+def _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work, time,
+                    drive, saved, totals, sponge):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
-    x, y, z = components(out_of_plane, position)
-    vx, vy, vz = components(out_of_plane, velocity)
-    below[b, :, :] = boundary[b]
-    leapfrog_rows(block_starts[b], block_starts[b + 1], position.shape[1], dt, x, y, z, vx, vy,
-                  vz, inverse_mass, uniform_inverse_mass, parameters, gravity, below[b],
-                  boundary[b + 1], horizontal[b], position, velocity, time, drive, saved,
-                  totals[b], sponge, under[b], tension)
+    work.below[b, :, :] = work.boundary[b]
+    leapfrog_rows(block_starts[b], block_starts[b + 1], dt, terms, parameters, position, velocity,
+                  work, b, time, drive, saved, totals[b], sponge)

@@ -13,9 +13,9 @@ with one thread to round-off (usually bitwise); the dissipated energy is summed 
 and differs in the last bits.  The undamped leapfrog has its own blocks (``sim.loops.leapfrog``).
 
 ``block_starts`` (blocks + 1,) int64: block b is rows block_starts[b] .. block_starts[b + 1] - 1.
-Arguments otherwise as in ``sim.loops.row_sweep``.  The ``prange`` bodies only call functions of whole
-arrays: numba's parallel transformation of bodies that use the unpacked (x, y, z) components
-read stale out-of-plane components in 3-D.
+Arguments otherwise as in ``sim.loops.row_sweep`` (``terms`` a ``sim.forces.terms.Terms``).  The
+``prange`` bodies only call functions of whole arrays: numba's parallel transformation of bodies
+that use the unpacked (x, y, z) components read stale out-of-plane components in 3-D.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row
 from sim.forces.springs import row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
+    Fields,
     components,
     dissipated_energy,
     euler_update,
@@ -37,23 +38,19 @@ from sim.loops.stage_updates import (
     sweep_buffers,
     verlet_drift,
 )
-from sim.loops.wavefront import wavefront, write_deferred
+from sim.loops.wavefront import block_work, wavefront, write_deferred
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 
 @njit(parallel=True, **_JIT)
-def accelerations_parallel(
-    linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters,
-    dashpot, drag, gravity, acceleration, block_starts,
-):
+def accelerations_parallel(terms, parameters, position, velocity, acceleration, block_starts):
     """``accelerations`` with the row blocks on numba's threads; returns the dissipated power (W)."""
     blocks = block_starts.size - 1
     powers = np.zeros(blocks)
     for b in prange(blocks):
-        powers[b] = force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
-                               position, velocity, inverse_mass, uniform_inverse_mass,
-                               parameters, dashpot, drag, gravity, acceleration, None, velocity)
+        powers[b] = force_rows(block_starts[b], block_starts[b + 1], terms, parameters, position,
+                               velocity, acceleration, None, velocity)
     return powers.sum()
 
 
@@ -64,10 +61,7 @@ def _euler_rows(j0, j1, dt, position, velocity, acceleration):
 
 
 @njit(parallel=True, **_JIT)
-def euler_steps_parallel(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-    parameters, dashpot, drag, gravity, acceleration, block_starts,
-):
+def euler_steps_parallel(n, dt, terms, parameters, position, velocity, acceleration, block_starts):
     """``euler_steps`` in two phases per step: accelerations of all row blocks in parallel into
     ``acceleration`` (dim, ny, nx), then x += dt v; v += dt a over the blocks in parallel."""
     blocks = block_starts.size - 1
@@ -75,10 +69,8 @@ def euler_steps_parallel(
     dissipated = 0.0
     for _ in range(n):
         for b in prange(blocks):
-            powers[b] = force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
-                                   position, velocity, inverse_mass, uniform_inverse_mass,
-                                   parameters, dashpot, drag, gravity, acceleration, None,
-                                   velocity)
+            powers[b] = force_rows(block_starts[b], block_starts[b + 1], terms, parameters,
+                                   position, velocity, acceleration, None, velocity)
         for b in prange(blocks):
             _euler_rows(block_starts[b], block_starts[b + 1], dt, position, velocity, acceleration)
         dissipated += dt * powers.sum()
@@ -92,17 +84,14 @@ def _verlet_drift_rows(j0, j1, dt, position, velocity, acceleration, predicted_v
 
 
 @njit(parallel=True, **_JIT)
-def verlet_steps_parallel(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-    parameters, dashpot, drag, gravity, acceleration, previous_power, predicted_velocity,
-    block_starts,
-):
+def verlet_steps_parallel(n, dt, terms, parameters, position, velocity, acceleration,
+                          previous_power, predicted_velocity, block_starts):
     """Velocity Verlet steps (damped scenes and linearised springs) in two phases per step: half
     kick and drift of every row (and the predicted velocity v + dt a when damped), then the new
     accelerations and the second half kick, each phase over the row blocks in parallel.
     ``acceleration`` holds a(x, v) on entry and on exit, as for ``verlet_steps``.
     Returns (dissipated, power)."""
-    damped = dashpot is not None or drag is not None
+    damped = terms.dashpot is not None or terms.drag is not None
     force_velocity = predicted_velocity if damped else velocity
     blocks = block_starts.size - 1
     powers = np.zeros(blocks)
@@ -114,10 +103,8 @@ def verlet_steps_parallel(
             _verlet_drift_rows(block_starts[b], block_starts[b + 1], dt, position, velocity,
                                acceleration, predicted_velocity, damped)
         for b in prange(blocks):
-            powers[b] = force_rows(block_starts[b], block_starts[b + 1], linear, out_of_plane,
-                                   position, force_velocity, inverse_mass, uniform_inverse_mass,
-                                   parameters, dashpot, drag, gravity, acceleration, half,
-                                   velocity)
+            powers[b] = force_rows(block_starts[b], block_starts[b + 1], terms, parameters,
+                                   position, force_velocity, acceleration, half, velocity)
         new_power = powers.sum()
         dissipated += half * (power + new_power)
         power = new_power
@@ -125,69 +112,62 @@ def verlet_steps_parallel(
 
 
 @njit(**_JIT)
-def _stage_rows(table, stage, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
-                uniform_inverse_mass, parameters, dashpot, drag, gravity, source_position,
-                source_velocity, target_position, target_velocity, sum_position, sum_velocity,
-                time, drive, drive_power):
-    """One stage of the method of ``table`` on rows j0 .. j1-1: the forces of the stage input (``source_*``,
-    full arrays) and ``stage_update`` with the next input into ``target_*``.  Reads
-    ``position``/``velocity`` of its own rows only, except as the input of stage 0.  Returns the
-    dissipated power (W) as ``force_rows`` counts it; with a drive table the drives act at
-    ``time`` (s) and ``drive_power[0]`` receives their power (W)."""
-    xs, ys, zs = components(out_of_plane, source_position)
-    vxs, vys, vzs = components(out_of_plane, source_velocity)
-    ny = position.shape[1]
-    below, above, horizontal, row = sweep_buffers(position)
-    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, linear, parameters, dashpot, below)
+def _stage_rows(table, stage, j0, j1, dt, terms, parameters, state, source, target, sums, time,
+                drive, drive_power):
+    """One stage of the method of ``table`` on rows j0 .. j1-1: the forces of the stage input
+    (``source``, full arrays) and ``stage_update`` with the next input into ``target`` (``state``,
+    ``source``, ``target`` and ``sums`` are ``Fields``).  Reads the state's own rows only, except
+    as the input of stage 0.  Returns the dissipated power (W) as ``force_rows`` counts it; with a
+    drive table the drives act at ``time`` (s) and ``drive_power[0]`` receives their power (W)."""
+    xs, ys, zs = components(terms.out_of_plane, source.position)
+    vxs, vys, vzs = components(terms.out_of_plane, source.velocity)
+    ny = state.position.shape[1]
+    below, above, horizontal, row = sweep_buffers(state.position)
+    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, terms.linear, parameters,
+                             terms.dashpot, below)
     if j0 > 0:
         power = 0.0
     for j in range(j0, j1):
-        power += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, inverse_mass, linear,
-                                   parameters, dashpot, drag, gravity, below, above, horizontal,
-                                   row, uniform_inverse_mass)
+        power += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, terms, parameters, below,
+                                   above, horizontal, row)
         if drive is not None:
             drive_power[0] += drive_row(j, time, drive, -1, row, vxs, vys, vzs, j)
         below, above = above, below
-        stage_update(table, stage, j, j, dt, position, velocity, row, source_velocity,
-                     target_position, target_velocity, sum_position, sum_velocity, position,
-                     velocity, j)
+        stage_update(table, stage, j, j, dt, state, row, source.velocity, target, sums, state, j)
     return power
 
 
 @njit(parallel=True, **_JIT)
-def runge_kutta_phases(
-    table, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-    parameters, dashpot, drag, gravity, stage_position, stage_velocity, next_position,
-    next_velocity, sum_position, sum_velocity, block_starts, time=0.0, drive=None,
-    drive_work=None,
-):
+def runge_kutta_phases(table, n, dt, terms, parameters, position, velocity, stage_input,
+                       next_input, sums, block_starts, time=0.0, drive=None, drive_work=None):
     """n steps of the method of ``table`` (``sim.integrators.butcher.ButcherTable.coefficients``) with
     each stage one parallel phase over the row blocks.
 
-    The work arrays are full (dim, ny, nx) arrays: stage inputs alternate between (``stage_*``)
-    and (``next_*``) so that no phase overwrites what another block still reads (a 2-stage
-    method never uses ``next_*``)."""
+    The work arrays are full (dim, ny, nx) arrays (``Fields``): stage inputs alternate between
+    ``stage_input`` and ``next_input`` so that no phase overwrites what another block still reads
+    (a 2-stage method never uses ``next_input``); ``sums`` the running sums."""
     blocks = block_starts.size - 1
     count = stages(table)
+    state = Fields(position, velocity)
     powers = np.zeros((count, blocks))
     drive_powers = np.zeros((count, blocks, 1))
     dissipated = 0.0
     for step in range(n):
         for stage in range(count):
-            source_p, source_v = stage_position, stage_velocity  # odd stages
-            target_p, target_v = next_position, next_velocity
+            source, target = stage_input, next_input  # odd stages
             if stage == 0:
-                source_p, source_v = position, velocity
-                target_p, target_v = stage_position, stage_velocity
+                source, target = state, stage_input
             elif stage % 2 == 0:
-                source_p, source_v = next_position, next_velocity
-                target_p, target_v = stage_position, stage_velocity
+                source, target = next_input, stage_input
+            # arrays, not records, into the parallel loop: numba's parallel lowering looks for
+            # the one place a record it takes was made, and these have three
+            source_position, source_velocity = source
+            target_position, target_velocity = target
             for b in prange(blocks):
                 powers[stage, b] = _stage_rows(
-                    table, stage, block_starts[b], block_starts[b + 1], dt, linear,
-                    out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-                    parameters, dashpot, drag, gravity, source_p, source_v, target_p, target_v,
-                    sum_position, sum_velocity,
+                    table, stage, block_starts[b], block_starts[b + 1], dt, terms, parameters,
+                    state, Fields(source_position, source_velocity),
+                    Fields(target_position, target_velocity), sums,
                     time + (step + stage_time(table, stage)) * float(dt), drive,
                     drive_powers[stage, b],
                 )
@@ -199,17 +179,15 @@ def runge_kutta_phases(
 
 
 @njit(parallel=True, **_JIT)
-def runge_kutta_blocks(
-    table, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-    parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
-    sum_velocity, deferred_position, deferred_velocity, block_starts, time=0.0, drive=None,
-    drive_work=None,
-):
+def runge_kutta_blocks(table, n, dt, terms, parameters, position, velocity, stage_input, sums,
+                       deferred, block_starts, time=0.0, drive=None, drive_work=None):
     """n steps of the method of ``table`` with each row block's wavefront (``sim.loops.wavefront``) on one of
     numba's threads: one parallel sweep per step plus the copy of the deferred edge rows.
 
-    Work arrays per block: ``stage_*``, ``sum_*`` (blocks, dim, ``wavefront.block_ring(stages)``,
-    nx), ``deferred_*`` (blocks, dim, 2 * stages, nx).  Blocks need at least 2 * stages rows."""
+    Work arrays per block (``Fields`` whose arrays have a leading axis of blocks): the stage
+    inputs ``stage_input`` and the running ``sums`` (blocks, dim,
+    ``wavefront.block_ring(stages)``, nx), the ``deferred`` rows (blocks, dim, 2 * stages, nx).
+    Blocks need at least 2 * stages rows."""
     blocks = block_starts.size - 1
     count = stages(table)
     nx = position.shape[2]
@@ -221,15 +199,13 @@ def runge_kutta_blocks(
     dissipated = 0.0
     for step in range(n):
         for b in prange(blocks):
-            wavefront(table, block_starts[b], block_starts[b + 1], dt, linear, out_of_plane,
-                      position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-                      drag, gravity, stage_position[b], stage_velocity[b], sum_position[b],
-                      sum_velocity[b], deferred_position[b], deferred_velocity[b], vertical[b],
-                      horizontal[b], row[b], powers[b], time + step * float(dt), drive,
-                      drive_powers[b])
+            wavefront(table, block_starts[b], block_starts[b + 1], dt, terms, parameters,
+                      position, velocity,
+                      block_work(stage_input, sums, deferred, vertical, horizontal, row, b),
+                      powers[b], time + step * float(dt), drive, drive_powers[b])
         for b in prange(blocks):
             write_deferred(block_starts[b], block_starts[b + 1], count - 1, position, velocity,
-                           deferred_position[b], deferred_velocity[b])
+                           Fields(deferred.position[b], deferred.velocity[b]))
         dissipated += dissipated_energy(table, dt, powers.sum(axis=0))
         if drive is not None:
             drive_work[0] += dissipated_energy(table, dt, drive_powers.sum(axis=0))

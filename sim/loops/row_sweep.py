@@ -17,7 +17,8 @@ which is what makes the step fast on large lattices.  The same updates on severa
 Arrays: ``position``, ``velocity`` and the work arrays are C-contiguous ``(dim, ny, nx)`` float
 arrays (m, m/s, m/s^2).  ``out_of_plane`` is None for planar scenes (dim == 2) and True for
 dim == 3; ``dashpot``, ``drag``, ``gravity`` are None when the scene has none of them, which
-selects compiled code without those terms (see ``sim.forces.springs``).  ``parameters`` is a
+selects compiled code without those terms (see ``sim.forces.springs``): these and the masses come
+in one ``sim.forces.terms.Terms`` record, ``terms``.  ``parameters`` is a
 ``sim.forces.springs.SpringParameters`` record.  Precision: the arrays, ``dt`` and every parameter are
 all float64 or all float32, and so is the arithmetic; dissipated energy sums in float64.
 """
@@ -32,6 +33,7 @@ from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row, drive_rows
 from sim.forces.springs import row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
+    Fields,
     components,
     dissipated_energy,
     euler_update,
@@ -43,40 +45,33 @@ from sim.loops.stage_updates import (
     sweep_buffers,
     verlet_drift,
 )
-from sim.loops.wavefront import wavefront
+from sim.loops.wavefront import BlockWork, wavefront
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 
 @njit(**_JIT)
-def accelerations(
-    linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters,
-    dashpot, drag, gravity, acceleration,
-):
+def accelerations(terms, parameters, position, velocity, acceleration):
     """Write the acceleration of every particle into ``acceleration``; return dissipated power (W)."""
-    return force_rows(0, position.shape[1], linear, out_of_plane, position, velocity,
-                      inverse_mass, uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                      acceleration, None, velocity)
+    return force_rows(0, position.shape[1], terms, parameters, position, velocity, acceleration,
+                      None, velocity)
 
 
 @njit(**_JIT)
-def euler_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity,
-):
+def euler_steps(n, dt, terms, parameters, position, velocity):
     """Explicit Euler: x += dt v(t); v += dt a(t).  First order; no work array needed."""
-    x, y, z = components(out_of_plane, position)
-    vx, vy, vz = components(out_of_plane, velocity)
+    x, y, z = components(terms.out_of_plane, position)
+    vx, vy, vz = components(terms.out_of_plane, velocity)
     dim, ny, nx = position.shape
     below, above, horizontal, row = sweep_buffers(position)
     row_as_array = row.reshape((3, 1, nx))
     dissipated = 0.0
     for _ in range(n):
-        power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms.linear, parameters,
+                                 terms.dashpot, below)
         for j in range(ny):
-            power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                                       dashpot, drag, gravity, below, above, horizontal, row,
-                                       uniform_inverse_mass)
+            power += row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below,
+                                       above, horizontal, row)
             euler_update(j, dt, position, velocity, row_as_array, 0)
             below, above = above, below
         dissipated += dt * power
@@ -84,34 +79,30 @@ def euler_steps(
 
 
 @njit(**_JIT)
-def runge_kutta_steps(
-    table, n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass,
-    parameters, dashpot, drag, gravity, stage_position, stage_velocity, sum_position,
-    sum_velocity, time=0.0, drive=None, drive_work=None,
-):
+def runge_kutta_steps(table, n, dt, terms, parameters, position, velocity, stage, sums, time=0.0,
+                      drive=None, drive_work=None):
     """n steps of the Runge-Kutta method of ``table`` (``sim.integrators.butcher.ButcherTable.coefficients``)
     on (x, v), each one wavefront over the whole lattice; with a drive table
     (``sim.forces.drive_table``) from ``time`` (s), its work (J) added to ``drive_work[0]``.
 
     The stages run as a wavefront over the rows (``sim.loops.wavefront``), so a step streams the
-    state through the cache once instead of once per stage, and the stage arrays only need to
-    hold as many rows as the method has stages: they are ring buffers of shape (dim, rows, nx)
-    (full (dim, ny, nx) arrays work too), row j being stored at index j % rows.  Numba compiles
-    this loop once for every table: its numbers are an ordinary array argument.
+    state through the cache once instead of once per stage, and the stage inputs (``stage``) and
+    running sums (``sums``, both ``Fields``) only need to hold as many rows as the method has
+    stages: they are ring buffers of shape (dim, rows, nx) (full (dim, ny, nx) arrays work too),
+    row j being stored at index j % rows.  Numba compiles this loop once for every table: its
+    numbers are an ordinary array argument.
     """
     nx = position.shape[2]
     count = stages(table)
-    vertical = np.empty((count, 2, ROWS, nx), position.dtype)  # (stage, below/above, force, column)
-    horizontal = np.empty((3, nx + 1), position.dtype)
-    row = np.empty((3, nx), position.dtype)
+    work = BlockWork(stage, sums, Fields(position, velocity),
+                     np.empty((count, 2, ROWS, nx), position.dtype),  # (stage, below/above, ...)
+                     np.empty((3, nx + 1), position.dtype), np.empty((3, nx), position.dtype))
     powers = np.zeros(count)
     drive_powers = np.zeros(count)
     dissipated = 0.0
     for step in range(n):
-        wavefront(table, 0, position.shape[1], dt, linear, out_of_plane, position, velocity,
-                  inverse_mass, uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                  stage_position, stage_velocity, sum_position, sum_velocity, position, velocity,
-                  vertical, horizontal, row, powers, time + step * float(dt), drive, drive_powers)
+        wavefront(table, 0, position.shape[1], dt, terms, parameters, position, velocity, work,
+                  powers, time + step * float(dt), drive, drive_powers)
         dissipated += dissipated_energy(table, dt, powers)
         if drive is not None:
             drive_work[0] += dissipated_energy(table, dt, drive_powers)
@@ -119,11 +110,8 @@ def runge_kutta_steps(
 
 
 @njit(**_JIT)
-def verlet_steps(
-    n, dt, linear, out_of_plane, position, velocity, inverse_mass, uniform_inverse_mass, parameters, dashpot,
-    drag, gravity, acceleration, previous_power, predicted_velocity, time=0.0, drive=None,
-    sponge=None, totals=None,
-):
+def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, previous_power,
+                 predicted_velocity, time=0.0, drive=None, sponge=None, totals=None):
     """Velocity Verlet: half kick, drift, new forces, half kick.  Second order, symplectic.
 
     ``acceleration`` must hold a(x, v) of the current state on entry (``previous_power`` the
@@ -145,7 +133,8 @@ def verlet_steps(
     on entry already hold the drive at ``time``.
     Returns (dissipated, power).
     """
-    damped = dashpot is not None or drag is not None
+    damped = terms.dashpot is not None or terms.drag is not None
+    out_of_plane = terms.out_of_plane
     x, y, z = components(out_of_plane, position)
     if damped:
         vx, vy, vz = components(out_of_plane, predicted_velocity)
@@ -165,22 +154,20 @@ def verlet_steps(
             # a step's end and the next one's start, in one pass
             totals[1] += act_on(0.5 * dt, 0.0, True, position, velocity, sponge)
             if damped:  # the forces depend on the velocities the layer kicked
-                power = accelerations(linear, out_of_plane, position, velocity, inverse_mass,
-                                      uniform_inverse_mass, parameters, dashpot, drag, gravity,
-                                      acceleration)
+                power = accelerations(terms, parameters, position, velocity, acceleration)
                 if drive is not None:
                     drive_rows(time + step * float(dt), drive, -1, acceleration, velocity)
         if first:
             verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
-        new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms.linear, parameters,
+                                     terms.dashpot, below)
         drive_power = 0.0
         for j in range(ny):
             if first and j + 1 < ny:
                 verlet_drift(j + 1, dt, position, velocity, acceleration, predicted_velocity,
                              damped)
-            new_power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear,
-                                           parameters, dashpot, drag, gravity, below, above,
-                                           horizontal, row, uniform_inverse_mass)
+            new_power += row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below,
+                                           above, horizontal, row)
             if drive is not None:
                 # undamped, the velocities are the half-step ones: v(t) = v(t - dt/2) + dt/2 a
                 drive_power += drive_row(j, at, drive, -1, row, vx, vy, vz, j,

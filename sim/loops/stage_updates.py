@@ -13,6 +13,8 @@ arrays, j % rows in a ring buffer).  ``dt`` and the arrays share one precision.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -23,6 +25,14 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 _ROW_UPDATE = dict(_JIT, inline="always")
 """The row updates are inlined into their loops by numba itself: a call per row that passes a
 dozen arrays costs their reference counting, which the fused loops cannot afford."""
+
+class Fields(NamedTuple):
+    """A (position, velocity) pair of (dim, rows, nx) arrays (m, m/s): the state, a stage's
+    input, a method's running sums, or where a new state goes."""
+
+    position: np.ndarray
+    velocity: np.ndarray
+
 
 @njit(**_JIT)
 def sweep_buffers(position):
@@ -47,24 +57,24 @@ def store_acceleration(j, row, acceleration, kick, velocity):
 
 
 @njit(**_JIT)
-def force_rows(j0, j1, linear, out_of_plane, position, force_velocity, inverse_mass,
-               uniform_inverse_mass, parameters, dashpot, drag, gravity, acceleration, kick,
-               velocity):
+def force_rows(j0, j1, terms, parameters, position, force_velocity, acceleration, kick, velocity):
     """Accelerations (m/s^2) of rows j0 .. j1-1 of the state (``position``, ``force_velocity``)
-    into the full array ``acceleration``, with ``store_acceleration``'s optional kick.  Returns
-    the dissipated power (W) of the springs in and above those rows and below row j0 only when
-    j0 == 0 (each spring's power counted by exactly one block of rows)."""
-    x, y, z = components(out_of_plane, position)
-    vx, vy, vz = components(out_of_plane, force_velocity)
+    into the full array ``acceleration``, with ``store_acceleration``'s optional kick of
+    ``velocity``.  ``terms`` (``sim.forces.terms.Terms``) and ``parameters`` as for
+    ``row_accelerations``.  Returns the dissipated power (W) of the springs in and above those
+    rows and below row j0 only when j0 == 0 (each spring's power counted by exactly one block of
+    rows)."""
+    x, y, z = components(terms.out_of_plane, position)
+    vx, vy, vz = components(terms.out_of_plane, force_velocity)
     dim, ny, nx = acceleration.shape
     below, above, horizontal, row = sweep_buffers(position)
-    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, terms.linear, parameters, terms.dashpot,
+                             below)
     if j0 > 0:
         power = 0.0
     for j in range(j0, j1):
-        power += row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                                   dashpot, drag, gravity, below, above, horizontal, row,
-                                   uniform_inverse_mass)
+        power += row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, above,
+                                   horizontal, row)
         store_acceleration(j, row, acceleration, kick, velocity)
         below, above = above, below
     return power
@@ -196,17 +206,22 @@ def stages(table):
 
 
 @njit(**_ROW_UPDATE)
-def stage_update(table, stage, j, slot, dt, position, velocity, row, stage_velocity,
-                 next_position, next_velocity, sum_position, sum_velocity, new_position,
-                 new_velocity, k):
+def stage_update(table, stage, j, slot, dt, state, row, stage_velocity, next_input, sums, new, k):
     """The update of row j by stage ``stage`` of the method of ``table`` (at least 2 stages).
 
+    ``state``, ``next_input``, ``sums`` and ``new`` are ``Fields``: the state x, v (row j), the
+    next stage's input and the running sums (row ``slot``), and where the last stage writes the
+    new state (row k); ``stage_velocity`` the velocity of this stage's input (row ``slot``).
     Stage 0 starts the velocity sum v + dt b_0 a and forms the next input x + dt a_{1,0} v,
     v + dt a_{1,0} a; each later stage s adds dt b_s of its slopes (v_s, a_s) to the sums (stage 1
     starts the position sum x + dt b_0 v + dt b_1 v_1 from the state) and, before the last, forms
     the next input x + dt a_{s+1,s} v_s, v + dt a_{s+1,s} a_s; the last stage writes
     x_new = sum + dt b_last v_last, v_new = sum + dt b_last a_last.
     """
+    position, velocity = state
+    next_position, next_velocity = next_input
+    sum_position, sum_velocity = sums
+    new_position, new_velocity = new
     weight = type(dt)(table[2, stage]) * dt
     first_weight = type(dt)(table[2, 0]) * dt
     if stage == stages(table) - 1:

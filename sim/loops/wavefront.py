@@ -16,25 +16,58 @@ without waiting for another block.  A block reads, never writes, the state withi
 rows of an inner edge during the step: those rows' new state goes to the block's deferred rows
 (``deferred_slot``), copied into the state once every block is done (``write_deferred``).
 
-Arrays as in ``sim.loops.stage_updates``; ``powers`` (stages,) receives each stage's dissipated power
-(W) of the springs of the block's own rows.  With a drive table (``sim.forces.drive_table``; None
+Arrays as in ``sim.loops.stage_updates``, a block's work arrays in one ``BlockWork`` record;
+``powers`` (stages,) receives each stage's dissipated power (W) of the springs of the block's own
+rows.  With a drive table (``sim.forces.drive_table``; None
 compiles it out) each stage's row accelerations get the drives at the stage's time, and
 ``drive_powers`` (stages,) receives the power they feed into the block's own rows.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit
 
 from sim.forces.drive_table import drive_row
 from sim.forces.springs import row_accelerations, vertical_springs
-from sim.loops.stage_updates import components, stage_time, stage_update, stages
+from sim.loops.stage_updates import Fields, components, stage_time, stage_update, stages
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 BLOCK_RING = 8
 """Rows kept by a block's ring-buffer stage arrays, at least ``2 * stages`` (``block_ring``); the
 one block of a whole lattice needs the number of stages."""
+
+
+class BlockWork(NamedTuple):
+    """The work arrays of one block's wavefront (``block_work`` takes block b's out of arrays for
+    every block).
+
+    ``stage`` (``Fields``, each (dim, ring, nx)) the stage inputs as ring buffers; ``sums``
+    (``Fields``, likewise) the method's running sums; ``deferred`` (``Fields``, each
+    (dim, 2 halo + 2, nx)) the deferred rows (unused when the block is the whole lattice);
+    scratch: ``vertical`` (stages, 2, ``ROWS``, nx) the springs below and above each stage's row,
+    ``horizontal`` (3, nx + 1), ``row`` (3, nx) accelerations.
+    """
+
+    stage: Fields
+    sums: Fields
+    deferred: Fields
+    vertical: np.ndarray
+    horizontal: np.ndarray
+    row: np.ndarray
+
+
+@njit(**_JIT)
+def block_work(stage_input, sums, deferred, vertical, horizontal, row, b):
+    """Block b's ``BlockWork`` out of arrays with a leading axis of blocks (``Fields`` for the
+    stage inputs, the sums and the deferred rows)."""
+    return BlockWork(Fields(stage_input.position[b], stage_input.velocity[b]),
+                     Fields(sums.position[b], sums.velocity[b]),
+                     Fields(deferred.position[b], deferred.velocity[b]),
+                     vertical[b], horizontal[b], row[b])
 
 
 def block_ring(stage_count: int) -> int:
@@ -61,56 +94,53 @@ def deferred_slot(j, j0, j1, ny, halo):
 
 
 @njit(**_JIT)
-def write_deferred(j0, j1, halo, position, velocity, deferred_position, deferred_velocity):
-    """Copy a block's deferred rows (``deferred_slot``) into the state."""
+def write_deferred(j0, j1, halo, position, velocity, deferred):
+    """Copy a block's deferred rows (``deferred_slot``; ``deferred`` a ``Fields``) into the
+    state."""
     dim, ny, nx = position.shape
     for j in range(j0, j1):
         slot = deferred_slot(j, j0, j1, ny, halo)
         if slot >= 0:
             for c in range(dim):
                 for i in range(nx):
-                    position[c, j, i] = deferred_position[c, slot, i]
-                    velocity[c, j, i] = deferred_velocity[c, slot, i]
+                    position[c, j, i] = deferred.position[c, slot, i]
+                    velocity[c, j, i] = deferred.velocity[c, slot, i]
 
 
 @njit(**_JIT)
-def _stage_forces(j, first, ny, x, y, z, vx, vy, vz, linear, inverse_mass, uniform_inverse_mass,
-                  parameters, dashpot, drag, gravity, below, above, horizontal, row, powers, stage):
-    """Accelerations of row j of a stage input into ``row``; on the stage's first row also the
-    springs below it (their power counted in ``powers`` when they are the bottom wall's).
-    Returns the power of the row's other springs and drag (W)."""
+def _stage_forces(j, first, ny, ends, terms, parameters, below, above, horizontal, row, powers,
+                  stage):
+    """Accelerations of row j of a stage input (``ends``: its components x, y, z, vx, vy, vz)
+    into ``row``; on the stage's first row also the springs below it (their power counted in
+    ``powers`` when they are the bottom wall's).  Returns the power of the row's other springs
+    and drag (W)."""
+    x, y, z, vx, vy, vz = ends
     if j == first:
-        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, below)
+        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, terms.linear, parameters, terms.dashpot,
+                             below)
         if j == 0:
             powers[stage] += p
-    return row_accelerations(j, ny, x, y, z, vx, vy, vz, inverse_mass, linear, parameters,
-                             dashpot, drag, gravity, below, above, horizontal, row,
-                             uniform_inverse_mass)
+    return row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, above,
+                             horizontal, row)
 
 
 @njit(**_JIT)
-def wavefront(
-    table, j0, j1, dt, linear, out_of_plane, position, velocity, inverse_mass,
-    uniform_inverse_mass, parameters, dashpot, drag, gravity, stage_position, stage_velocity,
-    sum_position, sum_velocity, deferred_position, deferred_velocity, vertical, horizontal, row,
-    powers, time=0.0, drive=None, drive_powers=None,
-):
+def wavefront(table, j0, j1, dt, terms, parameters, position, velocity, work, powers, time=0.0,
+              drive=None, drive_powers=None):
     """One step of the method of ``table`` (``sim.integrators.butcher.ButcherTable.coefficients``) on
-    rows j0 .. j1-1.
-
-    Stage arrays ``stage_*``, ``sum_*`` (dim, rows, nx) are this block's ring buffers;
-    ``deferred_*`` (dim, 2 halo + 2, nx) its deferred rows (unused when the block is the whole
-    lattice); ``vertical`` (stages, 2, ``ROWS``, nx), ``horizontal`` (3, nx + 1) and ``row`` (3, nx)
-    scratch buffers.
+    rows j0 .. j1-1 of the state (``position``, ``velocity``), with the block's ``BlockWork``
+    ``work``; ``terms`` and ``parameters`` as for ``sim.forces.springs.row_accelerations``.
     """
     count = stages(table)
     halo = count - 1
+    out_of_plane = terms.out_of_plane
     x, y, z = components(out_of_plane, position)
     vx, vy, vz = components(out_of_plane, velocity)
-    xs, ys, zs = components(out_of_plane, stage_position)
-    vxs, vys, vzs = components(out_of_plane, stage_velocity)
+    xs, ys, zs = components(out_of_plane, work.stage.position)
+    vxs, vys, vzs = components(out_of_plane, work.stage.velocity)
+    state = Fields(position, velocity)
     ny = position.shape[1]
-    ring = stage_position.shape[1]
+    ring = work.stage.position.shape[1]
     powers[:] = 0.0
     if drive is not None:
         drive_powers[:] = 0.0
@@ -120,28 +150,26 @@ def wavefront(
             first = max(j0 - halo + stage, 0)
             if j < first or j >= min(j1 + halo - stage, ny):
                 continue
-            below = vertical[stage, j % 2]
-            above = vertical[stage, (j + 1) % 2]
+            below = work.vertical[stage, j % 2]
+            above = work.vertical[stage, (j + 1) % 2]
             # one call site per piece (not one per branch): each call site is compiled anew
             if stage == 0:  # the stage input is the state itself
-                sx, sy, sz, svx, svy, svz, slot = x, y, z, vx, vy, vz, j
+                ends, slot = (x, y, z, vx, vy, vz), j
             else:
-                sx, sy, sz, svx, svy, svz, slot = xs, ys, zs, vxs, vys, vzs, j % ring
-            p = _stage_forces(j, first, ny, sx, sy, sz, svx, svy, svz, linear, inverse_mass,
-                              uniform_inverse_mass, parameters, dashpot, drag, gravity, below,
-                              above, horizontal, row, powers, stage)
+                ends, slot = (xs, ys, zs, vxs, vys, vzs), j % ring
+            p = _stage_forces(j, first, ny, ends, terms, parameters, below, above,
+                              work.horizontal, work.row, powers, stage)
             if drive is not None:
                 at = time + stage_time(table, stage) * dt
-                q = drive_row(j, at, drive, -1, row, svx, svy, svz, slot)
+                q = drive_row(j, at, drive, -1, work.row, ends[3], ends[4], ends[5], slot)
                 if j >= j0 and j < j1:
                     drive_powers[stage] += q
             if j >= j0 and j < j1:
                 powers[stage] += p
             deferred = deferred_slot(j, j0, j1, ny, halo)
             if deferred < 0:
-                new_position, new_velocity, k = position, velocity, j
+                new, k = state, j
             else:
-                new_position, new_velocity, k = deferred_position, deferred_velocity, deferred
-            stage_update(table, stage, j, j % ring, dt, position, velocity, row, stage_velocity,
-                         stage_position, stage_velocity, sum_position, sum_velocity, new_position,
-                         new_velocity, k)
+                new, k = work.deferred, deferred
+            stage_update(table, stage, j, j % ring, dt, state, work.row, work.stage.velocity,
+                         work.stage, work.sums, new, k)
