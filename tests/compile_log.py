@@ -1,8 +1,9 @@
 """A pytest plugin that writes which numba kernels each test compiled and for how long, to find
 what makes the default suite slow: ``OSCILLATORS_COMPILE_LOG=FILE pytest -p tests.compile_log``.
 
-Each line of FILE is ``seconds<TAB>test<TAB>kernel<TAB>signature`` for one top-level compile
-(numba's ``numba:compile`` event; the functions it inlines are inside its time).
+Each line of FILE is ``seconds<TAB>worker<TAB>test<TAB>kernel<TAB>signature`` for one top-level
+compile (numba's ``numba:compile`` event; the functions it inlines are inside its time; the worker
+is pytest-xdist's, or "main").
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ class _Listener(event.Listener):
         module = getattr(getattr(dispatcher, "py_func", None), "__module__", "?")
         signature = str(data.get("args", ""))[:300].replace("\t", " ").replace("\n", " ")
         with _lock, open(self.path, "a", encoding="utf-8") as log:
-            log.write(f"{time.perf_counter() - began:.2f}\t{_current['test']}\t"
+            worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+            log.write(f"{time.perf_counter() - began:.2f}\t{worker}\t{_current['test']}\t"
                       f"{module}.{name}\t{signature}\n")
 
 

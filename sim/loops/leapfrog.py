@@ -52,8 +52,8 @@ class LeapfrogWork(NamedTuple):
     under: np.ndarray
 
 @njit(**_JIT)
-def leapfrog_rows(j0, j1, dt, terms, parameters, position, velocity, work, b, time, drive, saved,
-                  totals, sponge):
+def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, velocity, work, b,
+                  time, drive, saved, totals, sponge):
     """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1 (row block b),
     undamped nonlinear springs, with each row's forces and update fused into one pass over it.
 
@@ -62,7 +62,11 @@ def leapfrog_rows(j0, j1, dt, terms, parameters, position, velocity, work, b, ti
     row j1 - 1, computed before the sweep moved anything (the top wall springs, or a block
     boundary when the lattice is swept as several row blocks in parallel); ``horizontal[b]`` is
     scratch.  Every other spring is computed here from positions that have not moved yet.
-    ``terms`` (``sim.forces.terms.Terms``): its masses, gravity and ``out_of_plane``.
+    ``terms`` (``sim.forces.terms.Terms``): its masses and gravity; ``x`` .. ``vz`` the state's
+    components (``z``, ``vz`` None in a planar scene).  The one kernel with more than 14
+    arguments: numba compiles out the third component only when ``z`` is an argument of the
+    function that tests it, and the row's pass must stay in this function (as a function of its
+    own, called per row, the float32 sweep ran 15 % slower).
 
     The absorbing layer (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``, None
     compiles it out, its relaxations frequency-shifted by ``SHIFT``) kicks from the springs the
@@ -73,10 +77,11 @@ def leapfrog_rows(j0, j1, dt, terms, parameters, position, velocity, work, b, ti
     velocities kept in ``saved`` (drives, 3) before their row's pass).  ``totals`` (2,) receives
     the drive's work and the layer's take (J).
     """
-    x, y, z = components(terms.out_of_plane, position)
-    vx, vy, vz = components(terms.out_of_plane, velocity)
     below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
     under = work.under[b]
+    zero = type(dt)(0.0)
+    pull = gravity_vector(terms.gravity, zero)
+    nx = x.shape[1]
     tension = 0.0
     if sponge is not None:
         tension = rest_tension(sponge.linearised, parameters)  # N
@@ -90,8 +95,41 @@ def leapfrog_rows(j0, j1, dt, terms, parameters, position, velocity, work, b, ti
         if sponge is not None:
             if needs[j] != NONE:
                 keep_row(below, under)
-        _kick_drift_row(j, j + 1 == j1, dt, x, y, z, vx, vy, vz, terms, parameters, below,
-                        above_last, horizontal)
+        horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
+        given = j + 1 == j1
+        for i in range(nx):
+            w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
+            if z is None:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], zero, 0.0)
+                else:  # no dashpot: the velocities do not enter the force
+                    above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
+                                         None, parameters, None)
+                ax, ay, _ = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], zero),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], zero),
+                    (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
+                )
+            else:
+                if given:
+                    above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
+                else:
+                    above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
+                                         (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
+                                          zero), 1, None, parameters, None)
+                ax, ay, az = particle_acceleration(
+                    (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
+                    (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
+                    (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
+                    pull,
+                )
+                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
+                below[2, i] = above[2]
+            x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
+            y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
+            below[0, i] = above[0]
+            below[1, i] = above[1]
         if sponge is not None:
             sides_row(j, j + 1 == j1, horizontal, below, side_forces, geometry, tension)
             if needs[j] != NONE:
@@ -109,52 +147,6 @@ def leapfrog_rows(j0, j1, dt, terms, parameters, position, velocity, work, b, ti
             shift_saved(j0, j1, drive, velocity, saved, 1.0)
     if drive is not None:
         totals[0] += leapfrog_drive(j0, j1, time, dt, drive, position, velocity, saved)
-
-
-@njit(**_JIT)
-def _kick_drift_row(j, given, dt, x, y, z, vx, vy, vz, terms, parameters, below, above_last,
-                    horizontal):
-    """The fused pass over row j (``leapfrog_rows``): its horizontal springs, the springs above
-    it (from ``above_last`` when ``given``: the row below a block boundary), each particle's
-    acceleration, kick and drift; ``below`` then holds the springs above the row.  A function of
-    its own so that ``z`` is an argument (numba compiles the planar pass without it)."""
-    zero = type(dt)(0.0)
-    pull = gravity_vector(terms.gravity, zero)
-    nx = x.shape[1]
-    horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
-    for i in range(nx):
-        w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
-        if z is None:
-            if given:
-                above = (above_last[0, i], above_last[1, i], zero, 0.0)
-            else:  # no dashpot: the velocities do not enter the force
-                above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
-                                     (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
-                                     None, parameters, None)
-            ax, ay, _ = particle_acceleration(
-                (horizontal[0, i], horizontal[1, i], zero),
-                (horizontal[0, i + 1], horizontal[1, i + 1], zero),
-                (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
-            )
-        else:
-            if given:
-                above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
-            else:
-                above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
-                                     (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
-                                      zero), 1, None, parameters, None)
-            ax, ay, az = particle_acceleration(
-                (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
-                (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
-                (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
-                pull,
-            )
-            z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
-            below[2, i] = above[2]
-        x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
-        y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
-        below[0, i] = above[0]
-        below[1, i] = above[1]
 
 
 @njit(**_JIT)
@@ -230,5 +222,7 @@ def _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, 
                     drive, saved, totals, sponge):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
     work.below[b, :, :] = work.boundary[b]
-    leapfrog_rows(block_starts[b], block_starts[b + 1], dt, terms, parameters, position, velocity,
-                  work, b, time, drive, saved, totals[b], sponge)
+    x, y, z = components(terms.out_of_plane, position)
+    vx, vy, vz = components(terms.out_of_plane, velocity)
+    leapfrog_rows(block_starts[b], block_starts[b + 1], dt, x, y, z, vx, vy, vz, terms, parameters,
+                  position, velocity, work, b, time, drive, saved, totals[b], sponge)
