@@ -20,7 +20,6 @@ os.environ.setdefault("OSCILLATORS_NO_WARM", "1")
 import sim
 from app.web.app import WebApp
 from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for
-from tests.shared_kernels import shared_kernels  # noqa: F401 (an autouse fixture)
 
 
 @pytest.fixture
