@@ -269,11 +269,10 @@ def band_kick(c, j, tau, lead, second_half, pull, layer, horizontal, below, abov
     particle's y-springs (``e_below``, ``e_above``: their factors) and its phi (``e_node``) over
     tau / 2, kick by tau, relax again (``layer`` the layer's record).  ``shift`` (N) is taken
     off the y-springs' forces (their rest tension along this component, or 0 when the forces
-    given are beyond it).  A held force
-    relaxes toward a force that stays put, so after n relaxations it is f + (h - f) e^n: the
-    second half's kick reads it after three.  The held forces are stored by the caller
-    (``relax_row``) once both their rows have used them.  Returns the kinetic energy taken out
-    (J)."""
+    given are beyond it).  A held force relaxes toward a force that stays put, so after n
+    relaxations it is f + (h - f) e^n: the second half's kick reads it after three.  The held
+    forces are stored by the caller (``relax_row``) once both their rows have used them.
+    Returns the kinetic energy taken out (J)."""
     masses, inverse_masses = layer.masses, layer.inverse_masses
     held_y, relaxed_y = layer.held_y, layer.relaxed_y
     e_below, e_above, e_node = layer.spring_y[j], layer.spring_y[j + 1], layer.node_y[j]

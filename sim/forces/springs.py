@@ -293,10 +293,7 @@ def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, ou
     in which row j is stored at index j % rows (a full array is the case rows == ny).
     Returns the power dissipated by the dashpots of those springs (W).
     """
-    j = as_row(j)
-    if linear is None:
-        return _vertical_springs(j, ny, x, y, z, vx, vy, vz, None, parameters, dashpot, out)
-    return _vertical_springs(j, ny, x, y, z, vx, vy, vz, True, parameters, dashpot, out)
+    return _vertical_springs(as_row(j), ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, out)
 
 
 @njit(**_JIT)
