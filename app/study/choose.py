@@ -186,8 +186,9 @@ def reference_fields(
     then known for free); else why there is none (a sentence): a converged numerical reference
     is predicted to cost more than ``budget`` seconds (None: no budget), or the field does not
     converge (a pair at a step at least ``4`` times smaller changed it by more than half the
-    change of an earlier pair: the motion is sensitive to differences far below the
-    tolerance, so no step gives a field to compare with).
+    change of an earlier pair: a force that jumps, such as a spring passing through zero length,
+    or a motion that amplifies small differences keeps the field from settling as the step
+    shrinks, so no step gives a field to compare with).
 
     The first pair (h, h/2) is planned from the normal-mode prediction when there is one (h
     predicted to give a field error of half the allowed change), else from a quarter of the
@@ -236,8 +237,9 @@ def reference_fields(
             label = describe(name).short_label
             return (f"the field does not converge: halving {label}'s step from {at:.3g} s "
                     f"changed the field over the run by {least:.2g}, from {dt:.3g} s by "
-                    f"{change:.2g}; this motion is sensitive to differences far below the "
-                    "tolerance, so no step gives a reference")
+                    f"{change:.2g}; a force that jumps (a spring passing through zero length) or "
+                    "a motion that amplifies small differences keeps it from settling, so no "
+                    "step gives a reference")
         pairs.append((dt, change))
         # the order seen between the last two pairs (a transient with close encounters of
         # particles converges more slowly than the method's order until dt resolves them)
