@@ -122,7 +122,7 @@ def main() -> None:
             browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={"width": 1366, "height": 768})
             page.add_init_script(LONG_TASKS + PICTURES_SHOWN)
-            page.goto(app.url)
+            page.goto(app.url + os.environ.get("WEB_CLICKS_QUERY", ""))
             page.get_by_text("Connected").wait_for(timeout=60_000)
             time.sleep(3.0)
             since = page.evaluate("performance.now()")

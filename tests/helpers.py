@@ -52,3 +52,32 @@ def folder_click_delays(page, clicks: int = 6, pause: float = 0.0,
             state="visible" if k % 2 == 0 else "hidden", timeout=timeout_ms)
         delays.append(time.perf_counter() - started)
     return delays
+
+
+RENDERER_NAME = """() => {
+  const gl = document.createElement("canvas").getContext("webgl");
+  const info = gl && gl.getExtension("WEBGL_debug_renderer_info");
+  return info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : "";
+}"""
+
+
+def draws_in_software(page) -> bool:
+    """Whether the page's browser draws WebGL in software (WebGL's renderer name, asked in the
+    page)."""
+    from app.web.page_views import SOFTWARE_RENDERERS
+
+    name = page.evaluate(RENDERER_NAME).lower()
+    return any(word in name for word in SOFTWARE_RENDERERS)
+
+
+def open_page(page, url: str, timeout_ms: int = 60_000) -> None:
+    """Open the app at ``url`` as a reader would and wait until the page is connected; a browser
+    drawing in software (this machine's headless Chromium) first reloads the page once at a
+    lower resolution (``app.web.page_views``)."""
+    import re
+
+    page.goto(url)
+    if "fixedDpr" not in url and draws_in_software(page):
+        page.wait_for_url(re.compile(r"[?&]fixedDpr="), timeout=timeout_ms)
+    page.get_by_text("Connected").wait_for(timeout=timeout_ms)
+

@@ -5,6 +5,7 @@ an installed version moves what the adapter reads (numba's cache locators are ch
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from app.cli import argparse_adapter, build_parser
 from app.cli.arguments import command_from_arguments
@@ -58,6 +59,9 @@ def test_viser_adapter_reaches_every_internal_it_reads():
         assert callable(viser_adapter.gui_queue(server.gui).queue_message)
         assert all(callable(handler) for handler in viser_adapter.gui_handlers(server.gui).values())
         assert isinstance(viser_adapter.upload_states(server.gui), dict)
+        handler = Path(viser.__file__).parent / "client" / "src" / "MessageHandler.tsx"
+        assert f'LOCAL_STORAGE_PREFIX = "{viser_adapter.LOCAL_STORAGE_PREFIX}"' in (
+            handler.read_text())
         image = server.scene.add_image("/picture", np.zeros((2, 2, 3), np.uint8), 1.0, 1.0,
                                        format="jpeg")
         viser_adapter.set_image_bytes(image, b"\xff\xd8 picture")

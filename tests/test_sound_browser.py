@@ -9,7 +9,7 @@ import pytest
 import sim
 from app.web.app import WebApp
 from sim.theory.modes import excited_state
-from tests.helpers import free_port, wait_for
+from tests.helpers import free_port, open_page, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]  # a page load: about 20 s
 
@@ -35,8 +35,7 @@ def test_the_page_plays_a_probe_and_stop_probing_removes_the_player(tmp_path, br
     try:
         assert wait_for(lambda: app.view.last_positions is not None)
         page = browser.new_page(viewport={"width": 1366, "height": 768})
-        page.goto(app.url)
-        page.get_by_text("Connected").wait_for(timeout=60_000)
+        open_page(page, app.url)
         probes = app.panel.probes
         app.set_selection(np.array([2]))
         page.get_by_text("Probes", exact=True).click()  # open the folder

@@ -20,6 +20,7 @@ import pytest
 import sim
 from app.web.app import WebApp
 from tests.helpers import VIEWPORT, free_port, wait_for
+from tests.helpers import open_page as open_app_page
 
 pytestmark = pytest.mark.browser
 
@@ -36,10 +37,9 @@ def web_app() -> Iterator[WebApp]:
 
 def open_page(browser, app: WebApp):
     page = browser.new_page(viewport=VIEWPORT)
-    page.goto(app.url)
+    open_app_page(page, app.url)
     # the 3-D view's canvas (viser also keeps an empty 0x0 one for drawing selection rectangles)
     page.locator("canvas:not([width='0'])").first.wait_for(timeout=20_000)
-    page.get_by_text("Connected").wait_for(timeout=20_000)
     return page
 
 

@@ -14,6 +14,7 @@ import pytest
 import sim
 from app.web.app import WebApp
 from tests.helpers import VIEWPORT, free_port, wait_for
+from tests.helpers import open_page as open_app_page
 
 SCREENSHOT = os.environ.get("CLASS_SCREENSHOT")
 """If set, the student page's screenshot is saved there (to look at it)."""
@@ -33,11 +34,10 @@ def class_app(tmp_path) -> Iterator[WebApp]:
     app.stop()
 
 
-def open_page(browser, address: str):  # noqa: F811
+def open_page(browser, address: str):
     page = browser.new_page(viewport=VIEWPORT)
     page.set_default_timeout(120_000)  # two software-rendered pages on a busy machine
-    page.goto(address)
-    page.get_by_text("Connected").wait_for(timeout=60_000)
+    open_app_page(page, address)
     assert wait_for(lambda: page.locator("canvas").count() > 0, timeout=60)
     return page
 

@@ -12,7 +12,7 @@ import pytest
 import sim
 from app.web.app import WebApp
 from app.web.folders.dispersion import COLOURS
-from tests.helpers import free_port, wait_for
+from tests.helpers import free_port, open_page, wait_for
 from tests.test_web_plots_browser import chart
 
 pytestmark = pytest.mark.browser
@@ -53,8 +53,7 @@ def test_the_dispersion_plot_is_drawn_and_a_launched_wave_moves_the_lattice(grid
 
     app = grid_app
     page = browser.new_page(viewport={"width": 1366, "height": 900})
-    page.goto(app.url)
-    page.get_by_text("Connected").wait_for(timeout=60_000)
+    open_page(page, app.url)
     page.get_by_text("Dispersion", exact=True).first.click()  # open the folder
     assert wait_for(lambda: chart(page, "chosen wave") is not None, timeout=30)
     drawn = chart(page, "chosen wave")

@@ -42,6 +42,7 @@ def test_last_page_leaving_pauses_unless_recording(web_app):
     runner = web_app.runner
     runner.play()
     web_app.client_left(12345)  # no page is connected in this test
+    assert runner.playing  # a few seconds for a page that reloads itself to come back
     assert wait_for(lambda: not runner.playing)
     press(web_app.panel.recording.record_button, PageClient())
     assert wait_for(lambda: web_app.recordings.active)

@@ -16,7 +16,7 @@ import pytest
 
 import sim
 from app.web.app import WebApp
-from tests.helpers import folder_click_delays, free_port, wait_for
+from tests.helpers import draws_in_software, folder_click_delays, free_port, open_page, wait_for
 
 pytestmark = pytest.mark.browser
 
@@ -43,13 +43,16 @@ def bar_ends(pixels: np.ndarray) -> tuple[int, int]:
 
 
 def client_of(app: WebApp):
+    """The one page connected (the newest: a page that reloaded itself leaves its first
+    connection behind)."""
     assert wait_for(lambda: len(app.server.get_clients()) == 1)
-    return next(iter(app.server.get_clients().values()))
+    return app.server.get_clients()[max(app.server.get_clients())]
 
 
-def lattice_box(app: WebApp, client) -> tuple[float, float, float, float]:
-    """(left, top, right, bottom) CSS pixels of the lattice's walls in ``client``'s view (the
-    camera looks straight down)."""
+def lattice_box(app: WebApp, client, view_width: float) -> tuple[float, float, float, float]:
+    """(left, top, right, bottom) CSS pixels of the lattice's walls in ``client``'s view
+    ``view_width`` CSS pixels wide (the camera looks straight down; viser reports the canvas in
+    its own pixels, CSS pixels times the page's drawing resolution)."""
     camera = client.camera
     model = app.runner.simulation.model
     half_h = (camera.position[2] - 0.0) * math.tan(camera.fov / 2)
@@ -59,15 +62,20 @@ def lattice_box(app: WebApp, client) -> tuple[float, float, float, float]:
     ys = np.array([(model.ny + 1) * a / 2, -(model.ny + 1) * a / 2])
     u = ((xs - camera.position[0]) / half_w / 2 + 0.5) * camera.image_width
     v = (0.5 - (ys - camera.position[1]) / half_h / 2) * camera.image_height
-    return u[0], v[0], u[1], v[1]
+    scale = view_width / camera.image_width
+    return u[0] * scale, v[0] * scale, u[1] * scale, v[1] * scale
 
 
 def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, browser, tmp_path):
     from rerun.chunk import RrdReader
 
     page = browser.new_page(viewport={"width": 1366, "height": 768}, accept_downloads=True)
-    page.goto(web_app.url)
-    page.get_by_text("Connected").wait_for(timeout=30_000)
+    open_page(page, web_app.url)
+    # a browser drawing in software (WebGL's renderer name, asked here) reloads the page once
+    # at half its resolution; the server knows the view's size in CSS pixels either way
+    assert ("fixedDpr=0.5" in page.url) == draws_in_software(page), page.url
+    client = client_of(web_app)
+    assert wait_for(lambda: web_app.page_views.css_size(client.client_id) == (1366, 768))
     assert not web_app.runner.playing
     time.sleep(2.0)  # the scene's nodes reach the page
     pixels = canvas_pixels(page)
@@ -78,7 +86,7 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
     assert tab["x"] < 100 and tab["y"] > 768 / 2
     window = page_pixels(page)[round(tab["y"]):, : 450]
     assert bar_ends(window) > (100, 100)
-    left, top, right, bottom = lattice_box(web_app, client_of(web_app))
+    left, top, right, bottom = lattice_box(web_app, client_of(web_app), 1366)
     assert bottom < tab["y"] and left >= 0 and right <= 1366 - 400
     # record a little of the run, then take it home
     page.get_by_text("Recording", exact=True).click()  # open the folder
@@ -105,17 +113,15 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
 @pytest.mark.slow
 def test_phone_size_lattice_in_view_and_not_under_the_panel(web_app, browser):
     page = browser.new_page(viewport={"width": 414, "height": 896})
-    page.goto(web_app.url)
-    page.get_by_text("Connected").wait_for(timeout=30_000)
-    assert wait_for(lambda: len(web_app.server.get_clients()) == 1)
-    client = next(iter(web_app.server.get_clients().values()))
-    assert wait_for(lambda: client.camera.image_width == 414)
+    open_page(page, web_app.url)
+    client = client_of(web_app)
+    assert wait_for(lambda: web_app.page_views.css_size(client.client_id) == (414, 896))
     seen = {}
 
     def in_view() -> bool:
         """The lattice inside the view, above the panel and not a speck (the camera the page
         reported last: it reaches the fitted camera after its move there)."""
-        left, top, right, bottom = lattice_box(web_app, client)
+        left, top, right, bottom = lattice_box(web_app, client, 414)
         panel_top = page.get_by_text("Connected").bounding_box()["y"]
         seen.update(box=(left, top, right, bottom), panel_top=panel_top)
         return (left >= 0 and right <= 414 and top >= 0 and bottom < panel_top - 5
@@ -147,8 +153,7 @@ def test_phone_size_shows_the_flagship_and_its_colour_bar_above_the_panel(browse
     app.start()
     try:
         page = browser.new_page(viewport={"width": 414, "height": 896})
-        page.goto(app.url)
-        page.get_by_text("Connected").wait_for(timeout=60_000)
+        open_page(page, app.url)
         seen = {}
 
         def shown() -> bool:
@@ -209,8 +214,7 @@ def flagship_page(browser):
     try:
         page = browser.new_page(viewport={"width": 1366, "height": 768})
         page.add_init_script(ANSWER_CLOCK)
-        page.goto(app.url)
-        page.get_by_text("Connected").wait_for(timeout=60_000)
+        open_page(page, app.url)
         time.sleep(2.0)
         yield app, page
     finally:

@@ -12,7 +12,7 @@ import pytest
 
 import sim
 from app.web.app import WebApp
-from tests.helpers import free_port, wait_for
+from tests.helpers import free_port, open_page, wait_for
 
 pytestmark = pytest.mark.browser
 
@@ -46,8 +46,7 @@ def test_the_energy_plot_draws_under_gravity_and_reset_empties_the_accuracy_plot
 
     app = catenary_app
     page = browser.new_page(viewport={"width": 1366, "height": 768})
-    page.goto(app.url)
-    page.get_by_text("Connected").wait_for(timeout=60_000)
+    open_page(page, app.url)
     app.runner.play()
     # the sagging lattice's energies move the value axis: the plot is rebuilt on the way
     assert wait_for(lambda: app.runner.simulation.time > 4.0, timeout=120)

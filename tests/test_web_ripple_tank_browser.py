@@ -9,7 +9,7 @@ import pytest
 
 import sim
 from app.web.app import WebApp
-from tests.helpers import free_port, wait_for
+from tests.helpers import free_port, open_page, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -32,8 +32,7 @@ def web_app(tmp_path):
 def test_the_double_slit_page_rebuilds_its_barrier_and_shows_the_screen(web_app, browser):
     page = browser.new_page(viewport={"width": 1366, "height": 900})
     page.set_default_timeout(60_000)  # a shared machine's software rendering is slow
-    page.goto(web_app.url)
-    page.get_by_text("Connected").wait_for(timeout=60_000)
+    open_page(page, web_app.url)
     for title in ("Sources", "Barrier", "Screen", "Tape and stopwatch"):
         page.locator(f"text={title} >> visible=true").first.wait_for(timeout=60_000)
     assert web_app.runner.simulation.model.barriers[0].openings == ((7, 9), (15, 17))

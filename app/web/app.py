@@ -39,6 +39,7 @@ import viser
 import sim
 from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
+from app.web.page_views import PageViews
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
 from app.web.roles import STUDENT_MESSAGES, ClassRoles
@@ -71,6 +72,10 @@ IDLE_REDRAW = 2.0
 """Seconds between two redraws of an unchanged frame (a paused run): each redraw updates the
 panel's plots in every page, work a page without graphics acceleration does on its only
 thread."""
+
+RECONNECT_GRACE = 3.0
+"""Seconds the run plays on after the last page left, for a page that reloads itself (a page
+drawing in software, ``app.web.software_drawing``) or is reloaded by its reader to come back."""
 
 REFIT_SECONDS = 20.0
 """Seconds after a page connects during which its camera is fitted again if it leaves the fit
@@ -156,6 +161,7 @@ class WebApp:
         """Where the current scene came from (shown in the Scene folder)."""
 
         self.panel = ControlPanel(self)
+        self.page_views = PageViews(self.server, on_size=self.fit_client)
         self._install_interaction()
         self.roles = (ClassRoles(self.server, self.pick, token=teacher_token).install()
                       if class_mode else None)
@@ -314,8 +320,9 @@ class WebApp:
         under the lattice in that page's own scene."""
         model = model or self.runner.simulation.model
         camera = client.camera
-        try:
-            width, height = camera.image_width, camera.image_height
+        try:  # the view in CSS pixels once the page said it, else its canvas's pixels
+            width, height = (self.page_views.css_size(client.client_id)
+                             or (camera.image_width, camera.image_height))
         except AssertionError:  # the browser has not reported its view yet
             width, height = 0, 0
         width, height, fov = width or 1366, height or 768, VIEW_FOV
@@ -359,6 +366,7 @@ class WebApp:
                 if size != fitted["size"] and all(size):
                     fitted["size"] = size
                     fitted["pose"] = self.fit_client(client)
+                    self.page_views.ask(client)  # resized, or drawn at another resolution
                     return
                 # a loading page may reset its camera to the scene's initial one (fitted for a
                 # laptop) after it applied this page's fit: fit it again while it loads
@@ -374,14 +382,22 @@ class WebApp:
             self.client_left(client.client_id)
 
     def client_left(self, client_id: int) -> None:
-        """A browser went away: let go of whatever it was dragging; when it was the last one,
-        pause the run (unless a recording is on) instead of burning a core for nobody."""
+        """A browser went away: let go of whatever it was dragging; when it was the last one and
+        none has come within ``RECONNECT_GRACE`` seconds (a page reloading itself, or its
+        reader pressing F5), pause the run (unless a recording is on) instead of burning a core
+        for nobody."""
         self.control.release(client_id)
         self.view.colour_bar.client_left(client_id)
         if self._drag is not None and self._drag["owner"] == client_id:
             self._drag = None
-        others = [c for c in self.server.get_clients() if c != client_id]
-        if not others and not self.recordings.active and self.runner.playing:
+        if any(c != client_id for c in self.server.get_clients()):
+            return
+        timer = threading.Timer(RECONNECT_GRACE, self._pause_if_nobody)
+        timer.daemon = True
+        timer.start()
+
+    def _pause_if_nobody(self) -> None:
+        if not self.server.get_clients() and not self.recordings.active and self.runner.playing:
             self.control.pause()
 
     def pick(self, ray_origin: tuple[float, float, float],

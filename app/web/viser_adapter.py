@@ -1,11 +1,11 @@
 """The one place the page reads viser's private names (viser 1.1.1, pinned in ``pyproject.toml``).
 
 viser has no public API for what the page's safety and pacing need: the websocket server's live
-connections and its dispatch of what pages send, a connection's own message queue, the
-broadcast buffer's cursors, a GUI control's state by its id, an image node's bytes, the file
-transfers under way.  Every such read or write is a function here, so a viser upgrade that moves
-one breaks this module alone, and ``tests/test_adapters.py`` fails at once on a version whose
-internals moved (before any page misbehaves).
+connections and its dispatch of what pages send, a connection's own message queue, the broadcast
+buffer's cursors, a GUI control's state by its id, an image node's bytes, the file transfers
+under way, the prefix of the page's local-storage keys. Every such read or write is a function
+here, so a viser upgrade that moves one breaks this module alone, and ``tests/test_adapters.py``
+fails at once on a version whose internals moved (before any page misbehaves).
 """
 
 from __future__ import annotations
@@ -19,6 +19,11 @@ messages = _messages
 """viser's message classes (``GuiUpdateMessage``, ``ScenePointerMessage``, ...)."""
 
 Dispatch = Callable[[int, Any], Awaitable[None]]
+
+LOCAL_STORAGE_PREFIX = "viser-user:"
+"""What viser's page puts before the key of a local-storage message (its
+``client/src/MessageHandler.tsx``): a script on the page writes a value the server will ask for
+under this prefix and the key."""
 
 
 def websocket_server(server: Any) -> Any:
