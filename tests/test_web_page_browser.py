@@ -244,10 +244,10 @@ def test_a_click_the_server_answers_comes_back_within_half_a_second_while_the_fl
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="a click on a folder is answered by the page alone, which draws each "
-                   "frame for 0.1-0.3 s without a graphics card (more on a loaded machine): "
-                   "measured medians 0.41 s paused and 1.7 s playing at a load average of 25 "
-                   "on the shared 2-core machine", strict=False)
+@pytest.mark.xfail(reason="a click on a folder is answered by the page alone, which draws "
+                   "without a graphics card at half resolution: measured medians 0.19 s paused "
+                   "and 0.83 s playing at a load average of 3.7 on the 2-core machine "
+                   "(docs/web.md)", strict=False)
 def test_a_folder_click_is_answered_within_half_a_second_while_the_flagship_plays(flagship_page):
     """Headless Chromium draws WebGL without a graphics card and reads every frame back for
     compositing, on the page's only thread; the page gets a new picture only when it has drawn
