@@ -34,6 +34,7 @@ from tests.helpers import (  # noqa: E402
     CHROMIUM_ARGS,
     folder_click_delays,
     free_port,
+    open_page,
     wait_for,
 )
 
@@ -105,6 +106,9 @@ def main() -> None:
                         help="pictures per second (the View folder's choice; default: the app's)")
     parser.add_argument("--pause", type=float, default=0.7, help="seconds between clicks")
     parser.add_argument("--warm-up", type=float, default=8.0)
+    parser.add_argument("--query", default="",
+                        help="added to the page's address (e.g. ?fixedDpr=1: full resolution "
+                        "in software)")
     parser.add_argument("--trace", type=Path, default=None)
     arguments = parser.parse_args()
     from playwright.sync_api import sync_playwright
@@ -122,8 +126,7 @@ def main() -> None:
             browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={"width": 1366, "height": 768})
             page.add_init_script(LONG_TASKS + PICTURES_SHOWN)
-            page.goto(app.url + os.environ.get("WEB_CLICKS_QUERY", ""))
-            page.get_by_text("Connected").wait_for(timeout=60_000)
+            open_page(page, app.url + arguments.query)
             time.sleep(3.0)
             since = page.evaluate("performance.now()")
             paused = folder_click_delays(page, arguments.clicks, arguments.pause, 60_000)

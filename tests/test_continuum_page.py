@@ -17,7 +17,10 @@ pytestmark = pytest.mark.browser
 @pytest.mark.parametrize("kind", [pytest.param("string", marks=pytest.mark.slow),
                                   pytest.param("membrane", marks=pytest.mark.slow)])
 def test_the_page_runs_every_n_on_one_clock_and_shows_the_distances(kind, browser, tmp_path):
-    particles = (4, 16, 64) if kind == "string" else (4, 16)
+    # the membrane's 16 x 16 lattice is still as far from the continuum as the 4 x 4 one at
+    # some times (0.24 and 0.26 at half a crossing); the 32 x 32 one's distance is 0.11-0.26
+    # times the 4 x 4 one's up to 1.25 crossings
+    particles = (4, 16, 64) if kind == "string" else (4, 16, 32)
     page_app = ContinuumPage(Body(kind=kind, shape=Shape("gaussian")), particles,
                              port=free_port(), play=True)
     page_app.seconds_per_crossing = 6.0  # faster than a class would watch it, for the test
@@ -34,7 +37,8 @@ def test_the_page_runs_every_n_on_one_clock_and_shows_the_distances(kind, browse
         stopped = page_app.time
         # Within two crossings the coarsest chain's dispersion already shows while 64 beads
         # stay on the continuum (later the coarse error oscillates and can pass near zero).
-        assert stopped < 2.0 * crossing, "the page took too long to pause"
+        assert stopped < (2.0 if kind == "string" else 1.25) * crossing, \
+            "the page took too long to pause"
         page.get_by_text("relative L2 distance", exact=False).wait_for(timeout=10_000)
         for n in particles:  # the table's row of each N: its spacing
             spacing = f"{page_app.body.spacing(n):.3g}"
