@@ -132,8 +132,9 @@ def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
     """The y-springs below row j (j = 0: from the bottom anchors; j = ny: to the top ones)."""
     j = as_row(j)  # a literal 0 would compile the spans once more
     ny = x.shape[0]
+    start, stop = np.intp(start), np.intp(stop)
     if j == 0:
-        _y_span(None, 0, j, start, stop, x, y, z, linearised, parameters, tension, out)
+        _y_span(None, j, j, start, stop, x, y, z, linearised, parameters, tension, out)
     elif j == ny:
         _y_span(j - 1, None, j, start, stop, x, y, z, linearised, parameters, tension, out)
     else:
@@ -186,7 +187,8 @@ def act_on(tau, lead, second_half, position, velocity, layer):
     geometry = layer.geometry
     if geometry[0] + geometry[1] > 0:
         _side_forces(x, y, z, linearised, parameters, tension, layer)
-        taken += sides_act(0, ny, tau, lead, second_half, None, position, velocity, layer)
+        taken += sides_act(np.intp(0), ny, tau, lead, second_half, None, position, velocity,
+                           layer)
     buffers = layer.buffers
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
     needs = layer.needs
@@ -198,7 +200,7 @@ def act_on(tau, lead, second_half, position, velocity, layer):
         if fresh:
             _y_springs(j, 0, nx, x, y, z, linearised, parameters, tension, below)
         _y_springs(j + 1, 0, nx, x, y, z, linearised, parameters, tension, above)
-        _x_springs(j, 0, nx + 1, x, y, z, linearised, parameters, tension, horizontal)
+        _x_springs(j, np.intp(0), nx + 1, x, y, z, linearised, parameters, tension, horizontal)
         taken += band_act(j, False, tau, lead, second_half, None, position, velocity,
                           horizontal, below, above, layer, 0.0)
         below, above = above, below

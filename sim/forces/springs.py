@@ -264,7 +264,8 @@ def _vertical_springs(j, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpo
     rows = x.shape[0]
     diagonal_springs(parameters.diagonal_stiffness, j, ny, x, y, z, linearised, parameters, out)
     if j == 0:
-        return _vertical_row(None, 0, j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out)
+        return _vertical_row(None, j % rows, j, x, y, z, vx, vy, vz, linearised, parameters,
+                             dashpot, out)
     if j == ny:
         return _vertical_row((j - 1) % rows, None, j, x, y, z, vx, vy, vz, linearised, parameters,
                              dashpot, out)

@@ -53,8 +53,8 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 @njit(**_JIT)
 def accelerations(terms, parameters, position, velocity, acceleration):
     """Write the acceleration of every particle into ``acceleration``; return dissipated power (W)."""
-    return force_rows(0, position.shape[1], terms, parameters, position, velocity, acceleration,
-                      None, velocity)
+    return force_rows(np.intp(0), position.shape[1], terms, parameters, position, velocity,
+                      acceleration, None, velocity)
 
 
 @njit(**_JIT)
@@ -101,8 +101,8 @@ def runge_kutta_steps(table, n, dt, terms, parameters, position, velocity, stage
     drive_powers = np.zeros(count)
     dissipated = 0.0
     for step in range(n):
-        wavefront(table, 0, position.shape[1], dt, terms, parameters, position, velocity, work,
-                  powers, time + step * float(dt), drive, drive_powers)
+        wavefront(table, np.intp(0), position.shape[1], dt, terms, parameters, position,
+                  velocity, work, powers, time + step * float(dt), drive, drive_powers)
         dissipated += dissipated_energy(table, dt, powers)
         if drive is not None:
             drive_work[0] += dissipated_energy(table, dt, drive_powers)
@@ -158,7 +158,8 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
                 if drive is not None:
                     drive_rows(time + step * float(dt), drive, -1, acceleration, velocity)
         if first:
-            verlet_drift(0, dt, position, velocity, acceleration, predicted_velocity, damped)
+            verlet_drift(np.intp(0), dt, position, velocity, acceleration, predicted_velocity,
+                         damped)
         new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms.linear, parameters,
                                      terms.dashpot, below)
         drive_power = 0.0
