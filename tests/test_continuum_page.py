@@ -8,7 +8,7 @@ import pytest
 
 from app.web.continuum import ContinuumPage
 from sim.scenes.bodies import Body, Shape
-from tests.helpers import free_port, wait_for
+from tests.helpers import free_port, open_page, wait_for
 
 pytestmark = pytest.mark.browser
 
@@ -28,8 +28,7 @@ def test_the_page_runs_every_n_on_one_clock_and_shows_the_distances(kind, browse
     try:
         assert page_app.time == 0.0  # no page open: the clock waits
         page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(page_app.url)
-        page.get_by_text("Connected").wait_for(timeout=30_000)
+        open_page(page, page_app.url)
         crossing = page_app.body.crossing_time
         assert wait_for(lambda: page_app.time > 0.25 * crossing, timeout=60)
         page.get_by_label("Play", exact=True).uncheck()

@@ -33,8 +33,10 @@ CONVERGENCE_DTS = {
 @pytest.fixture(scope="module")
 def linear_grid_study():
     scene = sim.scenes.build("grid", linear=True)
+    # the orders are float64's (float32's runs, whose rounding sets a floor, are in the
+    # recommendation and command tests below)
     return accuracy_study(scene, dts=CONVERGENCE_DTS, until=2.0, tolerance=1e-2,
-                          minimum_seconds=0.0)
+                          minimum_seconds=0.0, precisions=("float64",))
 
 
 @pytest.mark.parametrize(

@@ -30,6 +30,7 @@ import numpy as np
 from app.colours import get as colour_map
 from app.recording.continuum import CURVE_POINTS, BodyRun, drawn_exaggeration
 from app.web.inputs import InputRefused, as_html, from_user, number
+from app.web.page_views import PageViews
 from app.web.security import AccessPolicy, checked_server
 from app.web.view import NARROW, PHONE_PANEL_SHARE, VIEW_FOV, box_fit
 from sim.scenes.bodies import Body
@@ -81,6 +82,7 @@ class ContinuumPage:
         self.server.gui.configure_theme(control_width="medium", dark_mode=False)
         self._build_panel()
         self._build_scene()
+        self.page_views = PageViews(self.server, on_size=self._fit)
         self.server.on_client_connect(self._frame_camera)
 
     @property
@@ -168,6 +170,7 @@ class ContinuumPage:
             if size != sizes["seen"] and all(size):
                 sizes["seen"] = size
                 self._fit(client)
+                self.page_views.ask(client)  # resized, or drawn at another resolution
 
     def _fit(self, client) -> None:
         length = self.body.length
@@ -176,8 +179,9 @@ class ContinuumPage:
         width = (2.1 * 0.8 * ROW_HEIGHT if membrane else 1.0) * length
         top = (0.2 + LABEL_HEIGHT + (HEADING_GAP if membrane else 0.0)) * length
         bottom = self._row_offset(len(self.particles) - 1) - 0.25 * length
-        try:
-            view_width, view_height = client.camera.image_width, client.camera.image_height
+        try:  # the view in CSS pixels once the page said it, else its canvas's pixels
+            view_width, view_height = (self.page_views.css_size(client.client_id)
+                                       or (client.camera.image_width, client.camera.image_height))
         except AssertionError:  # the page has not reported its view yet
             view_width, view_height = 0, 0
         view_width, view_height = view_width or 1366, view_height or 768
