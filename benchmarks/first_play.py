@@ -37,7 +37,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tests.helpers import CHROMIUM, CHROMIUM_ARGS, draws_in_software, free_port  # noqa: E402
+from tests.helpers import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for_reload  # noqa: E402
 
 CASES = {
     "grid": ("grid", False),
@@ -95,8 +95,7 @@ def measure(browser, case: str, cache: str, uptime: float, timeout: float) -> di
                         log.seek(0)
                         raise RuntimeError(f"the server did not answer:\n{log.read()}") from None
                     time.sleep(0.5)
-            if draws_in_software(page):  # the page reloads itself at half resolution
-                page.wait_for_url(re.compile(r"[?&]fixedDpr="), timeout=timeout * 1000)
+            wait_for_reload(page, page.url, timeout * 1000)  # in software: at half resolution
             page.get_by_text("Connected").wait_for(timeout=timeout * 1000)
             page.get_by_role("button", name="Play").wait_for(timeout=timeout * 1000)
             loaded = time.monotonic() - started

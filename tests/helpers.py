@@ -70,14 +70,20 @@ def draws_in_software(page) -> bool:
     return any(word in name for word in SOFTWARE_RENDERERS)
 
 
-def open_page(page, url: str, timeout_ms: int = 60_000) -> None:
-    """Open the app at ``url`` as a reader would and wait until the page is connected; a browser
-    drawing in software (this machine's headless Chromium) first reloads the page once at a
-    lower resolution (``app.web.page_views``)."""
+def wait_for_reload(page, url: str, timeout_ms: int = 60_000) -> None:
+    """After ``page.goto(url)``: a browser drawing in software (this machine's headless
+    Chromium) reloads the app's page once at a lower resolution (``app.web.page_views``); wait
+    until it has."""
     import re
 
-    page.goto(url)
     if "fixedDpr" not in url and draws_in_software(page):
         page.wait_for_url(re.compile(r"[?&]fixedDpr="), timeout=timeout_ms)
+
+
+def open_page(page, url: str, timeout_ms: int = 60_000) -> None:
+    """Open the app at ``url`` as a reader would and wait until the page is connected (after
+    the reload of a page drawing in software, ``wait_for_reload``)."""
+    page.goto(url)
+    wait_for_reload(page, url, timeout_ms)
     page.get_by_text("Connected").wait_for(timeout=timeout_ms)
 

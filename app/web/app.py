@@ -75,7 +75,7 @@ thread."""
 
 RECONNECT_GRACE = 3.0
 """Seconds the run plays on after the last page left, for a page that reloads itself (a page
-drawing in software, ``app.web.software_drawing``) or is reloaded by its reader to come back."""
+drawing in software, ``app.web.page_views``) or is reloaded by its reader to come back."""
 
 REFIT_SECONDS = 20.0
 """Seconds after a page connects during which its camera is fitted again if it leaves the fit
@@ -320,11 +320,7 @@ class WebApp:
         under the lattice in that page's own scene."""
         model = model or self.runner.simulation.model
         camera = client.camera
-        try:  # the view in CSS pixels once the page said it, else its canvas's pixels
-            width, height = (self.page_views.css_size(client.client_id)
-                             or (camera.image_width, camera.image_height))
-        except AssertionError:  # the browser has not reported its view yet
-            width, height = 0, 0
+        width, height = self.page_views.view_size(client)
         width, height, fov = width or 1366, height or 768, VIEW_FOV
         camera.fov = fov
         self.view.colour_bar.set_narrow(client, width < NARROW)
@@ -366,7 +362,6 @@ class WebApp:
                 if size != fitted["size"] and all(size):
                     fitted["size"] = size
                     fitted["pose"] = self.fit_client(client)
-                    self.page_views.ask(client)  # resized, or drawn at another resolution
                     return
                 # a loading page may reset its camera to the scene's initial one (fitted for a
                 # laptop) after it applied this page's fit: fit it again while it loads

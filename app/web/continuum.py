@@ -170,7 +170,6 @@ class ContinuumPage:
             if size != sizes["seen"] and all(size):
                 sizes["seen"] = size
                 self._fit(client)
-                self.page_views.ask(client)  # resized, or drawn at another resolution
 
     def _fit(self, client) -> None:
         length = self.body.length
@@ -179,11 +178,7 @@ class ContinuumPage:
         width = (2.1 * 0.8 * ROW_HEIGHT if membrane else 1.0) * length
         top = (0.2 + LABEL_HEIGHT + (HEADING_GAP if membrane else 0.0)) * length
         bottom = self._row_offset(len(self.particles) - 1) - 0.25 * length
-        try:  # the view in CSS pixels once the page said it, else its canvas's pixels
-            view_width, view_height = (self.page_views.css_size(client.client_id)
-                                       or (client.camera.image_width, client.camera.image_height))
-        except AssertionError:  # the page has not reported its view yet
-            view_width, view_height = 0, 0
+        view_width, view_height = self.page_views.view_size(client)
         view_width, view_height = view_width or 1366, view_height or 768
         narrow = view_width < NARROW
         position, look_at = box_fit(

@@ -104,8 +104,10 @@ def parse_size(value: Any) -> tuple[int, int] | None:
 
 
 class PageViews:
-    """Each page's view size in CSS pixels (``css_size``); ``on_size(client)`` is called when a
-    page's size arrives or changes (the app fits that page's camera again)."""
+    """Each page's view size in CSS pixels (``css_size``, ``view_size``); ``on_size(client)`` is
+    called when a page's size arrives or changes (the app fits that page's camera again).  The
+    page is asked on connecting and whenever its canvas changes size (a resize, or another
+    drawing resolution)."""
 
     def __init__(self, server: viser.ViserServer, on_size: Callable[[Any], None],
                  ratio: float = SOFTWARE_PIXEL_RATIO) -> None:
@@ -124,6 +126,17 @@ class PageViews:
         with self._lock:
             return self.sizes.get(client_id)
 
+    def view_size(self, client: Any) -> tuple[int, int]:
+        """The page's view (width, height) in CSS pixels once the page said it, else its
+        canvas's pixels, else (0, 0) before the page reported its view."""
+        size = self.css_size(client.client_id)
+        if size is not None:
+            return size
+        try:
+            return client.camera.image_width, client.camera.image_height
+        except AssertionError:  # the page has not reported its view yet
+            return 0, 0
+
     def ask(self, client: Any) -> None:
         """Ask the page for its view's size (the reply calls ``on_size`` if it changed)."""
         key = f"{KEY_PREFIX}{client.client_id}"
@@ -135,6 +148,14 @@ class PageViews:
         viser_adapter.client_queue(client).queue_message(
             _messages.RunJavascriptMessage(source=script(client.client_id, self.ratio)))
         self.ask(client)
+        canvas = {"size": (0, 0)}
+
+        @client.camera.on_update
+        def _(camera: Any) -> None:
+            size = (camera.image_width, camera.image_height)
+            if size != canvas["size"] and all(size):
+                canvas["size"] = size
+                self.ask(client)
 
     def _left(self, client: Any) -> None:
         with self._lock:
