@@ -212,9 +212,12 @@ def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
             second = await next_request()  # the reply brought the newest picture
             assert sent == [b"first", b"third"]
             requests += [first["request_uuid"], again["request_uuid"], second["request_uuid"]]
-            pacer.budget = 1.0  # one byte a second: the next picture waits for the budget
             await connection.send(acknowledgement(second))
-            await connection.send(acknowledgement(await next_request()))
+            confirm = await next_request()
+            assert pacer.wanted()  # it has the newest: the next is encoded while it draws a frame
+            pacer.budget = 1.0  # one byte a second: the next picture waits for the budget
+            assert not pacer.wanted()
+            await connection.send(acknowledgement(confirm))
             await asyncio.to_thread(wait_for, lambda: pacer.pages[next(iter(pacer.pages))]
                                     .acknowledged == 2, 10)
             pacer.publish(b"fourth")

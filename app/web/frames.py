@@ -12,7 +12,8 @@ node, in the lattice plane z = 0, one lattice spacing per pixel) and replaces it
 * ``FORMAT`` and ``QUALITY`` were chosen by ``benchmarks/frame_formats.py`` (bytes against
   peak signal-to-noise ratio on a running interference field); as the waves fill the lattice with
   fine detail the encoding steps down ``PICTURE_STEPS`` so that a picture stays near
-  ``PICTURE_BYTES`` and each page still gets about five a second within its byte budget;
+  ``PICTURE_BYTES`` and each page still gets ``PICTURES_AIMED`` a second within its byte
+  budget;
 * each page gets the newest picture as soon as it has drawn the previous one, at most
   ``MAX_FPS`` a second and ``BYTES_PER_SECOND`` per page (``app.web.pacing``): a page without
   graphics acceleration, which spends 0.1-0.2 s of its only thread on each drawn frame, gets a
@@ -55,8 +56,11 @@ larger: 152 kB at 4:4:4 quality 75, 88 kB at 50, 72 kB at 40, then 57 and 49 kB 
 half resolution (4:2:0) at 50 and 40 (24.9, 21.7, 20.9, 20.0 and 19.7 dB), with no difference to
 see between them at that size; the halved colour only costs where the field is still smooth
 enough to afford full resolution, so it comes last."""
-PICTURE_BYTES = BYTES_PER_SECOND / 5.5
-"""Bytes a picture aims at: five and a half pictures a second fit each page's byte budget."""
+PICTURES_AIMED = 6.5
+"""Pictures a second each page's byte budget is to hold (a page shows a few of them late, or
+not at all when the next comes while it still decodes one, so it shows at least five)."""
+PICTURE_BYTES = BYTES_PER_SECOND / PICTURES_AIMED
+"""Bytes a picture aims at: ``PICTURES_AIMED`` pictures a second fit each page's byte budget."""
 DEFAULT_FPS = MAX_FPS
 """Pictures per second by default: as many as each page draws, up to ``MAX_FPS``."""
 PICTURE_RATES = (1.0, 2.0, 4.0, MAX_FPS)

@@ -56,6 +56,10 @@ clicks)."""
 SLOW_DRAW = 0.15
 """Seconds from a picture sent to the page's second reply above which the page is slow to draw
 (a page with a graphics card on a busy network replies in two round trips and a frame)."""
+ENCODE_AHEAD = 0.08
+"""Seconds before a page may have its next picture from which that picture is encoded (longer
+than the frame pump's gap between two frames, 0.04 s, plus an encoding): the picture is ready
+when the page is, also while the page's second reply is still on its way."""
 ACK_TIMEOUT = 3.0
 """Seconds after which a page that has not replied gets the next picture anyway."""
 ACK_PREFIX = "picture-shown-"
@@ -127,14 +131,15 @@ class PicturePacer:
             self._offer(client_id, now)
 
     def wanted(self) -> bool:
-        """Whether a page would take a new picture now (not waiting for its reply and allowed
-        by its rate): the pump encodes a picture only then."""
+        """Whether a page will take a new picture within ``ENCODE_AHEAD`` seconds (it has the
+        newest, has taken it in or drawn it, and its rate allows one by then): the pump encodes
+        a picture only then, and the page gets it as soon as it may."""
         now = time.monotonic()
         with self._lock:
             if self.data is None:
                 return True
-            return any(page.waiting is None and page.serial >= self.serial
-                       and now >= self._next_allowed(page) - 0.5 / MAX_FPS
+            return any((page.waiting is None or page.confirming) and page.serial >= self.serial
+                       and now >= self._next_allowed(page) - ENCODE_AHEAD
                        for page in self.pages.values()) or any(
                 page.waiting is not None and now - page.sent_at > ACK_TIMEOUT
                 for page in self.pages.values())
