@@ -37,6 +37,7 @@ import numpy as np
 import viser
 
 import sim
+from app import memory
 from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
 from app.web.page_views import PageViews
@@ -179,6 +180,7 @@ class WebApp:
         return f"http://{shown}:{self.server.get_port()}"
 
     def start(self) -> WebApp:
+        memory.return_large_blocks()  # frames' arrays go back to the system when dropped
         self._resubscribe()
         self._pumping = True
         self._pump = threading.Thread(target=self._pump_frames, name="web-frame-pump", daemon=True)
