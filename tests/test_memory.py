@@ -10,7 +10,7 @@ import sys
 import pytest
 
 PATTERN = """
-import json, sys, threading
+import json, sys
 import numpy as np
 from app import memory
 fixed = memory.return_large_blocks() if sys.argv[1] == "fixed" else None
@@ -18,21 +18,13 @@ fixed = memory.return_large_blocks() if sys.argv[1] == "fixed" else None
 def rss():
     return int(open("/proc/self/statm").read().split()[1]) * 4096
 
-def frames():
-    keep = []
-    for k in range(60):  # each frame: arrays of a few MB, a small object kept now and then
-        arrays = [np.ones(300_000 + 1000 * k) for _ in range(4)]
-        if k % 3 == 0:
-            keep.append(bytes(200))
-        del arrays
-    return keep
-
-kept = []
 big = np.ones(4_000_000); del big  # one large block freed: glibc raises its threshold
 before = rss()
-threads = [threading.Thread(target=lambda: kept.append(frames())) for _ in range(3)]
-for thread in threads: thread.start()
-for thread in threads: thread.join()
+frames, kept = [], []
+for k in range(20):  # a frame's arrays of a few MB, and a small array that stays after each
+    frames.append(np.ones(300_000))
+    kept.append(np.ones(300))
+del frames
 print(json.dumps({"fixed": fixed, "retained": rss() - before}))
 """
 
@@ -47,6 +39,6 @@ def retained(mode: str) -> dict:
 def test_freed_frames_go_back_to_the_system_once_the_threshold_is_fixed():
     dynamic, fixed = retained("dynamic"), retained("fixed")
     assert fixed["fixed"] is True
-    # with the dynamic threshold the threads' arenas keep tens of MB of freed frames
+    # with the dynamic threshold the heap keeps the freed frames under the small arrays
     assert dynamic["retained"] > 20e6, dynamic
     assert fixed["retained"] < 0.25 * dynamic["retained"], (fixed, dynamic)
