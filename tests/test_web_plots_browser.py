@@ -39,7 +39,6 @@ def catenary_app(tmp_path):
     app.stop()
 
 
-@pytest.mark.slow  # a second browser session
 def test_the_energy_plot_draws_under_gravity_and_reset_empties_the_accuracy_plot(
         catenary_app, browser):
     from PIL import Image
