@@ -180,7 +180,6 @@ class WebApp:
         return f"http://{shown}:{self.server.get_port()}"
 
     def start(self) -> WebApp:
-        memory.return_large_blocks()  # frames' arrays go back to the system when dropped
         self._resubscribe()
         self._pumping = True
         self._pump = threading.Thread(target=self._pump_frames, name="web-frame-pump", daemon=True)
@@ -259,11 +258,14 @@ class WebApp:
         self.runner.post(lambda simulation: None)
 
     def _pump_frames(self) -> None:
-        last = 0.0
+        last = given_back = 0.0
         shown: Frame | None = None
         while self._pumping:
             woke = self._frame_ready.wait(0.25)
             self._frame_ready.clear()
+            if time.perf_counter() - given_back >= memory.GIVE_BACK_SECONDS:
+                given_back = time.perf_counter()
+                memory.give_back()  # the frames' freed arrays, back to the system
             frame = self._latest
             if not self._pumping or frame is None:
                 continue
