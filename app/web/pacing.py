@@ -14,10 +14,11 @@ pace it can show them:
   then is that page sent the next picture (the newest one, encoded by then), so a page never
   holds a picture it has not drawn (viser's page drops a picture still being decoded when the
   next one comes), and a slow page gets fewer pictures while the others go on;
-* **time to answer.**  A page that took long (over ``SLOW_DRAW``) to draw a picture is left
-  ``IDLE_SHARE`` times as long without one before the next (a page with a graphics card draws
-  in milliseconds and loses nothing; a page drawing in software keeps its thread free half the
-  time for clicks);
+* **time to answer.**  A page that took long (over ``SLOW_DRAW``) to draw a picture can be left
+  ``IDLE_SHARE`` times as long without one before the next.  0 by default: a page drawing in
+  software answers a click within about one of its frames however many pictures it gets
+  (``benchmarks/web_clicks.py``: 0.13-0.17 s with or without the idle time), and the idle time
+  cost it a third of its pictures;
 * **at most** ``MAX_FPS`` pictures a second per page and ``BYTES_PER_SECOND`` of pictures per
   page (a class on one Wi-Fi network), whatever the page could take;
 * a page that does not reply within ``ACK_TIMEOUT`` seconds (a program speaking viser's protocol
@@ -48,11 +49,13 @@ MAX_FPS = 15.0
 BYTES_PER_SECOND = 480_000
 """Bytes per second of pictures aimed at for each page (3.8 Mbit/s: the flagship's pictures,
 80 kB late in the run, 6 times a second; a class of 30 shares about 115 Mbit/s at most)."""
-IDLE_SHARE = 1.0
+IDLE_SHARE = 0.0
 """After a page took more than ``SLOW_DRAW`` seconds to draw a picture, it is left this many
 times as long before the next picture (a page with a graphics card draws in milliseconds, so
-nothing changes for it; a page drawing in software keeps time between pictures to answer
-clicks)."""
+nothing changes for it).  Measured on a page drawing in software while the flagship plays
+(``benchmarks/web_clicks.py``, runs interleaved): at 1, 4.1 and 3.3 pictures/s shown, clicks
+answered in 0.13 s (folder) and 0.21-0.29 s (*Pause*); at 0, 4.9 and 5.3 pictures/s, 0.16-0.17 s
+and 0.27-0.29 s."""
 SLOW_DRAW = 0.15
 """Seconds from a picture sent to the page's second reply above which the page is slow to draw
 (a page with a graphics card on a busy network replies in two round trips and a frame)."""
