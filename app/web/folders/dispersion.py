@@ -339,11 +339,12 @@ class DispersionFolder(Folder):
         text = (f"{structure.kind} lattice, branches {', '.join(bands.names)}; solid: ω(q), "
                 f"dashed: continuum ω = c|q|; {how}. Path (units of π/a = {1 / scale:.3g} rad/m): "
                 f"Γ at 0, {corners}.")
-        self.summary.content = as_html(text)
-        if unstable:
-            self.summary.content = as_html(text) + warning_html(
+        content = as_html(text)
+        if unstable:  # one assignment: a page (or a reader) never sees the text without it
+            content += warning_html(
                 f"at dt = {dt:g} s {integrator} makes the highest waves of "
                 f"{', '.join(unstable)} grow (their dotted lines leave the plot)")
+        self.summary.content = content
         self._show_point()
 
     def _show_point(self) -> None:
