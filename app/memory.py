@@ -6,11 +6,11 @@ mode energies, the pictures.  glibc's allocator serves a request of 128 kB or mo
 mapping of its own and unmaps it when freed, but after the first such free it raises that
 threshold to the size freed (up to 32 MB, "dynamic mmap threshold", mallopt(3)): from then on
 the frames' arrays come from the heap and the threads' arenas, which keep what is freed, so the
-server's resident memory grows toward the sum of every arena's peak (``serve interference
---play`` with 20 pages: 1,467 MB; ``benchmarks/web_load.py``, ``docs/web.md``).
+server's resident memory grows toward the sum of every arena's peak (``benchmarks/web_load.py``;
+figures in ``docs/web.md``, "The server's memory").
 
 Fixing the threshold low would map and unmap each of those arrays (a large numpy temporary then
-cost three times as long, its pages faulted in again every time).  Instead the app keeps the
+has its pages faulted in again every time).  Instead the app keeps the
 allocator as it is and calls ``give_back()`` every ``GIVE_BACK_SECONDS``: glibc's
 ``malloc_trim(0)`` returns the free pages of every arena to the system (a few milliseconds).
 A no-op where the C library is not glibc.

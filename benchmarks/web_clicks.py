@@ -6,7 +6,7 @@ headless Chromium at 1366x768 through Playwright and clicks the *View* folder's 
 the run plays, and *Pause* (``--clicks`` / 2 times) until the button reads *Play* again (a round
 trip through the server).  Each click is timed twice: in the page, as a reader sees it (the
 folder: the browser's own Event Timing, from the input to the next frame painted after the page
-handled it; *Pause*: from the page's dispatch of the click to its panel showing *Play*), and by
+handled it; *Pause*: from the click to the frame that shows *Play*), and by
 Playwright (from its click until it sees the answer, which adds its own checks: two animation
 frames before clicking, then polling, all sharing the 2 cores).  It counts the page's long
 tasks (PerformanceObserver ``longtask``: main-thread work of 50 ms or more, which is what a

@@ -263,8 +263,9 @@ class WebApp:
         while self._pumping:
             woke = self._frame_ready.wait(0.25)
             self._frame_ready.clear()
-            if time.perf_counter() - given_back >= memory.GIVE_BACK_SECONDS:
-                given_back = time.perf_counter()
+            now = time.perf_counter()
+            if now - given_back >= memory.GIVE_BACK_SECONDS:
+                given_back = now
                 memory.give_back()  # the frames' freed arrays, back to the system
             frame = self._latest
             if not self._pumping or frame is None:

@@ -16,9 +16,8 @@ pace it can show them:
   next one comes), and a slow page gets fewer pictures while the others go on;
 * **time to answer.**  A page that took long (over ``SLOW_DRAW``) to draw a picture can be left
   ``IDLE_SHARE`` times as long without one before the next.  0 by default: a page drawing in
-  software answers a click within about one of its frames however many pictures it gets
-  (``benchmarks/web_clicks.py``: 0.13-0.17 s with or without the idle time), and the idle time
-  cost it a third of its pictures;
+  software answers a click within about one of its frames however many pictures it gets, and
+  the idle time cost it pictures (``benchmarks/web_clicks.py``, figures in ``docs/web.md``);
 * **at most** ``MAX_FPS`` pictures a second per page and ``BYTES_PER_SECOND`` of pictures per
   page (a class on one Wi-Fi network), whatever the page could take;
 * a page that does not reply within ``ACK_TIMEOUT`` seconds (a program speaking viser's protocol
@@ -52,10 +51,8 @@ BYTES_PER_SECOND = 480_000
 IDLE_SHARE = 0.0
 """After a page took more than ``SLOW_DRAW`` seconds to draw a picture, it is left this many
 times as long before the next picture (a page with a graphics card draws in milliseconds, so
-nothing changes for it).  Measured on a page drawing in software while the flagship plays
-(``benchmarks/web_clicks.py``, runs interleaved): at 1, 4.1 and 3.3 pictures/s shown, clicks
-answered in 0.13 s (folder) and 0.21-0.29 s (*Pause*); at 0, 4.9 and 5.3 pictures/s, 0.16-0.17 s
-and 0.27-0.29 s."""
+nothing changes for it).  0: a page drawing in software then shows more pictures and answers
+clicks about as fast (``docs/web.md``, "Pictures at the pace of each page")."""
 SLOW_DRAW = 0.15
 """Seconds from a picture sent to the page's second reply above which the page is slow to draw
 (a page with a graphics card on a busy network replies in two round trips and a frame)."""
