@@ -19,15 +19,33 @@ tens of seconds on first use on a machine (numba's on-disk cache keeps it for la
 
 The runner (``sim.runtime.runner``) asks the preparer before it steps or observes a simulation, and says
 "preparing" in its frames while it waits; the ``warm`` command rehearses every preset ahead.
+
+Compiled apart.  numba compiles each kernel's callees on their own, and inside one process a
+kernel calls its callees' own compiled code.  Compiled on its own, the leapfrog's row pass
+(``sim.loops.leapfrog``) is not vectorised: the compiler cannot tell that its many arrays do not
+overlap.  numba's cache stores a kernel with its callees inlined, and there the pass is
+vectorised.  So a process that compiled its kernels ran them slower for as long as it lived,
+while a process that read the same kernels from the cache ran them at full speed (figures in
+``docs/web.md``, "Kernels compiled ahead").  ``rehearse_reading`` therefore rehearses with
+compiles refused (``refusing_compiles``); if a kernel is missing from the cache, a child process
+(``python -m sim.runtime.warming``) runs the same rehearsal and writes the cache, and the
+rehearsal is repeated here, reading it.  If the child fails, this process compiles the kernels
+itself, and the log says why.  The preparer rehearses this way.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
+import os
+import pickle
+import subprocess
+import sys
 import threading
 import time
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Iterator
+from pathlib import Path
 from typing import Any
 
 LOGGER = logging.getLogger("oscillators.warming")
@@ -91,6 +109,50 @@ def rehearse_simulation(simulation: Any, steps: int) -> None:
              simulation.precision, simulation.threads, steps)
 
 
+ROOT = Path(__file__).resolve().parents[2]
+"""The folder holding the ``sim`` package, put first on the child's import path."""
+
+
+def rehearse_in_child(scene: Any, settings: tuple, timeout: float | None = None) -> None:
+    """``rehearse(scene, *settings)`` in a child process (same interpreter, environment and
+    numba cache); raises RuntimeError with the end of its error output if it fails."""
+    environment = dict(os.environ)
+    environment["PYTHONPATH"] = os.pathsep.join(
+        [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
+    result = subprocess.run([sys.executable, "-m", "sim.runtime.warming"],
+                            input=pickle.dumps((scene, settings)), capture_output=True,
+                            env=environment, timeout=timeout, check=False)
+    if result.returncode != 0:
+        tail = result.stderr.decode(errors="replace").strip()[-400:]
+        raise RuntimeError(f"the child process compiling the kernels exited with "
+                           f"{result.returncode}: {tail}")
+
+
+def rehearse_reading(scene: Any, settings: tuple) -> bool:
+    """Rehearse ``scene`` with ``settings`` (``rehearse``'s arguments after the scene) reading
+    every kernel from numba's cache, having a child process compile those missing first.
+    Returns whether a child compiled."""
+    try:
+        with refusing_compiles():
+            rehearse(scene, *settings)
+        return False
+    except WouldCompile:
+        pass
+    try:
+        rehearse_in_child(scene, settings)
+    except (OSError, RuntimeError, subprocess.SubprocessError, pickle.PicklingError) as error:
+        LOGGER.warning("compiling the kernels in a child process failed (%s); compiling here",
+                       error)
+    rehearse(scene, *settings)
+    return True
+
+
+def main() -> None:
+    """The child: read (scene, settings) pickled on standard input, rehearse them."""
+    scene, settings = pickle.load(sys.stdin.buffer)
+    rehearse(scene, *settings)
+
+
 @dataclasses.dataclass(frozen=True)
 class Preparing:
     """A preparation under way: ``seconds`` since it started, ``compiling`` whether numba is
@@ -100,11 +162,18 @@ class Preparing:
     compiling: bool
 
 
+class WouldCompile(RuntimeError):
+    """Raised in a thread that refuses compiles (``refusing_compiles``) when numba is about to
+    compile a kernel there rather than read it from its cache."""
+
+
 class _CompileWatch:
-    """Which threads are inside a numba compile now (numba's "numba:compile" events)."""
+    """Which threads are inside a numba compile now (numba's "numba:compile" events), and which
+    refuse to compile (``refusing``)."""
 
     def __init__(self) -> None:
         self.threads: dict[int, int] = {}
+        self.refusing: set[int] = set()
         self.seen: set[int] = set()
         self.locked: set[int] = set()
         """Threads that took numba's compiler lock: compiled or read a kernel from the cache."""
@@ -125,6 +194,9 @@ class _CompileWatch:
             def on_start(self, _: Any) -> None:
                 ident = threading.get_ident()
                 with watch._lock:
+                    if ident in watch.refusing:  # before the compile: nothing is half made
+                        watch.seen.add(ident)  # compiling is what comes next
+                        raise WouldCompile("a kernel is not in numba's cache")
                     watch.threads[ident] = watch.threads.get(ident, 0) + 1
                     watch.seen.add(ident)
                     watch.started += 1
@@ -159,6 +231,21 @@ class _CompileWatch:
 _WATCH = _CompileWatch()
 
 
+@contextlib.contextmanager
+def refusing_compiles() -> Iterator[None]:
+    """Inside, a numba compile in this thread raises ``WouldCompile`` before it starts; kernels
+    in numba's cache are read as usual."""
+    _WATCH.install()
+    ident = threading.get_ident()
+    with _WATCH._lock:
+        _WATCH.refusing.add(ident)
+    try:
+        yield
+    finally:
+        with _WATCH._lock:
+            _WATCH.refusing.discard(ident)
+
+
 def compiled_in_thread(ident: int) -> bool:
     """Whether the thread ``ident`` (``threading.get_ident()``) started a numba compile since
     the process began watching (a thread whose kernels were prepared starts none)."""
@@ -172,6 +259,15 @@ def loaded_in_thread(ident: int) -> bool:
     _WATCH.install()
     with _WATCH._lock:
         return ident in _WATCH.locked
+
+
+def forget_thread(ident: int) -> None:
+    """Forget what the thread ``ident`` compiled or read (a finished thread's identity may be
+    given to a new one)."""
+    _WATCH.install()
+    with _WATCH._lock:
+        _WATCH.seen.discard(ident)
+        _WATCH.locked.discard(ident)
 
 
 def compiles_started() -> int:
@@ -266,7 +362,7 @@ class KernelPreparer:
         scene = scene_from_simulation(simulation)
         settings = (simulation.integrator, simulation.dt, simulation.precision,
                     simulation.threads, steps)
-        return lambda: rehearse(scene, *settings)
+        return lambda: rehearse_reading(scene, settings)
 
     def _progress(self, job: _Job) -> Preparing:
         started = job.started if job.started is not None else job.asked
@@ -311,3 +407,7 @@ def shared_preparer() -> KernelPreparer:
         if _SHARED is None:
             _SHARED = KernelPreparer()
         return _SHARED
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,78 @@
+"""How fast a process steps with kernels it compiled itself, against kernels a child process
+compiled and it read from numba's cache (``sim.runtime.warming``, "Compiled apart").
+
+    .venv/bin/python benchmarks/compiled_apart.py                   # interference, Verlet
+    .venv/bin/python benchmarks/compiled_apart.py --scene grid --steps 5000 --fresh-host
+
+Each case runs in a process of its own with an empty numba cache (a new temporary folder): it
+builds the scene, has a ``KernelPreparer`` make its kernels ready, either rehearsing in its own
+thread as before ("here") or as the page's preparer does ("apart"), then times ``--steps``
+steps.  A third case reads the cache "apart" left.  ``--fresh-host`` also empties the per-host
+1/sqrt choice (``sim.loops.host_tuning``), which is measured at the first use on a machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+CASE = """
+import json, sys, time
+import sim
+from sim.runtime.warming import KernelPreparer, compiles_started, kernel_key, rehearse_simulation
+mode, scene, steps = sys.argv[1], sys.argv[2], int(sys.argv[3])
+started = time.perf_counter()
+simulation = sim.Simulation(sim.scenes.build(scene), integrator="verlet")
+built = time.perf_counter() - started
+preparer = KernelPreparer(rehearse_simulation if mode == "here" else None)
+key = kernel_key(simulation, 64)
+while preparer.prepare(key, simulation, 64) is not None:
+    time.sleep(0.05)
+ready = time.perf_counter() - started
+simulation.step(64)
+before = compiles_started()
+clock = time.perf_counter()
+simulation.step(steps)
+rate = steps / (time.perf_counter() - clock)
+print(json.dumps({"built": built, "ready": ready, "steps_per_second": rate,
+                  "compiles_while_stepping": compiles_started() - before}))
+"""
+
+
+def run(mode: str, scene: str, steps: int, environment: dict) -> dict:
+    result = subprocess.run([sys.executable, "-c", CASE, mode, scene, str(steps)],
+                            capture_output=True, text=True, env=environment, check=True,
+                            cwd=Path(__file__).resolve().parent.parent)
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", default="interference")
+    parser.add_argument("--steps", type=int, default=3000)
+    parser.add_argument("--fresh-host", action="store_true",
+                        help="also measure the 1/sqrt choice anew (an empty user cache)")
+    arguments = parser.parse_args()
+    for mode in ("here", "apart"):
+        with tempfile.TemporaryDirectory() as folder:
+            environment = dict(os.environ, NUMBA_CACHE_DIR=str(Path(folder) / "numba"))
+            if arguments.fresh_host:
+                environment["XDG_CACHE_HOME"] = str(Path(folder) / "user")
+            cases = [(mode, run(mode, arguments.scene, arguments.steps, environment))]
+            if mode == "apart":
+                cases.append(("read from the cache", run("apart", arguments.scene,
+                                                         arguments.steps, environment)))
+            for name, figures in cases:
+                print(f"{name:20s} built {figures['built']:5.1f} s, ready {figures['ready']:5.1f} s, "
+                      f"{figures['steps_per_second']:7.0f} steps/s, "
+                      f"{figures['compiles_while_stepping']} compiles while stepping")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,64 @@
+"""Kernels compiled in a child process and read from numba's cache here (``sim.runtime.warming``):
+a compile refused in one thread stops before it starts, and a rehearsal whose kernels are not
+cached has a child compile them, so this process compiles none."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numba import njit
+
+from sim.runtime import warming
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_a_refused_compile_raises_before_it_starts_in_that_thread_only():
+    @njit
+    def twice(values):
+        return values * 2.0
+
+    values = np.arange(3.0)
+    with warming.refusing_compiles():
+        with pytest.raises(warming.WouldCompile):
+            twice(values)
+        elsewhere = []
+        thread = threading.Thread(target=lambda: elsewhere.append(twice(values)))
+        thread.start()
+        thread.join()
+        warming.forget_thread(thread.ident)  # its identity may go to a later thread
+        assert np.array_equal(elsewhere[0], [0.0, 2.0, 4.0])  # another thread compiles
+        assert np.array_equal(twice(values), [0.0, 2.0, 4.0])  # compiled: nothing refused
+        with pytest.raises(warming.WouldCompile):
+            twice(np.arange(3))  # a new type is a new compile
+    assert np.array_equal(twice(np.arange(3)), [0, 2, 4])  # refused no longer
+
+
+CHILD = """
+import json, sys
+from sim.runtime import warming
+import sim
+scene = sim.scenes.build("single")
+compiled_apart = warming.rehearse_reading(scene, ("verlet", 0.01, "float64", 1, 5))
+print(json.dumps({"apart": compiled_apart, "compiles_here": warming.compiles_started()}))
+"""
+
+
+@pytest.mark.slow
+def test_a_rehearsal_of_uncached_kernels_compiles_them_in_a_child_and_none_here(tmp_path):
+    environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+                       PYTHONPATH=str(ROOT))
+    runs = []
+    for _ in range(2):
+        result = subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True,
+                                env=environment, cwd=ROOT, timeout=600, check=True)
+        runs.append(json.loads(result.stdout.strip().splitlines()[-1]))
+    assert runs[0] == {"apart": True, "compiles_here": 0}  # the child compiled, this read
+    assert runs[1] == {"apart": False, "compiles_here": 0}  # all in the cache now
