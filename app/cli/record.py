@@ -20,6 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from app.cli import kernels
 from app.cli.arguments import (
     add_length_arguments,
     add_scene_arguments,
@@ -353,6 +354,8 @@ def command_record(arguments: argparse.Namespace) -> int:
                   "H.264 video, ~10x smaller)", file=sys.stderr)
     frames = steps // arguments.every + 2
     trees = compare if compare else [None]
+    for simulation in simulations.values():  # before the file is opened
+        kernels.prepare(simulation, arguments.every, sys.stdout)
     try:
         recorder = Recorder(
             output, scene, options=options, trees=trees, expected_frames=frames,

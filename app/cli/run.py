@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from app.cli import kernels
 from app.cli.arguments import (
     EPILOG,
     add_length_arguments,
@@ -109,6 +110,7 @@ def command_run(arguments: argparse.Namespace) -> int:
         chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
     if packet is not None:
         chunk = min(chunk, packet.chunk(simulation.dt))
+    kernels.prepare(simulation, chunk, talk)
     started = time.perf_counter()
     status = 0
     stopped = None

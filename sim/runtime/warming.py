@@ -26,11 +26,12 @@ kernel calls its callees' own compiled code.  Compiled on its own, the leapfrog'
 overlap.  numba's cache stores a kernel with its callees inlined, and there the pass is
 vectorised.  So a process that compiled its kernels ran them slower for as long as it lived,
 while a process that read the same kernels from the cache ran them at full speed (figures in
-``docs/web.md``, "Kernels compiled ahead").  ``rehearse_reading`` therefore rehearses with
-compiles refused (``refusing_compiles``); if a kernel is missing from the cache, a child process
-(``python -m sim.runtime.warming``) runs the same rehearsal and writes the cache, and the
-rehearsal is repeated here, reading it.  If the child fails, this process compiles the kernels
-itself, and the log says why.  The preparer rehearses this way.
+``docs/web.md``, "Kernels compiled ahead").  ``call_reading`` therefore makes a call (a rehearsal,
+``rehearse_reading``; a command's run) with compiles refused (``refusing_compiles``); if a
+kernel is missing from the cache, a child process (``python -m sim.runtime.warming``) makes the
+same call and writes the cache, and the call is made again here, reading it.  If the child
+fails, this process compiles the kernels itself, and the log says why.  The preparer rehearses
+this way; ``oscillators run``, ``record`` and ``bench`` call their runs this way.
 """
 
 from __future__ import annotations
@@ -113,44 +114,59 @@ ROOT = Path(__file__).resolve().parents[2]
 """The folder holding the ``sim`` package, put first on the child's import path."""
 
 
-def rehearse_in_child(scene: Any, settings: tuple, timeout: float | None = None) -> None:
-    """``rehearse(scene, *settings)`` in a child process (same interpreter, environment and
-    numba cache); raises RuntimeError with the end of its error output if it fails."""
+def call_in_child(function: Callable[..., Any], *arguments: Any,
+                  timeout: float | None = None, **keywords: Any) -> None:
+    """``function(*arguments, **keywords)`` in a child process (the same interpreter,
+    environment and numba cache; ``function`` a module-level function, the arguments
+    picklable); its result is dropped.  Raises RuntimeError with the end of its error output if
+    it fails."""
     environment = dict(os.environ)
     environment["PYTHONPATH"] = os.pathsep.join(
         [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
     result = subprocess.run([sys.executable, "-m", "sim.runtime.warming"],
-                            input=pickle.dumps((scene, settings)), capture_output=True,
-                            env=environment, timeout=timeout, check=False)
+                            input=pickle.dumps((function, arguments, keywords)),
+                            capture_output=True, env=environment, timeout=timeout, check=False)
     if result.returncode != 0:
         tail = result.stderr.decode(errors="replace").strip()[-400:]
         raise RuntimeError(f"the child process compiling the kernels exited with "
                            f"{result.returncode}: {tail}")
 
 
-def rehearse_reading(scene: Any, settings: tuple) -> bool:
-    """Rehearse ``scene`` with ``settings`` (``rehearse``'s arguments after the scene) reading
-    every kernel from numba's cache, having a child process compile those missing first.
-    Returns whether a child compiled."""
+def call_reading(function: Callable[..., Any], *arguments: Any,
+                 child: dict | None = None, announce: Callable[[], None] | None = None,
+                 **keywords: Any) -> tuple[Any, bool]:
+    """``function(*arguments, **keywords)`` with every kernel it calls read from numba's cache:
+    tried with compiles refused; if a kernel is missing, ``announce()`` is called, a child
+    process runs the same call (with the keywords ``child`` overrides, e.g. a shorter
+    measurement) and writes the cache, and the call is made again here.  If the child fails,
+    the call compiles here, and the log says why.  Returns (result, whether a child compiled)."""
     try:
         with refusing_compiles():
-            rehearse(scene, *settings)
-        return False
+            return function(*arguments, **keywords), False
     except WouldCompile:
         pass
+    if announce is not None:
+        announce()
     try:
-        rehearse_in_child(scene, settings)
-    except (OSError, RuntimeError, subprocess.SubprocessError, pickle.PicklingError) as error:
+        call_in_child(function, *arguments, **{**keywords, **(child or {})})
+    except (OSError, RuntimeError, subprocess.SubprocessError, pickle.PicklingError,
+            AttributeError, TypeError) as error:  # not picklable: compiled here
         LOGGER.warning("compiling the kernels in a child process failed (%s); compiling here",
                        error)
-    rehearse(scene, *settings)
-    return True
+    return function(*arguments, **keywords), True
+
+
+def rehearse_reading(scene: Any, settings: tuple,
+                     announce: Callable[[], None] | None = None) -> bool:
+    """``rehearse(scene, *settings)`` reading every kernel from numba's cache (``call_reading``).
+    Returns whether a child compiled."""
+    return call_reading(rehearse, scene, *settings, announce=announce)[1]
 
 
 def main() -> None:
-    """The child: read (scene, settings) pickled on standard input, rehearse them."""
-    scene, settings = pickle.load(sys.stdin.buffer)
-    rehearse(scene, *settings)
+    """The child: read (function, arguments, keywords) pickled on standard input, call it."""
+    function, arguments, keywords = pickle.load(sys.stdin.buffer)
+    function(*arguments, **keywords)
 
 
 @dataclasses.dataclass(frozen=True)
