@@ -188,11 +188,10 @@ def side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry):
     for s in range(2):
         width, first_slot, first_column = strip(s, geometry)
         for c in range(velocity.shape[0]):
-            for j in range(j0, j1):
-                row = first_slot + j * width
-                for k in range(width):
-                    p = np.uint64(row + k)
-                    i = np.uint64(first_column + k)
+            for k in range(width):  # down a column: long loops, not one of ``width`` per row
+                i = np.uint64(first_column + k)
+                for j in range(j0, j1):
+                    p = np.uint64(first_slot + j * width + k)
                     kick = kicks[c, p]
                     before = np.float64(velocity[c, j, i])
                     velocity[c, j, i] = before + kick
