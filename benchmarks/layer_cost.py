@@ -22,6 +22,7 @@ import numpy as np
 
 import sim
 from sim.loops import leapfrog
+from sim.runtime.warming import rehearse_reading
 
 
 def sweep(simulation: sim.Simulation):
@@ -59,9 +60,19 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=10)
     parser.add_argument("--steps", type=int, default=10)
     arguments = parser.parse_args()
+    widths = [int(w) for w in arguments.widths.split(",")]
+    measure(widths, arguments.rounds, arguments.steps)
+
+
+def measure(widths: list[int], rounds: int, steps: int) -> None:
+    """Time and print the variants for each layer width."""
     scene = sim.scenes.build("interference")
-    for width in (int(w) for w in arguments.widths.split(",")):
+    for width in widths:
         model = scene.model.replace(boundary="absorbing", sponge_width=width)
+        for kernels in (dataclasses.replace(scene, model=model), scene):
+            # read from numba's cache, compiled apart if missing: kernels compiled in this
+            # process would run slower (sim.runtime.warming, "Compiled apart")
+            rehearse_reading(kernels, ("verlet", scene.dt, "float64", 1, 65))
         simulation = sim.Simulation(dataclasses.replace(scene, model=model), integrator="verlet")
         simulation.step(100)  # waves in the layer, the kernels compiled
         start = simulation.state.positions.copy(), simulation.state.velocities.copy()
@@ -70,12 +81,12 @@ def main() -> None:
         for layer in cases.values():
             run(layer, 1)
         best = dict.fromkeys(cases, float("inf"))
-        for _ in range(arguments.rounds):
+        for _ in range(rounds):
             for name, layer in cases.items():
                 simulation.state.positions[...], simulation.state.velocities[...] = start
                 started = time.perf_counter()
-                run(layer, arguments.steps)
-                best[name] = min(best[name], (time.perf_counter() - started) / arguments.steps)
+                run(layer, steps)
+                best[name] = min(best[name], (time.perf_counter() - started) / steps)
         plain = best["plain"]
         print(f"layer {width} particles deep, {model.nx}x{model.ny}, ms per step "
               f"(ratio to the plain sweep):")

@@ -62,3 +62,30 @@ def test_a_rehearsal_of_uncached_kernels_compiles_them_in_a_child_and_none_here(
         runs.append(json.loads(result.stdout.strip().splitlines()[-1]))
     assert runs[0] == {"apart": True, "compiles_here": 0}  # the child compiled, this read
     assert runs[1] == {"apart": False, "compiles_here": 0}  # all in the cache now
+
+
+@pytest.mark.slow
+def test_a_first_run_says_it_compiles_in_a_child_and_a_second_run_does_not(tmp_path):
+    environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+                       PYTHONPATH=str(ROOT))
+    said = []
+    for _ in range(2):
+        result = subprocess.run([sys.executable, "-m", "app.cli", "run", "single", "--steps",
+                                 "20", "--quiet"], capture_output=True, text=True,
+                                env=environment, cwd=ROOT, timeout=600, check=True)
+        said.append("compiling the kernels for this run in a child process"
+                    in result.stdout + result.stderr)
+    assert said == [True, False]
+
+
+def test_an_unpickled_model_keeps_its_arrays_read_only():
+    """A child compiling kernels gets the scene pickled; a writable array would be another
+    type, so the child would compile kernels this process does not run."""
+    import pickle
+
+    import sim
+
+    model = sim.scenes.build("grid", nx=5, ny=4).model.replace(boundary="absorbing")
+    copy = pickle.loads(pickle.dumps(model))
+    assert not copy.masses.flags.writeable
+    assert np.array_equal(copy.masses, model.masses) and copy.boundary == "absorbing"

@@ -118,10 +118,8 @@ def _numeric_array(value: Any, name: str, wanted: str) -> np.ndarray:
 
 
 def read_only(array: np.ndarray) -> np.ndarray:
-    """``array`` read-only (a read-only copy if it is writable), as the kernels take the model's
-    arrays: whether an argument is writable is part of a compiled kernel's signature, so a model
-    that lost the flag (unpickled on a worker) or an array converted to float32 would otherwise
-    compile a second copy of the kernel."""
+    """``array`` read-only (a read-only copy if it is writable), as kernels take the model's arrays:
+    whether an argument is writable is part of a compiled kernel's signature."""
     if array.flags.writeable:
         array = array.copy()
         array.setflags(write=False)
@@ -260,10 +258,14 @@ class Model:
             nx=nx, ny=ny, dim=int(dim), spacing=spacing, masses=masses, stiffness=stiffness,
             rest_length=rest_length, damping=damping, drag=drag, gravity=gravity_vector,
             linear=bool(linear), driver=driver, sources=sources, barriers=barriers,
-            boundary=boundary, sponge_width=sponge_width,
-            sponge_strength=sponge_strength, sponge_sides=sides,
-            diagonal_stiffness=diagonal_stiffness,
+            boundary=boundary, sponge_width=sponge_width, sponge_strength=sponge_strength,
+            sponge_sides=sides, diagonal_stiffness=diagonal_stiffness,
         )
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled (a worker, a child compiling kernels): its arrays read-only again, as built."""
+        for name, value in state.items():
+            object.__setattr__(self, name, read_only(value) if isinstance(value, np.ndarray) else value)
 
     def replace(self, **changes: Any) -> Model:
         """A new validated model with some parameters changed (``mass=`` replaces the masses)."""
@@ -278,9 +280,9 @@ class Model:
             nx=self.nx, ny=self.ny, dim=self.dim, spacing=self.spacing, stiffness=self.stiffness,
             rest_length=self.rest_length, damping=self.damping, drag=self.drag,
             gravity=self.gravity, linear=self.linear, driver=self.driver, sources=self.sources,
-            barriers=self.barriers, boundary=self.boundary,
-            sponge_width=self.sponge_width, sponge_strength=self.sponge_strength,
-            sponge_sides=self.sponge_sides, diagonal_stiffness=self.diagonal_stiffness,
+            barriers=self.barriers, boundary=self.boundary, sponge_width=self.sponge_width,
+            sponge_strength=self.sponge_strength, sponge_sides=self.sponge_sides,
+            diagonal_stiffness=self.diagonal_stiffness,
         )
 
     @property
@@ -291,8 +293,7 @@ class Model:
     @property
     def has_forcing(self) -> bool:
         """Whether a driver or an absorbing layer acts between the steps (``sim.model.forcing``)."""
-        return (self.driver is not None or bool(self.sources) or bool(self.barriers)
-                or self.walls.absorbing)
+        return self.driver is not None or bool(self.sources or self.barriers) or self.walls.absorbing
 
     @property
     def driven(self) -> bool:
