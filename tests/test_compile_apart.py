@@ -85,7 +85,7 @@ def test_an_unpickled_model_keeps_its_arrays_read_only():
 
     import sim
 
-    model = sim.scenes.build("grid", nx=5, ny=4).model.replace(boundary="absorbing")
+    model = sim.scenes.build("grid", nx=12, ny=12).model.replace(boundary="absorbing")
     copy = pickle.loads(pickle.dumps(model))
     assert not copy.masses.flags.writeable
     assert np.array_equal(copy.masses, model.masses) and copy.boundary == "absorbing"
