@@ -114,8 +114,13 @@ ROOT = Path(__file__).resolve().parents[2]
 """The folder holding the ``sim`` package, put first on the child's import path."""
 
 
+CHILD_TIMEOUT = 3600.0
+"""Seconds a child compiling kernels may take before this process compiles them itself (the
+slowest compile seen, double-slit on a loaded machine, took 625 s)."""
+
+
 def call_in_child(function: Callable[..., Any], *arguments: Any,
-                  timeout: float | None = None, **keywords: Any) -> None:
+                  timeout: float | None = CHILD_TIMEOUT, **keywords: Any) -> None:
     """``function(*arguments, **keywords)`` in a child process (the same interpreter,
     environment and numba cache; ``function`` a module-level function, the arguments
     picklable); its result is dropped.  Raises RuntimeError with the end of its error output if
