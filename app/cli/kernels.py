@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable
 from typing import Any, TextIO
 
-from sim.runtime.warming import call_reading, rehearse_reading
+from sim.runtime.warming import call_reading, prepare_reading
 
 SHAPES = 65
 """Steps a rehearsal runs at most: enough for every way a run calls the stepper (whole chunks
@@ -27,12 +27,8 @@ def announcer(talk: TextIO) -> Callable[[], None]:
 def prepare(simulation: Any, steps: int, talk: TextIO = sys.stderr) -> None:
     """Have every kernel a run of ``simulation`` calls (``steps`` at a time) read from the
     cache, compiled in a child process first if missing."""
-    from sim.scenes.building import scene_from_simulation
-
     started = time.perf_counter()
-    settings = (simulation.integrator, simulation.dt, simulation.precision, simulation.threads,
-                max(1, min(int(steps), SHAPES)))
-    if rehearse_reading(scene_from_simulation(simulation), settings, announcer(talk)):
+    if prepare_reading(simulation, max(1, min(int(steps), SHAPES)), announcer(talk)):
         print(f"kernels ready in {time.perf_counter() - started:.0f} s", file=talk, flush=True)
 
 

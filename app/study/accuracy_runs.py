@@ -31,6 +31,7 @@ from app.study.accuracy_reference import (
     position_error,
 )
 from sim.integrators.registry import describe
+from sim.runtime.warming import prepare_reading
 
 
 @dataclasses.dataclass(frozen=True)
@@ -99,11 +100,12 @@ def precisions_of(integrator: str, precisions: Iterable[str]) -> list[str]:
 def warm_up(
     scene: sim.Scene, integrators: Iterable[str], precisions: Iterable[str] = ("float64",)
 ) -> None:
-    """Compile the kernels the runs will use, so compilation is not timed."""
+    """Make the kernels the runs will use ready, so compilation is not timed: read from numba's
+    cache, compiled in a child process if missing (kernels compiled in the process that runs
+    them run slower there, ``sim.runtime.warming``)."""
     for name in integrators:
         for precision in precisions_of(name, precisions):
-            simulation = sim.Simulation(scene, integrator=name, dt=1e-6, precision=precision)
-            simulation.step(1)
+            prepare_reading(sim.Simulation(scene, integrator=name, dt=1e-6, precision=precision))
 
 
 def timed_run(

@@ -22,6 +22,7 @@ import numpy as np
 import sim
 from sim.integrators.registry import describe
 from sim.model.lattice import ModelError
+from sim.runtime.warming import prepare_reading
 from sim.theory.observables import highest_frequency
 
 AIM = 0.5
@@ -89,6 +90,7 @@ def step_seconds(scene: sim.Scene, integrator: str, threads: int = 1) -> float:
     a step does not depend on it."""
     omega = highest_frequency(scene.model) or 1.0
     simulation = sim.Simulation(scene, integrator=integrator, dt=0.05 / omega, threads=threads)
+    prepare_reading(simulation)  # kernels compiled here would run slower (sim.runtime.warming)
     try:
         simulation.step(1)  # compiles the single step and, next, the loop of several steps
         simulation.step(2)  # (Verlet's leapfrog is another kernel), so no compile is timed

@@ -26,6 +26,7 @@ import numpy as np
 
 import sim
 from sim.runtime.errors import SAMPLES, displacement, energy_error, sample_steps
+from sim.runtime.warming import prepare_reading
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,11 +99,10 @@ def run_setting(task: RunTask) -> RunOutcome:
     """Run one task (see the module docstring); top level, so it can be sent to other processes.
     The clock (``time_limit``) is looked at after every sample."""
     scene = task.scene
-    warm = sim.Simulation(scene, integrator=task.integrator, dt=task.dt, threads=task.threads)
-    try:
-        warm.step(1)  # compiles the kernels in this process; not timed
-    except sim.BlowUpError:
-        pass
+    # the kernels read from numba's cache (compiled in a child if missing), so none is
+    # compiled in this process, where it would run slower (sim.runtime.warming); not timed
+    prepare_reading(sim.Simulation(scene, integrator=task.integrator, dt=task.dt,
+                                   threads=task.threads))
     simulation = sim.Simulation(scene, integrator=task.integrator, dt=task.dt,
                                 threads=task.threads)
     simulation.chunk_steps = max(64, min(task.steps, 4096))

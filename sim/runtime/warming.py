@@ -168,6 +168,30 @@ def rehearse_reading(scene: Any, settings: tuple,
     return call_reading(rehearse, scene, *settings, announce=announce)[1]
 
 
+_READ: set[Hashable] = set()
+_READ_LOCK = threading.Lock()
+
+
+def prepare_reading(simulation: Any, steps: int = 65,
+                    announce: Callable[[], None] | None = None) -> bool:
+    """Have the kernels a run of ``simulation`` calls (``steps`` at a time; 65 covers whole
+    chunks and a single step) read from numba's cache in this process, a child compiling those
+    missing first (``rehearse_reading``): once per ``kernel_key`` in this process, in the
+    caller's thread.  For runs that are timed or long.  Returns whether a child compiled."""
+    key = kernel_key(simulation, steps)
+    with _READ_LOCK:
+        if key in _READ:
+            return False
+    from sim.scenes.building import scene_from_simulation
+
+    settings = (simulation.integrator, simulation.dt, simulation.precision, simulation.threads,
+                max(1, int(steps)))
+    compiled = rehearse_reading(scene_from_simulation(simulation), settings, announce)
+    with _READ_LOCK:
+        _READ.add(key)
+    return compiled
+
+
 def main() -> None:
     """The child: read (function, arguments, keywords) pickled on standard input, call it."""
     function, arguments, keywords = pickle.load(sys.stdin.buffer)
