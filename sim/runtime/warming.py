@@ -31,7 +31,8 @@ while a process that read the same kernels from the cache ran them at full speed
 kernel is missing from the cache, a child process (``python -m sim.runtime.warming``) makes the
 same call and writes the cache, and the call is made again here, reading it.  If the child
 fails, this process compiles the kernels itself, and the log says why.  The preparer rehearses
-this way; ``oscillators run``, ``record`` and ``bench`` call their runs this way.
+this way, ``bench`` calls its measurement this way, and ``run``, ``record`` and the timed runs of
+``accuracy`` and ``choose`` prepare their simulations with ``prepare_reading``.
 """
 
 from __future__ import annotations
