@@ -21,12 +21,12 @@ The runner (``sim.runtime.runner``) asks the preparer before it steps or observe
 "preparing" in its frames while it waits; the ``warm`` command rehearses every preset ahead.
 
 Compiled apart.  numba compiles each kernel's callees on their own, and inside one process a
-kernel calls its callees' own compiled code.  Compiled on its own, the leapfrog's row pass
-(``sim.loops.leapfrog``) is not vectorised: the compiler cannot tell that its many arrays do not
-overlap.  numba's cache stores a kernel with its callees inlined, and there the pass is
-vectorised.  So a process that compiled its kernels ran them slower for as long as it lived,
-while a process that read the same kernels from the cache ran them at full speed (figures in
-``docs/web.md``, "Kernels compiled ahead").  ``call_reading`` therefore makes a call (a rehearsal,
+kernel calls its callees' own compiled code.  The leapfrog's row pass (``sim.loops.leapfrog``)
+compiled that way ran its scalar loop, not its 512-bit one; in the kernel numba's cache stores,
+the pass is inlined and runs vectorised.  So a process that compiled its kernels ran them about
+three times slower for as long as it lived, while a process that read the same kernels from the
+cache ran them at full speed (figures in ``docs/web.md``, "Compiled apart"; ``NUMBA_OPT=max``
+avoids it too, at more compile time).  ``call_reading`` therefore makes a call (a rehearsal,
 ``rehearse_reading``; a command's run) with compiles refused (``refusing_compiles``); if a
 kernel is missing from the cache, a child process (``python -m sim.runtime.warming``) makes the
 same call and writes the cache, and the call is made again here, reading it.  If the child
