@@ -22,7 +22,7 @@ import numpy as np
 
 import sim
 from sim.loops import leapfrog
-from sim.runtime.warming import rehearse_reading
+from sim.runtime.warming import REHEARSED_STEPS, rehearse_reading
 
 
 def sweep(simulation: sim.Simulation):
@@ -72,9 +72,9 @@ def measure(widths: list[int], rounds: int, steps: int) -> None:
         for kernels in (dataclasses.replace(scene, model=model), scene):
             # read from numba's cache, compiled apart if missing: kernels compiled in this
             # process would run slower (sim.runtime.warming, "Compiled apart")
-            rehearse_reading(kernels, ("verlet", scene.dt, "float64", 1, 65))
+            rehearse_reading(kernels, ("verlet", scene.dt, "float64", 1, REHEARSED_STEPS))
         simulation = sim.Simulation(dataclasses.replace(scene, model=model), integrator="verlet")
-        simulation.step(100)  # waves in the layer, the kernels compiled
+        simulation.step(100)  # waves in the layer
         start = simulation.state.positions.copy(), simulation.state.velocities.copy()
         run = sweep(simulation)
         cases = {"plain": None, **variants(simulation)}

@@ -51,30 +51,29 @@ print(json.dumps({"apart": compiled_apart, "compiles_here": warming.compiles_sta
 """
 
 
-@pytest.mark.slow
-def test_a_rehearsal_of_uncached_kernels_compiles_them_in_a_child_and_none_here(tmp_path):
+def twice_on_an_empty_cache(tmp_path, *arguments: str) -> list[subprocess.CompletedProcess]:
+    """Two processes ``python ARGUMENTS`` run one after the other on one numba cache, empty
+    before the first."""
     environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
                        PYTHONPATH=str(ROOT))
-    runs = []
-    for _ in range(2):
-        result = subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True,
-                                env=environment, cwd=ROOT, timeout=600, check=True)
-        runs.append(json.loads(result.stdout.strip().splitlines()[-1]))
+    return [subprocess.run([sys.executable, *arguments], capture_output=True, text=True,
+                           env=environment, cwd=ROOT, timeout=600, check=True)
+            for _ in range(2)]
+
+
+@pytest.mark.slow
+def test_a_rehearsal_of_uncached_kernels_compiles_them_in_a_child_and_none_here(tmp_path):
+    runs = [json.loads(result.stdout.strip().splitlines()[-1])
+            for result in twice_on_an_empty_cache(tmp_path, "-c", CHILD)]
     assert runs[0] == {"apart": True, "compiles_here": 0}  # the child compiled, this read
     assert runs[1] == {"apart": False, "compiles_here": 0}  # all in the cache now
 
 
 @pytest.mark.slow
 def test_a_first_run_says_it_compiles_in_a_child_and_a_second_run_does_not(tmp_path):
-    environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
-                       PYTHONPATH=str(ROOT))
-    said = []
-    for _ in range(2):
-        result = subprocess.run([sys.executable, "-m", "app.cli", "run", "single", "--steps",
-                                 "20", "--quiet"], capture_output=True, text=True,
-                                env=environment, cwd=ROOT, timeout=600, check=True)
-        said.append("compiling the kernels for this run in a child process"
-                    in result.stdout + result.stderr)
+    said = ["compiling the kernels for this run in a child process" in result.stdout + result.stderr
+            for result in twice_on_an_empty_cache(tmp_path, "-m", "app.cli", "run", "single",
+                                                  "--steps", "20", "--quiet")]
     assert said == [True, False]
 
 

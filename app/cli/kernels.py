@@ -11,10 +11,6 @@ from typing import Any, TextIO
 
 from sim.runtime.warming import call_reading, prepare_reading
 
-SHAPES = 65
-"""Steps a rehearsal runs at most: enough for every way a run calls the stepper (whole chunks
-of 64 and a single step, ``sim.runtime.warming.step_shapes``)."""
-
 
 def announcer(talk: TextIO) -> Callable[[], None]:
     """The line said when kernels are compiled before a run."""
@@ -28,7 +24,7 @@ def prepare(simulation: Any, steps: int, talk: TextIO = sys.stderr) -> None:
     """Have every kernel a run of ``simulation`` calls (``steps`` at a time) read from the
     cache, compiled in a child process first if missing."""
     started = time.perf_counter()
-    if prepare_reading(simulation, max(1, min(int(steps), SHAPES)), announcer(talk)):
+    if prepare_reading(simulation, steps, announcer(talk)):
         print(f"kernels ready in {time.perf_counter() - started:.0f} s", file=talk, flush=True)
 
 

@@ -92,8 +92,8 @@ def step_seconds(scene: sim.Scene, integrator: str, threads: int = 1) -> float:
     simulation = sim.Simulation(scene, integrator=integrator, dt=0.05 / omega, threads=threads)
     prepare_reading(simulation)  # kernels compiled here would run slower (sim.runtime.warming)
     try:
-        simulation.step(1)  # compiles the single step and, next, the loop of several steps
-        simulation.step(2)  # (Verlet's leapfrog is another kernel), so no compile is timed
+        simulation.step(1)  # the single step and, next, the loop of several steps (Verlet's
+        simulation.step(2)  # leapfrog is another kernel) run once before the timing
         steps, spent, count = 1, 0.0, 0
         while spent < TIMING_SECONDS and count < 1 << 16:
             started = time.perf_counter()

@@ -99,12 +99,11 @@ def run_setting(task: RunTask) -> RunOutcome:
     """Run one task (see the module docstring); top level, so it can be sent to other processes.
     The clock (``time_limit``) is looked at after every sample."""
     scene = task.scene
-    # the kernels read from numba's cache (compiled in a child if missing), so none is
-    # compiled in this process, where it would run slower (sim.runtime.warming); not timed
-    prepare_reading(sim.Simulation(scene, integrator=task.integrator, dt=task.dt,
-                                   threads=task.threads))
     simulation = sim.Simulation(scene, integrator=task.integrator, dt=task.dt,
                                 threads=task.threads)
+    # the kernels read from numba's cache (compiled in a child if missing), so none is
+    # compiled in this process, where it would run slower (sim.runtime.warming); not timed
+    prepare_reading(simulation)
     simulation.chunk_steps = max(64, min(task.steps, 4096))
     fields: list[np.ndarray] = []
     largest = 0.0

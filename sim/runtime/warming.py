@@ -102,13 +102,25 @@ def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: in
     copy.strains()
 
 
-def rehearse_simulation(simulation: Any, steps: int) -> None:
-    """``rehearse`` a copy of ``simulation`` as it is now (call it where the simulation is not
-    stepping: the snapshot copies its state)."""
+REHEARSED_STEPS = 65
+"""Steps a rehearsal runs to meet every way a run calls the stepper: whole chunks of 64 and a
+single step (``step_shapes``)."""
+
+
+def snapshot(simulation: Any, steps: int) -> tuple[Any, tuple]:
+    """(scene, settings): ``rehearse``'s arguments for a copy of ``simulation`` as it is now,
+    ``steps`` at a time (call it where the simulation is not stepping: the scene copies its
+    state)."""
     from sim.scenes.building import scene_from_simulation
 
-    rehearse(scene_from_simulation(simulation), simulation.integrator, simulation.dt,
-             simulation.precision, simulation.threads, steps)
+    return scene_from_simulation(simulation), (simulation.integrator, simulation.dt,
+                                               simulation.precision, simulation.threads, steps)
+
+
+def rehearse_simulation(simulation: Any, steps: int) -> None:
+    """``rehearse`` a copy of ``simulation`` as it is now (``snapshot``)."""
+    scene, settings = snapshot(simulation, steps)
+    rehearse(scene, *settings)
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -173,21 +185,19 @@ _READ: set[Hashable] = set()
 _READ_LOCK = threading.Lock()
 
 
-def prepare_reading(simulation: Any, steps: int = 65,
+def prepare_reading(simulation: Any, steps: int = REHEARSED_STEPS,
                     announce: Callable[[], None] | None = None) -> bool:
-    """Have the kernels a run of ``simulation`` calls (``steps`` at a time; 65 covers whole
-    chunks and a single step) read from numba's cache in this process, a child compiling those
-    missing first (``rehearse_reading``): once per ``kernel_key`` in this process, in the
-    caller's thread.  For runs that are timed or long.  Returns whether a child compiled."""
+    """Have the kernels a run of ``simulation`` calls (``steps`` at a time) read from numba's
+    cache in this process, a child compiling those missing first (``rehearse_reading``): once
+    per ``kernel_key`` in this process, in the caller's thread.  For runs that are timed or
+    long.  Returns whether a child compiled."""
+    steps = max(1, min(int(steps), REHEARSED_STEPS))  # more rehearse no other kernel
     key = kernel_key(simulation, steps)
     with _READ_LOCK:
         if key in _READ:
             return False
-    from sim.scenes.building import scene_from_simulation
-
-    settings = (simulation.integrator, simulation.dt, simulation.precision, simulation.threads,
-                max(1, int(steps)))
-    compiled = rehearse_reading(scene_from_simulation(simulation), settings, announce)
+    scene, settings = snapshot(simulation, steps)
+    compiled = rehearse_reading(scene, settings, announce)
     with _READ_LOCK:
         _READ.add(key)
     return compiled
@@ -403,11 +413,7 @@ class KernelPreparer:
         if self._rehearsal is not None:
             rehearsal = self._rehearsal
             return lambda: rehearsal(simulation, steps)
-        from sim.scenes.building import scene_from_simulation
-
-        scene = scene_from_simulation(simulation)
-        settings = (simulation.integrator, simulation.dt, simulation.precision,
-                    simulation.threads, steps)
+        scene, settings = snapshot(simulation, steps)
         return lambda: rehearse_reading(scene, settings)
 
     def _progress(self, job: _Job) -> Preparing:
