@@ -1,21 +1,19 @@
 """The matched layer's kicks and the relaxation of its fields, given the springs' forces
-(``sim.forces.absorbing_layer`` for the layer's equations, its fields and its action at frozen
-positions), and the same action inside a leapfrog sweep, which has just computed those springs
-for its own kick.
+(``sim.forces.absorbing_layer`` for the layer's equations, its fields, the springs it reads and
+its action at frozen positions).
 
 The layer splits into two parts whose kicks add: the x-layer of the side strips (the left and
 right layers' columns, over every row) and the y-layer of the band rows (the bottom and top
 layers' rows, over every column); a corner has both.  The x-layer's fields and forces are laid
-out flat, one side strip after the other and row after row (``SideStrips``), so that its kick is
-one long loop that vectorises; each particle keeps its own copy of the held forces of its two
-x-springs (both copies see the same forces and factors, so they stay equal).  The y-layer acts
-a band row at a time.
+out flat, one side strip after the other and column after column (slot first_slot + k ny + j
+for column k of the strip, row j), so that its kick is one long loop that vectorises; each
+particle keeps its own copy of the held forces of its two x-springs (both copies see the same
+forces and factors, so they stay equal).  The y-layer acts a band row at a time.
 
-A kick does not depend on the velocities, so inside a leapfrog sweep it is added after the
-sweep's kick and drift, with the drift it missed (``drift``: the particle also moves by dt
-times its kick).  Each kick returns the kinetic energy it took out (J), measured on the
-velocities ``lead`` seconds later under the lattice's forces; kicks applied one after another
-measure from the velocity the previous one left, so their takes add up exactly.
+Each kick returns the kinetic energy it took out (J), measured on the velocities ``lead``
+seconds later under the lattice's forces (a leapfrog's half-step velocities are measured half a
+step on, at the whole step); kicks applied one after another measure from the velocity the
+previous one left, so their takes add up exactly.
 
 Arrays: the state's (dim, ny, nx) positions (m) and velocities (m/s); ``horizontal``
 (3, nx + 1) the forces of a row's x-springs (spring i joins particle i - 1, or the left anchor,
@@ -48,7 +46,8 @@ class LayerArguments(NamedTuple):
     None; ``buffers`` scratch; ``geometry`` (4,) int64: the left strip's width, the right one's,
     its first column, ny; the side strips' fields laid flat: ``held_left``, ``held_right``,
     ``relaxed_x``, ``side_factors``, ``side_inverse_mass``, ``side_forces``, ``side_kicks``,
-    ``side_mass``.
+    ``side_mass``; ``strip_ends`` (3, width + 2, ny + 2) float64 scratch for a side strip's
+    positions, transposed, and ``strip_springs`` (3, ny + 1) for a column of its springs.
     """
 
     masses: object
@@ -72,6 +71,8 @@ class LayerArguments(NamedTuple):
     side_kicks: object
     side_mass: object
     inverse_masses: object
+    strip_ends: object
+    strip_springs: object
 
 
 SHIFT = 0.02
@@ -142,8 +143,8 @@ def held_half(f_left, f_right, force, h_left, h_right, phi, e_left, e_right, e_n
 
 @njit(**_JIT)
 def side_kick(tau, lead, second_half, pull, forces, held_left, held_right, relaxed, factors,
-              inverse_mass, mass, kicks, start, stop):
-    """The x-layer's kick (m/s) of the slots ``start`` .. ``stop - 1`` into ``kicks``
+              inverse_mass, mass, kicks):
+    """The x-layer's kick (m/s) of every slot into ``kicks``
     (dim, slots): per half action, relax the held forces of the particle's two x-springs and its
     phi over tau / 2, kick by tau, relax again (twice when ``second_half`` is True, once when
     None: ``held_half``).  ``forces`` (3, dim, slots): the left and right x-springs' forces
@@ -154,8 +155,8 @@ def side_kick(tau, lead, second_half, pull, forces, held_left, held_right, relax
     taken = 0.0
     for c in range(kicks.shape[0]):
         g = pull[0] if c == 0 else (pull[1] if c == 1 else pull[2])
-        for k in range(stop - start):
-            p = np.uint64(start + k)  # unsigned: no negative-index wrap, so LLVM vectorises
+        for k in range(kicks.shape[1]):
+            p = np.uint64(k)  # unsigned: no negative-index wrap, so LLVM vectorises
             f_left = forces[0, c, p]
             f_right = forces[1, c, p]
             force = f_right - f_left
@@ -180,90 +181,44 @@ def side_kick(tau, lead, second_half, pull, forces, held_left, held_right, relax
 
 
 @njit(**_JIT)
-def side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry):
-    """Add the side strips' kicks of rows j0 .. j1 - 1 to the velocities (and ``drift`` times
-    them to the positions; None compiles it out).  Returns the part of the kinetic energy taken
-    out (J) that depends on the velocities: -m v kick."""
+def side_apply(velocity, kicks, mass, geometry):
+    """Add the side strips' kicks to the velocities.  Returns the part of the kinetic energy
+    taken out (J) that depends on the velocities: -m v kick."""
     taken = 0.0
+    ny = geometry[3]
     for s in range(2):
         width, first_slot, first_column = strip(s, geometry)
         for c in range(velocity.shape[0]):
             for k in range(width):  # down a column: long loops, not one of ``width`` per row
                 i = np.uint64(first_column + k)
-                for j in range(j0, j1):
-                    p = np.uint64(first_slot + j * width + k)
+                for j in range(ny):
+                    p = np.uint64(first_slot + k * ny + j)
                     kick = kicks[c, p]
                     before = np.float64(velocity[c, j, i])
                     velocity[c, j, i] = before + kick
-                    if drift is not None:
-                        position[c, j, i] += drift * kick
                     taken -= mass[p] * kick * before
     return taken
 
 
 @njit(**_JIT)
-def sides_act(j0, j1, tau, lead, second_half, drift, position, velocity, layer):
-    """The x-layer's action on rows j0 .. j1 - 1 from the forces in the layer's side buffer.
-    Returns the kinetic energy taken out (J)."""
-    geometry = layer.geometry
+def sides_act(tau, lead, second_half, velocity, layer):
+    """The x-layer's action from the forces in the layer's side buffer.  Returns the kinetic
+    energy taken out (J)."""
     kicks = layer.side_kicks
     mass = layer.side_mass
     pull = gravity_vector(layer.gravity, 0.0)
-    taken = 0.0
-    for s in range(2):
-        width, first_slot, _ = strip(s, geometry)
-        taken += side_kick(tau, lead, second_half, pull, layer.side_forces, layer.held_left,
-                           layer.held_right, layer.relaxed_x, layer.side_factors,
-                           layer.side_inverse_mass, mass, kicks, first_slot + j0 * width,
-                           first_slot + j1 * width)
-    return taken + side_apply(j0, j1, drift, velocity, position, kicks, mass, geometry)
-
-
-@njit(**_JIT)
-def sides_under(j, below, forces, geometry):
-    """Start row j's net y-force in the side buffer ``forces`` (3, dim, slots) from the springs
-    under it (``below``, whole forces)."""
-    for s in range(2):
-        width, first_slot, first_column = strip(s, geometry)
-        for c in range(forces.shape[1]):
-            for k in range(width):
-                forces[2, c, first_slot + j * width + k] = -below[c, first_column + k]
-
-
-@njit(**_JIT)
-def sides_row(j, last, horizontal, above, forces, geometry, tension):
-    """Row j's x-springs (beyond the rest ``tension``, N) and the y-springs over it into the side
-    buffer ``forces``, after ``sides_under`` of row j; the latter also start row j + 1's net
-    y-force unless ``last``."""
-    for s in range(2):
-        width, first_slot, first_column = strip(s, geometry)
-        for c in range(forces.shape[1]):
-            shift = tension if c == 0 else 0.0
-            for k in range(width):
-                p = first_slot + j * width + k
-                i = first_column + k
-                forces[0, c, p] = horizontal[c, i] - shift
-                forces[1, c, p] = horizontal[c, i + 1] - shift
-                forces[2, c, p] += above[c, i]
-                if not last:
-                    forces[2, c, p + width] = -above[c, i]
+    taken = side_kick(tau, lead, second_half, pull, layer.side_forces, layer.held_left,
+                      layer.held_right, layer.relaxed_x, layer.side_factors,
+                      layer.side_inverse_mass, mass, kicks)
+    return taken + side_apply(velocity, kicks, mass, layer.geometry)
 
 
 # --- the y-layer: the band rows ----------------------------------------------------------------
 
 
 @njit(**_JIT)
-def keep_row(source, kept):
-    """Copy a row of forces (3, n) aside (a loop: a slice assignment in the sweep's row loop
-    slowed its plain pass more than twofold)."""
-    for c in range(source.shape[0]):
-        for i in range(source.shape[1]):
-            kept[c, i] = source[c, i]
-
-
-@njit(**_JIT)
-def band_kick(c, j, tau, lead, second_half, pull, layer, horizontal, below, above, shift, drift,
-              position, velocity):
+def band_kick(c, j, tau, lead, second_half, pull, layer, horizontal, below, above, shift,
+              velocity):
     """Component c of band row j's y-layer kick: per half action relax the held forces of each
     particle's y-springs (``e_below``, ``e_above``: their factors) and its phi (``e_node``) over
     tau / 2, kick by tau, relax again (``layer`` the layer's record).  ``shift`` (N) is taken
@@ -300,8 +255,6 @@ def band_kick(c, j, tau, lead, second_half, pull, layer, horizontal, below, abov
             kick += more
         v = before + kick
         velocity[c, j, i] = v
-        if drift is not None:
-            position[c, j, i] += drift * (v - before)
         relaxed_y[c, j, i] = phi
         ahead = lead * ((force_x + force_y) * inverse_mass + pull)
         taken += 0.5 * (before + v + 2.0 * ahead) * (before - v) * masses[j, i]
@@ -328,12 +281,10 @@ def relax_row(held, j, forces, factor, second_half, tension):
 
 
 @njit(**_JIT)
-def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizontal, below,
-             above, layer, tension):
+def band_act(j, tau, lead, second_half, velocity, horizontal, below, above, layer, tension):
     """The y-layer's action on band row j from its springs' forces (beyond the rest ``tension``
-    when it is 0, whole forces otherwise), then the held forces of the springs under it relaxed,
-    unless ``first`` and j > 0 (row j opens a row block swept in parallel with the one below,
-    which still reads them: ``relax_block_edges``).  Returns the kinetic energy taken out (J)."""
+    when it is 0, whole forces otherwise), then the held forces of the springs under it
+    relaxed (and those over it, on the top row).  Returns the kinetic energy taken out (J)."""
     ny = velocity.shape[1]
     spring_y = layer.spring_y
     held_y = layer.held_y
@@ -341,22 +292,9 @@ def band_act(j, first, tau, lead, second_half, drift, position, velocity, horizo
     taken = 0.0
     for c in range(velocity.shape[0]):
         taken += band_kick(c, j, tau, lead, second_half, pull[c], layer, horizontal, below, above,
-                           tension if c == 1 else 0.0, drift, position, velocity)
-    if spring_y[j] < 1.0 and not (first and j > 0):  # the springs under j served both rows
+                           tension if c == 1 else 0.0, velocity)
+    if spring_y[j] < 1.0:  # the springs under j served both rows
         relax_row(held_y, j, below, spring_y[j], second_half, tension)
     if j == ny - 1 and spring_y[ny] < 1.0:
         relax_row(held_y, ny, above, spring_y[ny], second_half, tension)
     return taken
-
-
-@njit(**_JIT)
-def relax_block_edges(block_starts, boundary, layer, tension):
-    """The held forces of the y-springs under each row block but the first relaxed, after both
-    their rows were swept (``band_act``); ``boundary`` (blocks + 1, 3, nx) holds those springs'
-    whole forces before the sweep (``sim.loops.leapfrog``)."""
-    spring_y = layer.spring_y
-    held_y = layer.held_y
-    for b in range(1, block_starts.size - 1):
-        j = block_starts[b]
-        if spring_y[j] < 1.0:
-            relax_row(held_y, j, boundary[b], spring_y[j], True, tension)

@@ -53,8 +53,6 @@ from sim.forces.absorbing_kicks import (
     band_act,
     rest_tension,
     sides_act,
-    sides_row,
-    sides_under,
     strip,
 )
 from sim.forces.springs import as_row, components, site, spring_force
@@ -142,32 +140,79 @@ def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
 
 
 @njit(**_JIT)
-def _side_forces(x, y, z, linearised, parameters, tension, layer):
-    """The side strips' springs at the frozen positions into the layer's side buffer
-    (``sim.forces.absorbing_kicks``): each particle's two x-springs beyond the rest ``tension`` (N) and the
-    net force of its y-springs, stored a row at a time as the leapfrog sweep stores them
-    (``sides_under``, ``sides_row``)."""
-    geometry = layer.geometry
-    forces = layer.side_forces
-    buffers = layer.buffers
-    horizontal, below, above = buffers[0], buffers[1], buffers[2]
-    ny = x.shape[0]
-    for s in range(2):
-        width, _, first_column = strip(s, geometry)
-        _y_springs(0, first_column, first_column + width, x, y, z, linearised, parameters,
-                   tension, below)
-    sides_under(0, below, forces, geometry)
-    for j in range(ny):
-        for s in range(2):
-            width, _, first_column = strip(s, geometry)
-            if width == 0:
-                continue
-            stop = first_column + width
-            _y_springs(j + 1, first_column, stop, x, y, z, linearised, parameters, tension,
-                       above)
-            _x_springs(j, first_column, stop + 1, x, y, z, linearised, parameters, tension,
-                       horizontal)
-        sides_row(j, j + 1 == ny, horizontal, above, forces, geometry, 0.0)
+def _gather_strip(s, x, y, z, parameters, geometry, ends):
+    """Side strip s's particles and the columns on either side of it, transposed into ``ends``
+    (3, width + 2, ny + 2): ``ends[:, m, r]`` the particle of column first_column - 1 + m, row
+    r - 1, or the wall anchor where that is outside the lattice (rows -1 and ny, columns -1
+    and nx).  Down the columns, so that the springs are computed in long loops that
+    vectorise."""
+    width, _, first_column = strip(s, geometry)
+    ny, nx = x.shape
+    for m in range(width + 2):
+        i = first_column - 1 + m
+        for r in (0, ny + 1):
+            anchor = site(i, r - 1, parameters)
+            ends[0, m, r] = anchor[0]
+            ends[1, m, r] = anchor[1]
+        if i < 0 or i >= nx:
+            for r in range(ny):
+                anchor = site(i, r, parameters)
+                ends[0, m, r + 1] = anchor[0]
+                ends[1, m, r + 1] = anchor[1]
+                if z is not None:
+                    ends[2, m, r + 1] = 0.0
+        else:
+            for r in range(ny):
+                ends[0, m, r + 1] = x[r, i]
+                ends[1, m, r + 1] = y[r, i]
+                if z is not None:
+                    ends[2, m, r + 1] = z[r, i]
+
+
+@njit(**_JIT)
+def _column_end(out_of_plane, ends, m, r, zero):
+    """Entry (m, r) of a gathered strip (``_gather_strip``) as a spring end at rest."""
+    depth = ends[2, m, r] if out_of_plane is not None else zero
+    return (ends[0, m, r], ends[1, m, r], depth, zero, zero, zero)
+
+
+@njit(**_JIT)
+def _strip_springs(s, ends, out_of_plane, linearised, parameters, tension, geometry, forces,
+                   column):
+    """Side strip s's springs from its gathered positions ``ends`` into the side buffer
+    ``forces`` (3, dim, slots): each particle's left and right x-springs beyond the rest
+    ``tension`` (N) and the net force of its two y-springs; ``column`` (3, ny + 1) scratch."""
+    width, first_slot, _ = strip(s, geometry)
+    ny = geometry[3]
+    zero = 0.0
+    for m in range(width + 1):  # x-spring m joins gathered columns m and m + 1
+        for k in range(ny):
+            r = np.uint64(k + 1)  # unsigned: no negative-index wrap, so LLVM vectorises
+            force = spring_force(_column_end(out_of_plane, ends, m, r, zero),
+                                 _column_end(out_of_plane, ends, m + 1, r, zero), 0, linearised,
+                                 parameters, None)
+            column[0, k] = force[0] - tension
+            column[1, k] = force[1]
+            column[2, k] = force[2]
+        for c in range(forces.shape[1]):
+            if m < width:  # the left spring of the strip's column m
+                for k in range(ny):
+                    forces[0, c, first_slot + m * ny + k] = column[c, k]
+            if m > 0:  # the right spring of its column m - 1
+                for k in range(ny):
+                    forces[1, c, first_slot + (m - 1) * ny + k] = column[c, k]
+    for m in range(width):  # y-spring r of column m joins gathered rows r and r + 1
+        for k in range(ny + 1):
+            r = np.uint64(k)
+            force = spring_force(_column_end(out_of_plane, ends, m + 1, r, zero),
+                                 _column_end(out_of_plane, ends, m + 1, r + np.uint64(1), zero),
+                                 1, linearised, parameters, None)
+            column[0, k] = force[0]
+            column[1, k] = force[1]
+            column[2, k] = force[2]
+        for c in range(forces.shape[1]):
+            for k in range(ny):
+                forces[2, c, first_slot + m * ny + k] = column[c, k + 1] - column[c, k]
 
 
 @njit(**_JIT)
@@ -178,17 +223,27 @@ def act_on(tau, lead, second_half, position, velocity, layer):
 
     ``layer``: ``MatchedLayer.arguments``.  Returns the kinetic energy taken out (J), counted
     on the velocities ``lead`` seconds later under the lattice's forces (dt / 2 for a
-    leapfrog's half-step velocities, else 0)."""
+    leapfrog's half-step velocities before its kick, else 0)."""
+    return act_with(tau, lead, second_half, position, velocity, layer, layer.parameters)
+
+
+@njit(**_JIT)
+def act_with(tau, lead, second_half, position, velocity, layer, parameters):
+    """``act_on`` with the springs' ``parameters`` given apart from the layer's record (the
+    record a threaded sweep takes has None in their place)."""
     ny, nx = position.shape[1], position.shape[2]
     x, y, z = components(layer.out_of_plane, position)
-    linearised, parameters = layer.linearised, layer.parameters
+    linearised = layer.linearised
     tension = rest_tension(linearised, parameters)
     taken = 0.0
     geometry = layer.geometry
     if geometry[0] + geometry[1] > 0:
-        _side_forces(x, y, z, linearised, parameters, tension, layer)
-        taken += sides_act(np.intp(0), ny, tau, lead, second_half, None, position, velocity,
-                           layer)
+        for s in range(2):
+            if strip(s, geometry)[0] > 0:
+                _gather_strip(s, x, y, z, parameters, geometry, layer.strip_ends)
+                _strip_springs(s, layer.strip_ends, layer.out_of_plane, linearised, parameters,
+                               tension, geometry, layer.side_forces, layer.strip_springs)
+        taken += sides_act(tau, lead, second_half, velocity, layer)
     buffers = layer.buffers
     horizontal, below, above = buffers[0], buffers[1], buffers[2]
     needs = layer.needs
@@ -201,8 +256,8 @@ def act_on(tau, lead, second_half, position, velocity, layer):
             _y_springs(j, 0, nx, x, y, z, linearised, parameters, tension, below)
         _y_springs(j + 1, 0, nx, x, y, z, linearised, parameters, tension, above)
         _x_springs(j, np.intp(0), nx + 1, x, y, z, linearised, parameters, tension, horizontal)
-        taken += band_act(j, False, tau, lead, second_half, None, position, velocity,
-                          horizontal, below, above, layer, 0.0)
+        taken += band_act(j, tau, lead, second_half, velocity, horizontal, below, above, layer,
+                          0.0)
         below, above = above, below
         fresh = False
     return taken
@@ -244,13 +299,14 @@ class MatchedLayer:
         )
         first_end = min(left + 1, nx) if left > 0 else 0  # with the first column inside
         last_start = max(nx - 1 - right, first_end) if right > 0 else nx
-        # the side strips' slots (``sim.forces.absorbing_kicks``): the left strip row by row, then the right
+        # the side strips' slots (``sim.forces.absorbing_kicks``): the left strip column by
+        # column, then the right
         widths_of_strips = (first_end, nx - last_start)
         self.geometry = np.array([*widths_of_strips, last_start, ny], dtype=np.int64)
-        columns = np.concatenate([np.tile(np.arange(first_end), ny),
-                                  np.tile(np.arange(last_start, nx), ny)]).astype(np.int64)
-        rows = np.concatenate([np.repeat(np.arange(ny), widths_of_strips[0]),
-                               np.repeat(np.arange(ny), widths_of_strips[1])]).astype(np.int64)
+        columns = np.concatenate([np.repeat(np.arange(first_end), ny),
+                                  np.repeat(np.arange(last_start, nx), ny)]).astype(np.int64)
+        rows = np.concatenate([np.tile(np.arange(ny), widths_of_strips[0]),
+                               np.tile(np.arange(ny), widths_of_strips[1])]).astype(np.int64)
         self._slot_columns = columns
         slots = columns.size
         band_rows = np.arange(ny)
@@ -268,6 +324,8 @@ class MatchedLayer:
         self._side_forces = np.zeros((3, dim, slots))
         self._side_kicks = np.zeros((dim, slots))
         self._buffers = np.zeros((3, 3, nx + 1))
+        self._strip_ends = np.zeros((3, max(widths_of_strips) + 2, ny + 2))
+        self._strip_springs = np.zeros((3, ny + 1))
         self._factors: dict[float, tuple] = {}
         self._revision: int | None = None
 
@@ -304,7 +362,8 @@ class MatchedLayer:
             held_right=held_right, relaxed_x=relaxed_x, side_factors=side_factors,
             side_inverse_mass=self._side_inverse_mass, side_forces=self._side_forces,
             side_kicks=self._side_kicks, side_mass=self._side_mass,
-            inverse_masses=self._inverse_masses)
+            inverse_masses=self._inverse_masses, strip_ends=self._strip_ends,
+            strip_springs=self._strip_springs)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""

@@ -130,19 +130,6 @@ def save_driven(j, table, velocity, saved):
 
 
 @njit(**_JIT)
-def shift_saved(j0, j1, table, velocity, saved, sign):
-    """Add ``sign`` times the velocities (m/s) of the driven particles of rows j0 .. j1 - 1 to
-    ``saved``: called with -1 and then +1 around a kick, it counts that kick as given before
-    the fused pass."""
-    for d in range(table.shape[0]):
-        j = int(table[d, ROW])
-        if j0 <= j < j1:
-            i = int(table[d, COLUMN])
-            for c in range(velocity.shape[0]):
-                saved[d, c] += sign * velocity[c, j, i]
-
-
-@njit(**_JIT)
 def leapfrog_drive(j0, j1, time, dt, table, position, velocity, saved):
     """Correct the plain leapfrog kick and drift of the driven particles of rows j0 .. j1 - 1
     (v' = v + dt a, x' = x + dt v', a the lattice's, v in ``saved``) for their drives at

@@ -167,7 +167,6 @@ class Verlet(Integrator):
             boundary=np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype),
             below=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
             horizontal=np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype),
-            under=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
         )
         self._drive_power = 0.0
         self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)

@@ -16,17 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from sim.forces.absorbing_kicks import (
-    NONE,
-    band_act,
-    keep_row,
-    relax_block_edges,
-    rest_tension,
-    sides_act,
-    sides_row,
-    sides_under,
-)
-from sim.forces.drive_table import leapfrog_drive, save_driven, shift_saved
+from sim.forces.absorbing_layer import act_with
+from sim.forces.drive_table import leapfrog_drive, save_driven
 from sim.forces.springs import (
     components,
     gravity_vector,
@@ -43,17 +34,16 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 class LeapfrogWork(NamedTuple):
     """The leapfrog's scratch, one slice per row block: ``boundary`` (blocks + 1, 3, nx) the
-    springs below each block and the top wall's, computed before the blocks move; ``below`` and
-    ``under`` (blocks, 3, nx), ``horizontal`` (blocks, 3, nx + 1) the sweeps' buffers."""
+    springs below each block and the top wall's, computed before the blocks move; ``below``
+    (blocks, 3, nx), ``horizontal`` (blocks, 3, nx + 1) the sweeps' buffers."""
 
     boundary: np.ndarray
     below: np.ndarray
     horizontal: np.ndarray
-    under: np.ndarray
 
 @njit(**_JIT)
 def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, velocity, work, b,
-                  time, drive, saved, totals, sponge):
+                  time, drive, saved, totals):
     """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1 (row block b),
     undamped nonlinear springs, with each row's forces and update fused into one pass over it.
 
@@ -68,33 +58,17 @@ def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, 
     function that tests it, and the row's pass must stay in this function (as a function of its
     own, called per row, the float32 sweep ran 15 % slower).
 
-    The absorbing layer (``sponge``: ``sim.forces.absorbing_layer.MatchedLayer.arguments``, None
-    compiles it out, its relaxations frequency-shifted by ``SHIFT``) kicks from the springs the
-    rows' passes computed (``sim.forces.absorbing_kicks``;
-    ``under[b]`` scratch): a band row's y-layer after its
-    pass, the side strips' x-layer once all the rows are swept.  The drive table (``sim.forces.drive_table``,
-    None compiles it out) acts last: the driven particles get their drive at ``time`` (s;
-    velocities kept in ``saved`` (drives, 3) before their row's pass).  ``totals`` (2,) receives
-    the drive's work and the layer's take (J).
+    The drive table (``sim.forces.drive_table``, None compiles it out) acts last: the driven
+    particles get their drive at ``time`` (s; velocities kept in ``saved`` (drives, 3) before
+    their row's pass).  ``totals`` (2,) receives the drive's work (J).
     """
     below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
-    under = work.under[b]
     zero = type(dt)(0.0)
     pull = gravity_vector(terms.gravity, zero)
     nx = x.shape[1]
-    tension = 0.0
-    if sponge is not None:
-        tension = rest_tension(sponge.linearised, parameters)  # N
-        needs = sponge.needs
-        geometry = sponge.geometry
-        side_forces = sponge.side_forces
-        sides_under(j0, below, side_forces, geometry)
     for j in range(j0, j1):
         if drive is not None:
             save_driven(j, drive, velocity, saved)
-        if sponge is not None:
-            if needs[j] != NONE:
-                keep_row(below, under)
         horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
         given = j + 1 == j1
         for i in range(nx):
@@ -130,21 +104,6 @@ def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, 
             y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
             below[0, i] = above[0]
             below[1, i] = above[1]
-        if sponge is not None:
-            sides_row(j, j + 1 == j1, horizontal, below, side_forces, geometry, tension)
-            if needs[j] != NONE:
-                if drive is not None:  # the layer's kick counts as given before the sweep's
-                    shift_saved(j, j + 1, drive, velocity, saved, -1.0)
-                totals[1] += band_act(j, j == j0, 0.5 * dt, -0.5 * dt, True, dt, position,
-                                      velocity, horizontal, under, below, sponge, tension)
-                if drive is not None:
-                    shift_saved(j, j + 1, drive, velocity, saved, 1.0)
-    if sponge is not None:  # the side strips of all these rows at once: one call, long loops
-        if drive is not None:
-            shift_saved(j0, j1, drive, velocity, saved, -1.0)
-        totals[1] += sides_act(j0, j1, 0.5 * dt, -0.5 * dt, True, dt, position, velocity, sponge)
-        if drive is not None:
-            shift_saved(j0, j1, drive, velocity, saved, 1.0)
     if drive is not None:
         totals[0] += leapfrog_drive(j0, j1, time, dt, drive, position, velocity, saved)
 
@@ -161,24 +120,23 @@ def leapfrog_steps(n, dt, terms, parameters, position, velocity, block_starts, w
     s at ``time`` + s dt); the absorbing layer (``sponge``:
     ``sim.forces.absorbing_layer.MatchedLayer.arguments``) acts over dt / 2 twice between steps
     (as at the end of one step and the start of the next) at the positions each sweep kicks
-    with, inside the sweep (``leapfrog_rows``); ``totals`` (blocks, 2) receives the drive's work
-    and the layer's take (J).
+    with, before the sweep: its kick does not depend on the velocities, so the sweep's drift
+    carries it.  ``totals`` (blocks, 2) receives the drive's work (per block) and the layer's
+    take (J, in ``totals[0, 1]``).
     """
     if parameters.diagonal_stiffness is not None:
         raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
-    tension = 0.0
-    if sponge is not None:
-        tension = rest_tension(sponge.linearised, sponge.parameters)
     for step in range(n):
+        if sponge is not None:
+            totals[0, 1] += act_with(0.5 * float(dt), 0.5 * float(dt), True, position, velocity,
+                                     sponge, parameters)
         for b in range(blocks + 1):
             _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
                               work.boundary)
         for b in range(blocks):
             _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
-                            time + step * float(dt), drive, saved, totals, sponge)
-        if sponge is not None:
-            relax_block_edges(block_starts, work.boundary, sponge, tension)
+                            time + step * float(dt), drive, saved, totals)
 
 
 @njit(parallel=True, **_JIT)
@@ -193,18 +151,16 @@ def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_
     if parameters.diagonal_stiffness is not None:
         raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
-    tension = 0.0
-    if sponge is not None:
-        tension = rest_tension(sponge.linearised, parameters)
     for step in range(n):
+        if sponge is not None:
+            totals[0, 1] += act_with(0.5 * float(dt), 0.5 * float(dt), True, position, velocity,
+                                     sponge, parameters)
         for b in prange(blocks + 1):
             _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
                               work.boundary)
         for b in prange(blocks):
             _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
-                            time + step * float(dt), drive, saved, totals, sponge)
-        if sponge is not None:
-            relax_block_edges(block_starts, work.boundary, sponge, tension)
+                            time + step * float(dt), drive, saved, totals)
 
 
 @njit(**_JIT)
@@ -219,10 +175,10 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
 
 @njit(**_JIT)
 def _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work, time,
-                    drive, saved, totals, sponge):
+                    drive, saved, totals):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
     work.below[b, :, :] = work.boundary[b]
     x, y, z = components(terms.out_of_plane, position)
     vx, vy, vz = components(terms.out_of_plane, velocity)
     leapfrog_rows(block_starts[b], block_starts[b + 1], dt, x, y, z, vx, vy, vz, terms, parameters,
-                  position, velocity, work, b, time, drive, saved, totals[b], sponge)
+                  position, velocity, work, b, time, drive, saved, totals[b])
