@@ -1,12 +1,12 @@
-"""What the absorbing layer costs inside velocity Verlet's leapfrog sweep, and where.
+"""What the absorbing layer costs in velocity Verlet's leapfrog steps, and where.
 
     .venv/bin/python benchmarks/layer_cost.py                  # default layer and 10 deep
     .venv/bin/python benchmarks/layer_cost.py --widths 4,6,10 --rounds 20
 
 Times ``sim.loops.leapfrog.leapfrog_steps`` itself (one thread, float64) on the 682x383 interference
-lattice: without the layer, with it, and with its side strips or its band rows emptied (the
-layer's tuple with zero-width strips or no band rows), so that the side strips' part, the band
-rows' part and what is left when both are empty (the per-row calls) are told apart.  Each
+lattice: without the layer, with it, and with its side strips or its bands emptied (the
+layer's record with no lines in those parts), so that the side strips' part, the bands' part
+and what is left when both are empty (the calls) are told apart.  Each
 variant runs ``--steps`` steps per round from the same state; the best round of each counts,
 the variants interleaved round by round.  ``oscillators bench`` measures the whole
 ``Simulation.step`` (its "instruments" line); this splits the sweep.
@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 import sim
+from sim.forces.absorbing_kicks import LINES, PARTS
 from sim.loops import leapfrog
 from sim.runtime.warming import REHEARSED_STEPS, rehearse_reading
 
@@ -44,12 +45,13 @@ def variants(simulation: sim.Simulation) -> dict:
     """The layer's tuple as the sweep takes it, and the same with parts emptied."""
     full = simulation._integrator.sponge.arguments(0.5 * simulation.dt, np.float64)
 
-    no_strips = full.geometry.copy()
-    no_strips[:2] = 0
-    no_bands = np.zeros_like(full.needs)
-    return {"layer": full, "bands only": full._replace(geometry=no_strips),
-            "side strips only": full._replace(needs=no_bands),
-            "both emptied": full._replace(geometry=no_strips, needs=no_bands)}
+    def emptied(*parts: str):
+        geometry = full.geometry.copy()
+        geometry[[PARTS.index(part) for part in parts], LINES] = 0
+        return full._replace(geometry=geometry)
+    return {"layer": full, "bands only": emptied("left", "right"),
+            "side strips only": emptied("bottom", "top"),
+            "both emptied": emptied(*PARTS)}
 
 
 def main() -> None:

@@ -27,14 +27,13 @@ relax over tau / 2 again.  The relaxations are exact exponentials (at the defaul
 layer does not lower the stable step).  The kinetic energy a kick takes out is returned (J): the lattice's
 energy changes only by those kicks, so kinetic + potential + dissipated stays constant.
 
-The kicks themselves, given the springs' forces, are ``sim.forces.absorbing_kicks``'s, shared with the
-leapfrog sweep, which has those forces at hand and acts inside its pass.
+The layer is four parts (the side strips and the bands), each a stack of lines damped across
+them (``sim.forces.absorbing_kicks``, with the kick of one particle).  Velocity Verlet's leapfrog
+acts with this module before each sweep, at the positions the sweep kicks with.
 
 Arrays: the state's (dim, ny, nx) positions (m) and velocities (m/s) in float64 or float32; the
-layer's own fields in float64 (N): over the side strips (the left and right layers' columns,
-every row; flat (dim, slots), the left strip row by row, then the right one) each particle's
-held forces of its left and right x-springs and its phi_x; ``held_y`` (dim, ny + 1, nx) h of
-the y-springs and ``relaxed_y`` (dim, ny, nx) phi_y.
+layer's own fields in float64 (N), flat over the parts: the held forces of the springs across
+the lines and each particle's phi.
 """
 
 from __future__ import annotations
@@ -46,180 +45,217 @@ import numpy as np
 from numba import njit
 
 from sim.forces.absorbing_kicks import (
-    BAND,
-    NONE,
+    AXIS,
+    FACTOR,
+    FIRST,
+    HELD,
+    LENGTH,
+    LINES,
+    PARTS,
     SHIFT,
+    SLOT,
     LayerArguments,
-    band_act,
+    held_factor,
+    particle_kick,
+    relax,
     rest_tension,
-    sides_act,
-    strip,
 )
-from sim.forces.springs import as_row, components, site, spring_force
+from sim.forces.springs import components, gravity_vector, site, spring_force
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 POWER = 2
 """Exponent of the rate's growth with depth."""
 
-# --- the springs the layer reads, a span of a row at a time ------------------------------------
+# --- a part's lines and their springs -----------------------------------------------------------
 #
 # Each spring's force is computed once per action: the positions are frozen while the layer acts,
-# so its two half actions between steps (and both relaxations of each) read the same forces.
-# Loops over a span of columns with the wall anchors outside them: straight-line bodies that LLVM
-# vectorises.
+# so its two half actions between steps (and both relaxations of each) read the same forces.  A
+# line is read as a tuple of contiguous 1-D arrays (x, y, z; z None in a planar scene): a band's
+# rows straight from the state, a strip's columns copied into rows of ``block`` first (and the
+# rows of wall anchors beyond a band, the columns beyond a strip, written there), so that every
+# spring is read in a long loop of contiguous memory that LLVM vectorises.
 
 
 @njit(**_JIT)
-def _store(out, i, force, axis, tension, z):
-    """Force (N) beyond the rest tension (along ``axis``) into ``out[:, i]``."""
-    out[0, i] = force[0] - (tension if axis == 0 else 0.0)
-    out[1, i] = force[1] - (tension if axis == 1 else 0.0)
-    if z is not None:
-        out[2, i] = force[2]
+def _gather(part, x, y, z, parameters, geometry, block):
+    """Into row m of ``block`` (3, lines + 2, length) the positions along line first - 1 + m of
+    part ``part``: for a strip every such column, transposed; for a band only the rows of wall
+    anchors beyond the lattice (its own rows are read in place)."""
+    lines, length = geometry[part, LINES], geometry[part, LENGTH]
+    first, axis = geometry[part, FIRST], geometry[part, AXIS]
+    ny, nx = x.shape
+    count = nx if axis == 0 else ny  # lines across the lattice
+    for m in range(lines + 2):
+        line = first - 1 + m
+        if line < 0 or line >= count:
+            for k in range(length):
+                r = np.uint64(k)  # unsigned indices: no negative-index wrap, so LLVM vectorises
+                anchor = site(line, r, parameters) if axis == 0 else site(r, line, parameters)
+                block[0, m, r] = anchor[0]
+                block[1, m, r] = anchor[1]
+                block[2, m, r] = anchor[2]
+        elif axis == 0:  # a strip's column
+            i = np.uint64(line)
+            for k in range(length):
+                r = np.uint64(k)
+                block[0, m, r] = x[r, i]
+                block[1, m, r] = y[r, i]
+                if z is not None:
+                    block[2, m, r] = z[r, i]
 
 
 @njit(**_JIT)
-def _end(x, y, z, j, i, zero):
-    """Particle (j, i) as a spring end at rest."""
+def _line(part, m, x, y, z, geometry, block):
+    """Line first - 1 + m of part ``part`` as (x, y, z) rows (z None in a planar scene): a row
+    of the state, or of ``block`` (``_gather``)."""
+    first, axis = geometry[part, FIRST], geometry[part, AXIS]
+    line = first - 1 + m
+    if axis == 1 and 0 <= line < x.shape[0]:
+        if z is None:
+            return x[line], y[line], None
+        return x[line], y[line], z[line]
     if z is None:
-        return (x[j, i], y[j, i], zero, zero, zero, zero)
-    return (x[j, i], y[j, i], z[j, i], zero, zero, zero)
+        return block[0, m], block[1, m], None
+    return block[0, m], block[1, m], block[2, m]
 
 
 @njit(**_JIT)
-def _x_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
-    """The x-springs ``start`` .. ``stop - 1`` of row j into ``out`` (3, nx + 1): spring i joins
-    particle i - 1 to particle i; 0 and nx reach the left and right wall anchors."""
-    nx = x.shape[1]
+def _end(x, y, z, r, zero):
+    """Position r of a line's rows ``x``, ``y``, ``z`` (None: planar) as a spring end at rest."""
+    if z is None:
+        return (x[r], y[r], zero, zero, zero, zero)
+    return (x[r], y[r], z[r], zero, zero, zero)
+
+
+@njit(**_JIT)
+def _store(out, r, force, tension, axis, z):
+    """A spring's force (N) into ``out[:, r]``, beyond the rest ``tension`` along ``axis`` (the
+    third component only out of the plane: ``z`` not None)."""
+    out[0, r] = force[0] - (tension if axis == 0 else 0.0)
+    out[1, r] = force[1] - (tension if axis == 1 else 0.0)
+    if z is not None:
+        out[2, r] = force[2]
+
+
+@njit(**_JIT)
+def _across(low, high, length, axis, linearised, parameters, tension, out, slot):
+    """The springs from line ``low`` to line ``high`` into ``out[slot]`` (3, length), beyond
+    the rest ``tension`` (N) along ``axis``."""
+    zero = type(parameters.spacing)(0.0)
+    for k in range(length):
+        r = np.uint64(k)  # unsigned: no negative-index wrap, so LLVM vectorises
+        force = spring_force(_end(low[0], low[1], low[2], r, zero),
+                             _end(high[0], high[1], high[2], r, zero), axis, linearised,
+                             parameters, None)
+        _store(out[slot], r, force, tension, axis, low[2])
+
+
+@njit(**_JIT)
+def _along(line, index, length, axis, linearised, parameters, out):
+    """The springs along ``line`` (line ``index`` across the lattice) into ``out`` (3,
+    length + 1): spring q joins positions q - 1 and q, 0 and ``length`` reach the wall anchors
+    at its ends (whole forces, N; their axis is the other one)."""
     zero = type(parameters.spacing)(0.0)
     one = np.uint64(1)
-    first_spring = max(start, 1)
-    for k in range(min(stop, nx) - first_spring):
-        i = np.uint64(first_spring + k)  # unsigned: no negative-index wrap, so LLVM vectorises
-        if z is None:
-            first = (x[j, i - one], y[j, i - one], zero, zero, zero, zero)
-            second = (x[j, i], y[j, i], zero, zero, zero, zero)
-        else:
-            first = (x[j, i - one], y[j, i - one], z[j, i - one], zero, zero, zero)
-            second = (x[j, i], y[j, i], z[j, i], zero, zero, zero)
-        _store(out, i, spring_force(first, second, 0, linearised, parameters, None), 0, tension, z)
-    if start == 0:
-        _store(out, 0, spring_force(site(-1, j, parameters), _end(x, y, z, j, 0, zero), 0,
-                                    linearised, parameters, None), 0, tension, z)
-    if stop > nx:
-        _store(out, nx, spring_force(_end(x, y, z, j, nx - 1, zero), site(nx, j, parameters), 0,
-                                     linearised, parameters, None), 0, tension, z)
+    along = 1 - axis
+    x, y, z = line
+    for k in range(length - 1):
+        r = np.uint64(k + 1)
+        force = spring_force(_end(x, y, z, r - one, zero), _end(x, y, z, r, zero), along,
+                             linearised, parameters, None)
+        _store(out, r, force, 0.0, axis, z)
+    before = site(index, -1, parameters) if axis == 0 else site(-1, index, parameters)
+    after = site(index, length, parameters) if axis == 0 else site(length, index, parameters)
+    _store(out, 0, spring_force(before, _end(x, y, z, 0, zero), along, linearised, parameters,
+                                None), 0.0, axis, z)
+    _store(out, length, spring_force(_end(x, y, z, length - 1, zero), after, along, linearised,
+                                     parameters, None), 0.0, axis, z)
+
+
+# --- the action ---------------------------------------------------------------------------------
 
 
 @njit(**_JIT)
-def _y_span(lower, upper, j, start, stop, x, y, z, linearised, parameters, tension, out):
-    """The y-springs from row j - 1 (``lower``, None: the bottom anchors) to row j (``upper``,
-    None: the top anchors) at columns ``start`` .. ``stop - 1`` into ``out`` (3, nx)."""
-    zero = type(parameters.spacing)(0.0)
-    for k in range(stop - start):
-        i = np.uint64(start + k)
-        first = site(i, j - 1, parameters) if lower is None else _end(x, y, z, lower, i, zero)
-        second = site(i, j, parameters) if upper is None else _end(x, y, z, upper, i, zero)
-        _store(out, i, spring_force(first, second, 1, linearised, parameters, None), 1, tension,
-               z)
-
-
-@njit(**_JIT)
-def _y_springs(j, start, stop, x, y, z, linearised, parameters, tension, out):
-    """The y-springs below row j (j = 0: from the bottom anchors; j = ny: to the top ones)."""
-    j = as_row(j)  # a literal 0 would compile the spans once more
-    ny = x.shape[0]
-    start, stop = np.intp(start), np.intp(stop)
-    if j == 0:
-        _y_span(None, j, j, start, stop, x, y, z, linearised, parameters, tension, out)
-    elif j == ny:
-        _y_span(j - 1, None, j, start, stop, x, y, z, linearised, parameters, tension, out)
-    else:
-        _y_span(j - 1, j, j, start, stop, x, y, z, linearised, parameters, tension, out)
-
-
-@njit(**_JIT)
-def _gather_strip(s, x, y, z, parameters, geometry, ends):
-    """Side strip s's particles and the columns on either side of it, transposed into ``ends``
-    (3, width + 2, ny + 2): ``ends[:, m, r]`` the particle of column first_column - 1 + m, row
-    r - 1, or the wall anchor where that is outside the lattice (rows -1 and ny, columns -1
-    and nx).  Down the columns, so that the springs are computed in long loops that
-    vectorise."""
-    width, _, first_column = strip(s, geometry)
-    ny, nx = x.shape
-    for m in range(width + 2):
-        i = first_column - 1 + m
-        for r in (0, ny + 1):
-            anchor = site(i, r - 1, parameters)
-            ends[0, m, r] = anchor[0]
-            ends[1, m, r] = anchor[1]
-        if i < 0 or i >= nx:
-            for r in range(ny):
-                anchor = site(i, r, parameters)
-                ends[0, m, r + 1] = anchor[0]
-                ends[1, m, r + 1] = anchor[1]
-                if z is not None:
-                    ends[2, m, r + 1] = 0.0
-        else:
-            for r in range(ny):
-                ends[0, m, r + 1] = x[r, i]
-                ends[1, m, r + 1] = y[r, i]
-                if z is not None:
-                    ends[2, m, r + 1] = z[r, i]
-
-
-@njit(**_JIT)
-def _column_end(out_of_plane, ends, m, r, zero):
-    """Entry (m, r) of a gathered strip (``_gather_strip``) as a spring end at rest."""
-    depth = ends[2, m, r] if out_of_plane is not None else zero
-    return (ends[0, m, r], ends[1, m, r], depth, zero, zero, zero)
-
-
-@njit(**_JIT)
-def _strip_springs(s, ends, out_of_plane, linearised, parameters, tension, geometry, forces,
-                   column):
-    """Side strip s's springs from its gathered positions ``ends`` into the side buffer
-    ``forces`` (3, dim, slots): each particle's left and right x-springs beyond the rest
-    ``tension`` (N) and the net force of its two y-springs; ``column`` (3, ny + 1) scratch."""
-    width, first_slot, _ = strip(s, geometry)
-    ny = geometry[3]
-    zero = 0.0
-    for m in range(width + 1):  # x-spring m joins gathered columns m and m + 1
-        for k in range(ny):
-            r = np.uint64(k + 1)  # unsigned: no negative-index wrap, so LLVM vectorises
-            force = spring_force(_column_end(out_of_plane, ends, m, r, zero),
-                                 _column_end(out_of_plane, ends, m + 1, r, zero), 0, linearised,
-                                 parameters, None)
-            column[0, k] = force[0] - tension
-            column[1, k] = force[1]
-            column[2, k] = force[2]
-        for c in range(forces.shape[1]):
-            if m < width:  # the left spring of the strip's column m
-                for k in range(ny):
-                    forces[0, c, first_slot + m * ny + k] = column[c, k]
-            if m > 0:  # the right spring of its column m - 1
-                for k in range(ny):
-                    forces[1, c, first_slot + (m - 1) * ny + k] = column[c, k]
-    for m in range(width):  # y-spring r of column m joins gathered rows r and r + 1
-        for k in range(ny + 1):
-            r = np.uint64(k)
-            force = spring_force(_column_end(out_of_plane, ends, m + 1, r, zero),
-                                 _column_end(out_of_plane, ends, m + 1, r + np.uint64(1), zero),
-                                 1, linearised, parameters, None)
-            column[0, k] = force[0]
-            column[1, k] = force[1]
-            column[2, k] = force[2]
-        for c in range(forces.shape[1]):
-            for k in range(ny):
-                forces[2, c, first_slot + m * ny + k] = column[c, k + 1] - column[c, k]
+def _act_part(part, tau, lead, second_half, position, velocity, layer, parameters, tension):
+    """Part ``part``'s action from its springs at the frozen positions, a line at a time: the
+    line's kicks, then the held forces of the springs below it relaxed (both their lines have
+    read them), then the kicks added to the velocities.  Returns the kinetic energy taken out
+    (J)."""
+    geometry = layer.geometry
+    lines, length = geometry[part, LINES], geometry[part, LENGTH]
+    if lines == 0:
+        return 0.0
+    first, axis = geometry[part, FIRST], geometry[part, AXIS]
+    x, y, z = components(layer.out_of_plane, position)
+    block, across, along, kicks = layer.block, layer.across, layer.along, layer.kicks
+    held, relaxed, factors = layer.held, layer.relaxed, layer.factors
+    mass, inverse_mass = layer.mass, layer.inverse_mass
+    linearised = layer.linearised
+    pull = gravity_vector(layer.gravity, 0.0)
+    _gather(part, x, y, z, parameters, geometry, block)
+    below_line = _line(part, 0, x, y, z, geometry, block)
+    this_line = _line(part, 1, x, y, z, geometry, block)
+    _across(below_line, this_line, length, axis, linearised, parameters, tension, across, 0)
+    taken = 0.0
+    for line in range(lines):
+        low, high = line % 2, (line + 1) % 2
+        above_line = _line(part, line + 2, x, y, z, geometry, block)
+        _across(this_line, above_line, length, axis, linearised, parameters, tension, across,
+                high)
+        _along(this_line, first + line, length, axis, linearised, parameters, along)
+        this_line = above_line
+        springs = geometry[part, FACTOR] + line
+        e_low, e_high, e_node = factors[0, springs], factors[0, springs + 1], factors[1, springs]
+        below = geometry[part, HELD] + line * length  # held forces of the springs below the line
+        slots = geometry[part, SLOT] + line * length
+        line_index = first + line
+        stride = np.uint64(length)
+        one = np.uint64(1)
+        for c in range(velocity.shape[0]):
+            g = pull[0] if c == 0 else (pull[1] if c == 1 else pull[2])
+            for k in range(length):
+                i = np.uint64(k)  # unsigned indices: no negative-index wrap, so LLVM vectorises
+                p = np.uint64(slots + k)
+                h = np.uint64(below + k)
+                f_low, f_high = across[low, c, i], across[high, c, i]
+                w = inverse_mass[p]
+                phi, kick = particle_kick(f_low, f_high, held[c, h], held[c, h + stride],
+                                          relaxed[c, p], e_low, e_high, e_node, tau, w,
+                                          second_half)
+                relaxed[c, p] = phi
+                kicks[c, i] = kick
+                ahead = lead * ((f_high - f_low + along[c, i + one] - along[c, i]) * w + g)
+                taken -= 0.5 * mass[p] * kick * (2.0 * ahead + kick)
+            total = held_factor(e_low, second_half)
+            for k in range(length):
+                h = np.uint64(below + k)
+                held[c, h] = relax(across[low, c, np.uint64(k)], held[c, h], total)
+            if line == lines - 1:
+                total = held_factor(e_high, second_half)
+                for k in range(length):
+                    h = np.uint64(below + length + k)
+                    held[c, h] = relax(across[high, c, np.uint64(k)], held[c, h], total)
+            if axis == 1:  # a band's row
+                for k in range(length):
+                    i = np.uint64(k)
+                    before = np.float64(velocity[c, line_index, i])
+                    velocity[c, line_index, i] = before + kicks[c, i]
+                    taken -= mass[np.uint64(slots + k)] * kicks[c, i] * before
+            else:  # a strip's column
+                for k in range(length):
+                    i = np.uint64(k)
+                    before = np.float64(velocity[c, i, line_index])
+                    velocity[c, i, line_index] = before + kicks[c, i]
+                    taken -= mass[np.uint64(slots + k)] * kicks[c, i] * before
+    return taken
 
 
 @njit(**_JIT)
 def act_on(tau, lead, second_half, position, velocity, layer):
     """The layer's action over ``tau`` seconds at frozen positions (see the module docstring),
-    twice in a row when ``second_half`` is True (None: once; a compile-time choice): the side
-    strips' x-layer, then the band rows' y-layer, each from the springs computed here.
+    twice in a row when ``second_half`` is True (None: once; a compile-time choice), from the
+    springs computed here: the side strips', then the bands'.
 
     ``layer``: ``MatchedLayer.arguments``.  Returns the kinetic energy taken out (J), counted
     on the velocities ``lead`` seconds later under the lattice's forces (dt / 2 for a
@@ -231,35 +267,11 @@ def act_on(tau, lead, second_half, position, velocity, layer):
 def act_with(tau, lead, second_half, position, velocity, layer, parameters):
     """``act_on`` with the springs' ``parameters`` given apart from the layer's record (the
     record a threaded sweep takes has None in their place)."""
-    ny, nx = position.shape[1], position.shape[2]
-    x, y, z = components(layer.out_of_plane, position)
-    linearised = layer.linearised
-    tension = rest_tension(linearised, parameters)
+    tension = rest_tension(layer.linearised, parameters)
     taken = 0.0
-    geometry = layer.geometry
-    if geometry[0] + geometry[1] > 0:
-        for s in range(2):
-            if strip(s, geometry)[0] > 0:
-                _gather_strip(s, x, y, z, parameters, geometry, layer.strip_ends)
-                _strip_springs(s, layer.strip_ends, layer.out_of_plane, linearised, parameters,
-                               tension, geometry, layer.side_forces, layer.strip_springs)
-        taken += sides_act(tau, lead, second_half, velocity, layer)
-    buffers = layer.buffers
-    horizontal, below, above = buffers[0], buffers[1], buffers[2]
-    needs = layer.needs
-    fresh = True  # whether ``below`` must be computed (the row below was not a band row)
-    for j in range(ny):
-        if needs[j] == NONE:
-            fresh = True
-            continue
-        if fresh:
-            _y_springs(j, 0, nx, x, y, z, linearised, parameters, tension, below)
-        _y_springs(j + 1, 0, nx, x, y, z, linearised, parameters, tension, above)
-        _x_springs(j, np.intp(0), nx + 1, x, y, z, linearised, parameters, tension, horizontal)
-        taken += band_act(j, tau, lead, second_half, velocity, horizontal, below, above, layer,
-                          0.0)
-        below, above = above, below
-        fresh = False
+    for part in range(layer.geometry.shape[0]):
+        taken += _act_part(part, tau, lead, second_half, position, velocity, layer, parameters,
+                           tension)
     return taken
 
 
@@ -274,6 +286,15 @@ def depth_profile(count: int, near: int, far: int, offset: float) -> np.ndarray:
     if far:
         depth = np.maximum(depth, np.clip((position - (count - 1 - far)) / far, 0.0, 1.0))
     return depth
+
+
+def _span(count: int, near: int, far: int) -> tuple[int, int]:
+    """Where the layers along an axis of ``count`` particles end: the near one covers indices
+    0 .. near_end - 1 (with its inner edge; 0 without a layer), the far one far_start ..
+    count - 1 (count without a layer), never overlapping."""
+    near_end = min(near + 1, count) if near > 0 else 0
+    far_start = max(count - 1 - far, near_end) if far > 0 else count
+    return near_end, far_start
 
 
 class MatchedLayer:
@@ -291,55 +312,55 @@ class MatchedLayer:
         nx, ny, dim = model.nx, model.ny, model.dim
         omega_0 = math.sqrt(model.stiffness / float(np.mean(model.masses)))
         peak = strength * omega_0 * (1.0 + SHIFT)  # the fields' rates, frequency shift included
-        self.rates = dict(  # 1/s
-            node_x=peak * depth_profile(nx, left, right, 0.0) ** POWER,
-            spring_x=peak * depth_profile(nx, left, right, -0.5) ** POWER,
-            node_y=peak * depth_profile(ny, bottom, top, 0.0) ** POWER,
-            spring_y=peak * depth_profile(ny, bottom, top, -0.5) ** POWER,
-        )
-        first_end = min(left + 1, nx) if left > 0 else 0  # with the first column inside
-        last_start = max(nx - 1 - right, first_end) if right > 0 else nx
-        # the side strips' slots (``sim.forces.absorbing_kicks``): the left strip column by
-        # column, then the right
-        widths_of_strips = (first_end, nx - last_start)
-        self.geometry = np.array([*widths_of_strips, last_start, ny], dtype=np.int64)
-        columns = np.concatenate([np.repeat(np.arange(first_end), ny),
-                                  np.repeat(np.arange(last_start, nx), ny)]).astype(np.int64)
-        rows = np.concatenate([np.tile(np.arange(ny), widths_of_strips[0]),
-                               np.tile(np.arange(ny), widths_of_strips[1])]).astype(np.int64)
-        self._slot_columns = columns
-        slots = columns.size
-        band_rows = np.arange(ny)
-        band = ((bottom > 0) & (band_rows <= bottom)) | ((top > 0) & (band_rows >= ny - 1 - top))
-        self.needs = np.where(band, BAND, NONE).astype(np.int64)
-        self.masses = np.ascontiguousarray(model.masses, dtype=np.float64)
-        self._inverse_masses = 1.0 / self.masses
-        self._side_mass = np.ascontiguousarray(self.masses[rows, columns])
-        self._side_inverse_mass = 1.0 / self._side_mass
+        rates = {  # 1/s, of the particles and of the springs (spring i below particle i)
+            0: (peak * depth_profile(nx, left, right, 0.0) ** POWER,
+                peak * depth_profile(nx, left, right, -0.5) ** POWER),
+            1: (peak * depth_profile(ny, bottom, top, 0.0) ** POWER,
+                peak * depth_profile(ny, bottom, top, -0.5) ** POWER),
+        }
+        left_end, right_start = _span(nx, left, right)
+        bottom_end, top_start = _span(ny, bottom, top)
+        parts = {"left": (left_end, 0, 0), "right": (nx - right_start, right_start, 0),
+                 "bottom": (bottom_end, 0, 1), "top": (ny - top_start, top_start, 1)}
+        masses = np.asarray(model.masses, dtype=np.float64)
+        geometry, part_masses, spring_rates, node_rates = [], [], [], []
+        held = slot = factor = 0
+        for name in PARTS:
+            lines, first, axis = parts[name]
+            length = ny if axis == 0 else nx
+            geometry.append((lines, length, first, axis, held, slot, factor))
+            span = slice(first, first + lines)
+            part_masses.append((masses[:, span].T if axis == 0 else masses[span, :]).ravel())
+            node, spring = rates[axis]
+            if lines:
+                spring_rates.append(spring[first:first + lines + 1])
+                node_rates.append(np.append(node[span], 0.0))
+                held += (lines + 1) * length
+                factor += lines + 1
+            slot += lines * length
+        self.geometry = np.array(geometry, dtype=np.int64)
+        self.rates = np.stack([np.concatenate(spring_rates or [np.zeros(0)]),
+                               np.concatenate(node_rates or [np.zeros(0)])])
+        self._mass = np.ascontiguousarray(np.concatenate(part_masses))
+        self._inverse_mass = 1.0 / self._mass
         self._model = model
-        # the fields: the side strips' x-fields (each particle's two held x-spring forces and
-        # phi_x) and the y-fields over whole rows (held y-spring forces, phi_y)
-        self.fields = (np.zeros((dim, slots)), np.zeros((dim, slots)), np.zeros((dim, slots)),
-                       np.zeros((dim, ny + 1, nx)), np.zeros((dim, ny, nx)))
-        self._side_forces = np.zeros((3, dim, slots))
-        self._side_kicks = np.zeros((dim, slots))
-        self._buffers = np.zeros((3, 3, nx + 1))
-        self._strip_ends = np.zeros((3, max(widths_of_strips) + 2, ny + 2))
-        self._strip_springs = np.zeros((3, ny + 1))
-        self._factors: dict[float, tuple] = {}
+        self.fields = (np.zeros((dim, held)), np.zeros((dim, slot)))
+        """The held forces of the springs across the parts' lines and each particle's phi (N)."""
+        longest = max(nx, ny)
+        self._block_shape = (3, int(self.geometry[:, LINES].max()) + 2, longest)
+        self._blocks: dict[type, np.ndarray] = {}
+        self._across = np.zeros((2, 3, longest))
+        self._along = np.zeros((3, longest + 1))
+        self._kicks = np.zeros((dim, longest))
+        self._factors: dict[float, np.ndarray] = {}
         self._revision: int | None = None
 
-    def factors(self, span: float) -> tuple:
-        """exp(-rate span / 2) of the y-springs (ny + 1,) and the particles' rows (ny,), and of
-        each side slot's left x-spring, right x-spring and particle (3, slots)."""
+    def factors(self, span: float) -> np.ndarray:
+        """exp(-rate span / 2) of the springs across the parts' lines and of the lines'
+        particles (2, springs)."""
         factors = self._factors.get(span)
         if factors is None:
-            def factor(name: str) -> np.ndarray:
-                return np.exp(-0.5 * span * self.rates[name])
-            spring_x, node_x = factor("spring_x"), factor("node_x")
-            columns = self._slot_columns
-            side = np.stack([spring_x[columns], spring_x[columns + 1], node_x[columns]])
-            factors = (factor("spring_y"), factor("node_y"), np.ascontiguousarray(side))
+            factors = np.exp(-0.5 * span * self.rates)
             if len(self._factors) > 4:
                 self._factors.clear()
             self._factors[span] = factors
@@ -347,23 +368,22 @@ class MatchedLayer:
 
     def arguments(self, span: float, dtype: type = np.float64, threads: bool = False) -> LayerArguments:
         """The layer's record for spans of ``span`` on a state in ``dtype``, as ``act_on`` and
-        the leapfrog sweep take it (positions in ``sim.forces.absorbing_kicks``); for the sweep on threads
-        without the springs' parameters (None in their place)."""
+        the leapfrog steps take it; for the steps on threads without the springs' parameters
+        (None in their place)."""
         model = self._model
         gravity = np.array(model.gravity, dtype=dtype) if model.has_gravity else None
-        held_left, held_right, relaxed_x, held_y, relaxed_y = self.fields
-        spring_y, node_y, side_factors = self.factors(span)
+        held, relaxed = self.fields
+        block = self._blocks.get(dtype)
+        if block is None:  # the state's precision: a strip's rows and a band's are read alike
+            block = self._blocks[dtype] = np.zeros(self._block_shape, dtype=dtype)
         return LayerArguments(
-            masses=self.masses, held_y=held_y, relaxed_y=relaxed_y, spring_y=spring_y,
-            node_y=node_y, needs=self.needs, out_of_plane=True if model.dim == 3 else None,
+            geometry=self.geometry, held=held, relaxed=relaxed, factors=self.factors(span),
+            mass=self._mass, inverse_mass=self._inverse_mass,
+            out_of_plane=True if model.dim == 3 else None,
             linearised=True if model.linear else None,
             parameters=None if threads else model.kernel_parameters.as_type(dtype),
-            gravity=gravity, buffers=self._buffers, geometry=self.geometry, held_left=held_left,
-            held_right=held_right, relaxed_x=relaxed_x, side_factors=side_factors,
-            side_inverse_mass=self._side_inverse_mass, side_forces=self._side_forces,
-            side_kicks=self._side_kicks, side_mass=self._side_mass,
-            inverse_masses=self._inverse_masses, strip_ends=self._strip_ends,
-            strip_springs=self._strip_springs)
+            gravity=gravity, block=block, across=self._across, along=self._along,
+            kicks=self._kicks)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""
