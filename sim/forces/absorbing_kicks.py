@@ -43,10 +43,11 @@ class LayerArguments(NamedTuple):
     exp(-sigma tau / 2) of the springs across the lines and of the lines' particles; ``mass``,
     ``inverse_mass`` (particles,) kg, 1/kg.  ``out_of_plane``, ``linearised`` compile-time flags
     (None or True); ``parameters`` the springs' ``SpringParameters`` (None on threads, where the
-    sweep passes its own); ``gravity`` (3,) or None.  Scratch: ``block`` (3, lines + 2,
-    length) in the state's precision, a strip's positions and its neighbours', column by column
-    (``sim.forces.absorbing_layer``); ``across`` (2, 3, length) two lines of springs across,
-    ``along`` (3, length + 1) one along a line, ``kicks`` (dim, length).
+    sweep passes its own); ``gravity`` (3,) or None.  Scratch, one per thread: ``block`` (jobs,
+    3, lines + 2, length) in the state's precision, a strip's positions and its neighbours',
+    column by column (``sim.forces.absorbing_layer``); ``across`` (jobs, 2, 3, length) two lines
+    of springs across, ``along`` (jobs, 3, length + 1) one along a line, ``kicks`` (jobs, dim,
+    length).
     """
 
     geometry: object

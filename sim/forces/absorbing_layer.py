@@ -66,6 +66,8 @@ _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 POWER = 2
 """Exponent of the rate's growth with depth."""
+FIRST_BAND = PARTS.index("bottom")
+"""The bottom band's part; the top band's is the next."""
 
 # --- a part's lines and their springs -----------------------------------------------------------
 #
@@ -78,31 +80,33 @@ POWER = 2
 
 
 @njit(**_JIT)
-def _gather(part, x, y, z, parameters, geometry, block):
-    """Into row m of ``block`` (3, lines + 2, length) the positions along line first - 1 + m of
-    part ``part``: for a strip every such column, transposed; for a band only the rows of wall
-    anchors beyond the lattice (its own rows are read in place)."""
-    lines, length = geometry[part, LINES], geometry[part, LENGTH]
-    first, axis = geometry[part, FIRST], geometry[part, AXIS]
+def _gather(part, start, stop, x, y, z, parameters, geometry, block):
+    """Into row m of ``block`` (3, lines + 2, >= stop - start) the positions start .. stop - 1
+    along line first - 1 + m of part ``part``: for a strip every such column, transposed; for a
+    band only the rows of wall anchors beyond the lattice (its own rows are read in place)."""
+    lines, first, axis = geometry[part, LINES], geometry[part, FIRST], geometry[part, AXIS]
     ny, nx = x.shape
     count = nx if axis == 0 else ny  # lines across the lattice
     for m in range(lines + 2):
         line = first - 1 + m
         if line < 0 or line >= count:
-            for k in range(length):
+            for k in range(stop - start):
                 r = np.uint64(k)  # unsigned indices: no negative-index wrap, so LLVM vectorises
-                anchor = site(line, r, parameters) if axis == 0 else site(r, line, parameters)
+                along = start + k
+                anchor = site(line, along, parameters) if axis == 0 else site(along, line,
+                                                                             parameters)
                 block[0, m, r] = anchor[0]
                 block[1, m, r] = anchor[1]
                 block[2, m, r] = anchor[2]
         elif axis == 0:  # a strip's column
             i = np.uint64(line)
-            for k in range(length):
+            for k in range(stop - start):
                 r = np.uint64(k)
-                block[0, m, r] = x[r, i]
-                block[1, m, r] = y[r, i]
+                j = np.uint64(start + k)
+                block[0, m, r] = x[j, i]
+                block[1, m, r] = y[j, i]
                 if z is not None:
-                    block[2, m, r] = z[r, i]
+                    block[2, m, r] = z[j, i]
 
 
 @njit(**_JIT)
@@ -129,6 +133,17 @@ def _end(x, y, z, r, zero):
 
 
 @njit(**_JIT)
+def _beyond(axis, line, along, x, y, z, parameters):
+    """Position ``along`` of line ``line`` (a column when ``axis`` is 0, else a row) as a spring
+    end at rest: a particle, or the wall anchor outside the lattice."""
+    zero = type(parameters.spacing)(0.0)
+    i, j = (line, along) if axis == 0 else (along, line)
+    if 0 <= i < x.shape[1] and 0 <= j < x.shape[0]:
+        return (x[j, i], y[j, i], zero if z is None else z[j, i], zero, zero, zero)
+    return site(i, j, parameters)
+
+
+@njit(**_JIT)
 def _store(out, r, force, tension, axis, z):
     """A spring's force (N) into ``out[:, r]``, beyond the rest ``tension`` along ``axis`` (the
     third component only out of the plane: ``z`` not None)."""
@@ -139,11 +154,11 @@ def _store(out, r, force, tension, axis, z):
 
 
 @njit(**_JIT)
-def _across(low, high, length, axis, linearised, parameters, tension, out, slot):
-    """The springs from line ``low`` to line ``high`` into ``out[slot]`` (3, length), beyond
-    the rest ``tension`` (N) along ``axis``."""
+def _across(low, high, count, axis, linearised, parameters, tension, out, slot):
+    """The ``count`` springs from line ``low`` to line ``high`` into ``out[slot]`` (3, count),
+    beyond the rest ``tension`` (N) along ``axis``."""
     zero = type(parameters.spacing)(0.0)
-    for k in range(length):
+    for k in range(count):
         r = np.uint64(k)  # unsigned: no negative-index wrap, so LLVM vectorises
         force = spring_force(_end(low[0], low[1], low[2], r, zero),
                              _end(high[0], high[1], high[2], r, zero), axis, linearised,
@@ -152,69 +167,74 @@ def _across(low, high, length, axis, linearised, parameters, tension, out, slot)
 
 
 @njit(**_JIT)
-def _along(line, index, length, axis, linearised, parameters, out):
-    """The springs along ``line`` (line ``index`` across the lattice) into ``out`` (3,
-    length + 1): spring q joins positions q - 1 and q, 0 and ``length`` reach the wall anchors
-    at its ends (whole forces, N; their axis is the other one)."""
+def _along(line, before, after, count, axis, linearised, parameters, out):
+    """The springs along the ``count`` positions of ``line`` into ``out`` (3, count + 1): spring
+    q joins positions q - 1 and q; 0 and ``count`` reach the ends ``before`` and ``after``
+    (whole forces, N; their axis is the other one)."""
     zero = type(parameters.spacing)(0.0)
     one = np.uint64(1)
     along = 1 - axis
     x, y, z = line
-    for k in range(length - 1):
+    for k in range(count - 1):
         r = np.uint64(k + 1)
         force = spring_force(_end(x, y, z, r - one, zero), _end(x, y, z, r, zero), along,
                              linearised, parameters, None)
         _store(out, r, force, 0.0, axis, z)
-    before = site(index, -1, parameters) if axis == 0 else site(-1, index, parameters)
-    after = site(index, length, parameters) if axis == 0 else site(length, index, parameters)
     _store(out, 0, spring_force(before, _end(x, y, z, 0, zero), along, linearised, parameters,
                                 None), 0.0, axis, z)
-    _store(out, length, spring_force(_end(x, y, z, length - 1, zero), after, along, linearised,
-                                     parameters, None), 0.0, axis, z)
+    _store(out, count, spring_force(_end(x, y, z, count - 1, zero), after, along, linearised,
+                                    parameters, None), 0.0, axis, z)
 
 
 # --- the action ---------------------------------------------------------------------------------
 
 
 @njit(**_JIT)
-def _act_part(part, tau, lead, second_half, position, velocity, layer, parameters, tension):
-    """Part ``part``'s action from its springs at the frozen positions, a line at a time: the
+def act_part(part, start, stop, job, tau, lead, second_half, position, velocity, layer,
+             parameters, tension):
+    """Part ``part``'s action on the positions start .. stop - 1 along its lines (a strip's rows;
+    a band's every column) from its springs at the frozen positions, a line at a time: the
     line's kicks, then the held forces of the springs below it relaxed (both their lines have
-    read them), then the kicks added to the velocities.  Returns the kinetic energy taken out
-    (J)."""
+    read them), then the kicks added to the velocities.  ``job`` picks the scratch (one per
+    thread).  Returns the kinetic energy taken out (J)."""
     geometry = layer.geometry
     lines, length = geometry[part, LINES], geometry[part, LENGTH]
-    if lines == 0:
+    if lines == 0 or stop <= start:
         return 0.0
     first, axis = geometry[part, FIRST], geometry[part, AXIS]
     x, y, z = components(layer.out_of_plane, position)
-    block, across, along, kicks = layer.block, layer.across, layer.along, layer.kicks
+    block, across, along = layer.block[job], layer.across[job], layer.along[job]
+    kicks = layer.kicks[job]
     held, relaxed, factors = layer.held, layer.relaxed, layer.factors
     mass, inverse_mass = layer.mass, layer.inverse_mass
     linearised = layer.linearised
     pull = gravity_vector(layer.gravity, 0.0)
-    _gather(part, x, y, z, parameters, geometry, block)
-    below_line = _line(part, 0, x, y, z, geometry, block)
+    count = stop - start
+    _gather(part, start, stop, x, y, z, parameters, geometry, block)
     this_line = _line(part, 1, x, y, z, geometry, block)
-    _across(below_line, this_line, length, axis, linearised, parameters, tension, across, 0)
+    _across(_line(part, 0, x, y, z, geometry, block), this_line, count, axis, linearised,
+            parameters, tension, across, 0)
     taken = 0.0
+    stride = np.uint64(length)
+    one = np.uint64(1)
     for line in range(lines):
         low, high = line % 2, (line + 1) % 2
         above_line = _line(part, line + 2, x, y, z, geometry, block)
-        _across(this_line, above_line, length, axis, linearised, parameters, tension, across,
+        _across(this_line, above_line, count, axis, linearised, parameters, tension, across,
                 high)
-        _along(this_line, first + line, length, axis, linearised, parameters, along)
+        line_index = first + line
+        _along(this_line, _beyond(axis, line_index, start - 1, x, y, z, parameters),
+               _beyond(axis, line_index, stop, x, y, z, parameters), count, axis, linearised,
+               parameters, along)
         this_line = above_line
         springs = geometry[part, FACTOR] + line
         e_low, e_high, e_node = factors[0, springs], factors[0, springs + 1], factors[1, springs]
-        below = geometry[part, HELD] + line * length  # held forces of the springs below the line
-        slots = geometry[part, SLOT] + line * length
-        line_index = first + line
-        stride = np.uint64(length)
-        one = np.uint64(1)
+        # held forces of the springs below the line, and the line's particles, from ``start``
+        below = geometry[part, HELD] + line * length + start
+        slots = geometry[part, SLOT] + line * length + start
         for c in range(velocity.shape[0]):
             g = pull[0] if c == 0 else (pull[1] if c == 1 else pull[2])
-            for k in range(length):
+            for k in range(count):
                 i = np.uint64(k)  # unsigned indices: no negative-index wrap, so LLVM vectorises
                 p = np.uint64(slots + k)
                 h = np.uint64(below + k)
@@ -228,25 +248,26 @@ def _act_part(part, tau, lead, second_half, position, velocity, layer, parameter
                 ahead = lead * ((f_high - f_low + along[c, i + one] - along[c, i]) * w + g)
                 taken -= 0.5 * mass[p] * kick * (2.0 * ahead + kick)
             total = held_factor(e_low, second_half)
-            for k in range(length):
+            for k in range(count):
                 h = np.uint64(below + k)
                 held[c, h] = relax(across[low, c, np.uint64(k)], held[c, h], total)
             if line == lines - 1:
                 total = held_factor(e_high, second_half)
-                for k in range(length):
+                for k in range(count):
                     h = np.uint64(below + length + k)
                     held[c, h] = relax(across[high, c, np.uint64(k)], held[c, h], total)
             if axis == 1:  # a band's row
-                for k in range(length):
+                for k in range(count):
                     i = np.uint64(k)
                     before = np.float64(velocity[c, line_index, i])
                     velocity[c, line_index, i] = before + kicks[c, i]
                     taken -= mass[np.uint64(slots + k)] * kicks[c, i] * before
             else:  # a strip's column
-                for k in range(length):
+                for k in range(count):
                     i = np.uint64(k)
-                    before = np.float64(velocity[c, i, line_index])
-                    velocity[c, i, line_index] = before + kicks[c, i]
+                    j = np.uint64(start + k)
+                    before = np.float64(velocity[c, j, line_index])
+                    velocity[c, j, line_index] = before + kicks[c, i]
                     taken -= mass[np.uint64(slots + k)] * kicks[c, i] * before
     return taken
 
@@ -266,13 +287,37 @@ def act_on(tau, lead, second_half, position, velocity, layer):
 @njit(**_JIT)
 def act_with(tau, lead, second_half, position, velocity, layer, parameters):
     """``act_on`` with the springs' ``parameters`` given apart from the layer's record (the
-    record a threaded sweep takes has None in their place)."""
+    record the threaded leapfrog takes has None in their place), on the calling thread."""
     tension = rest_tension(layer.linearised, parameters)
     taken = 0.0
     for part in range(layer.geometry.shape[0]):
-        taken += _act_part(part, tau, lead, second_half, position, velocity, layer, parameters,
-                           tension)
+        taken += act_part(part, 0, layer.geometry[part, LENGTH], 0, tau, lead, second_half,
+                          position, velocity, layer, parameters, tension)
     return taken
+
+
+@njit(**_JIT)
+def strips_act(start, stop, job, tau, lead, second_half, position, velocity, layer,
+               parameters):
+    """The side strips' action on rows start .. stop - 1 (``act_part``): the part of the
+    layer's action a row block's thread takes."""
+    tension = rest_tension(layer.linearised, parameters)
+    taken = 0.0
+    for part in range(len(PARTS)):
+        if layer.geometry[part, AXIS] == 0:
+            taken += act_part(part, start, stop, job, tau, lead, second_half, position,
+                              velocity, layer, parameters, tension)
+    return taken
+
+
+@njit(**_JIT)
+def band_act(band, tau, lead, second_half, position, velocity, layer, parameters):
+    """Band ``band``'s action (0: the bottom one, 1: the top one; ``act_part``), on scratch
+    ``band``: the part of the layer's action a thread takes after the side strips'."""
+    tension = rest_tension(layer.linearised, parameters)
+    part = FIRST_BAND + band
+    return act_part(part, 0, layer.geometry[part, LENGTH], band, tau, lead, second_half,
+                    position, velocity, layer, parameters, tension)
 
 
 def depth_profile(count: int, near: int, far: int, offset: float) -> np.ndarray:
@@ -346,12 +391,8 @@ class MatchedLayer:
         self._model = model
         self.fields = (np.zeros((dim, held)), np.zeros((dim, slot)))
         """The held forces of the springs across the parts' lines and each particle's phi (N)."""
-        longest = max(nx, ny)
-        self._block_shape = (3, int(self.geometry[:, LINES].max()) + 2, longest)
-        self._blocks: dict[type, np.ndarray] = {}
-        self._across = np.zeros((2, 3, longest))
-        self._along = np.zeros((3, longest + 1))
-        self._kicks = np.zeros((dim, longest))
+        self._longest = max(nx, ny)
+        self._scratch: dict[tuple, tuple] = {}
         self._factors: dict[float, np.ndarray] = {}
         self._revision: int | None = None
 
@@ -366,24 +407,34 @@ class MatchedLayer:
             self._factors[span] = factors
         return factors
 
-    def arguments(self, span: float, dtype: type = np.float64, threads: bool = False) -> LayerArguments:
+    def scratch(self, dtype: type, jobs: int) -> tuple:
+        """The kernels' scratch for ``jobs`` threads (``LayerArguments``): ``block`` in the
+        state's precision (a strip's rows and a band's are read alike), the rest in float64."""
+        key = (dtype, jobs)
+        if key not in self._scratch:
+            jobs, longest = max(jobs, 2), self._longest  # the two bands act side by side
+            lines = int(self.geometry[:, LINES].max())
+            self._scratch[key] = (np.zeros((jobs, 3, lines + 2, longest), dtype=dtype),
+                                  np.zeros((jobs, 2, 3, longest)), np.zeros((jobs, 3, longest + 1)),
+                                  np.zeros((jobs, self._model.dim, longest)))
+        return self._scratch[key]
+
+    def arguments(self, span: float, dtype: type = np.float64, threads: bool = False,
+                  jobs: int = 1) -> LayerArguments:
         """The layer's record for spans of ``span`` on a state in ``dtype``, as ``act_on`` and
-        the leapfrog steps take it; for the steps on threads without the springs' parameters
-        (None in their place)."""
+        the leapfrog steps take it; for the steps on threads (``jobs`` of them) without the
+        springs' parameters (None in their place)."""
         model = self._model
         gravity = np.array(model.gravity, dtype=dtype) if model.has_gravity else None
         held, relaxed = self.fields
-        block = self._blocks.get(dtype)
-        if block is None:  # the state's precision: a strip's rows and a band's are read alike
-            block = self._blocks[dtype] = np.zeros(self._block_shape, dtype=dtype)
+        block, across, along, kicks = self.scratch(dtype, jobs)
         return LayerArguments(
             geometry=self.geometry, held=held, relaxed=relaxed, factors=self.factors(span),
             mass=self._mass, inverse_mass=self._inverse_mass,
             out_of_plane=True if model.dim == 3 else None,
             linearised=True if model.linear else None,
             parameters=None if threads else model.kernel_parameters.as_type(dtype),
-            gravity=gravity, block=block, across=self._across, along=self._along,
-            kicks=self._kicks)
+            gravity=gravity, block=block, across=across, along=along, kicks=kicks)
 
     def follow(self, state: Any) -> None:
         """Start the fields from rest when the state was changed from outside."""

@@ -216,7 +216,8 @@ class Verlet(Integrator):
         sponge = None
         if layer is not None:
             threaded_sweep = self.parallel and self._leapfrog and n >= 2
-            sponge = layer.arguments(0.5 * dt, self.dtype, threaded_sweep)
+            sponge = layer.arguments(0.5 * dt, self.dtype, threaded_sweep,
+                                     self._block_starts.size - 1)
         if drive is not None and self._saved.shape[0] < drive.shape[0]:
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
