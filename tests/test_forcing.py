@@ -320,6 +320,25 @@ def test_the_balance_closes_with_the_instruments_inside_verlets_steps(kind):
     assert abs(energy.balance - start) < 2e-3 * exchanged
 
 
+def test_the_layer_inside_verlets_steps_acts_as_between_single_steps():
+    """The fused leapfrog lets the layer act before each sweep, at the positions the sweep kicks
+    with, and counts its take on the half-step velocities half a step on.  Stepped one step at a
+    time, the layer acts between whole velocity-Verlet steps instead (another loop): the same
+    splitting, so the same motion and the same energy taken out and fed in, to rounding."""
+    runs = []
+    for steps, calls in ((400, 1), (1, 400)):
+        simulation = sim.Simulation(instrumented_grid(), integrator="verlet", dt=0.01)
+        for _ in range(calls):
+            simulation.step(steps)
+        runs.append((simulation.positions - simulation.rest_positions, simulation.energy()))
+    (fused, fused_energy), (single, single_energy) = runs
+    moved = np.abs(single).max()
+    assert moved > 1e-3 and single_energy.dissipated > 1e-3
+    assert np.abs(fused - single).max() < 1e-9 * moved
+    assert fused_energy.dissipated == pytest.approx(single_energy.dissipated, rel=1e-9)
+    assert fused_energy.driven == pytest.approx(single_energy.driven, rel=1e-9)
+
+
 @pytest.mark.slow  # the threaded loops with a driver and a layer: kernels of their own
 def test_threads_run_the_instruments_like_one_thread():
     runs = []
