@@ -1,21 +1,27 @@
 """What the absorbing layer costs in velocity Verlet's leapfrog steps, and where.
 
-    .venv/bin/python benchmarks/layer_cost.py                  # default layer and 10 deep
-    .venv/bin/python benchmarks/layer_cost.py --widths 4,6,10 --rounds 20
+    .venv/bin/python benchmarks/layer_cost.py                       # default layer and 10 deep
+    .venv/bin/python benchmarks/layer_cost.py --widths 3 --processes 8
 
 Times ``sim.loops.leapfrog.leapfrog_steps`` itself (one thread, float64) on the 682x383 interference
-lattice: without the layer, with it, and with its side strips or its bands emptied (the
-layer's record with no lines in those parts), so that the side strips' part, the bands' part
-and what is left when both are empty (the calls) are told apart.  Each
-variant runs ``--steps`` steps per round from the same state; the best round of each counts,
-the variants interleaved round by round.  ``oscillators bench`` measures the whole
-``Simulation.step`` (its "instruments" line); this splits the sweep.
+lattice: without the layer, with it, and with its side strips or its bands emptied (the layer's
+record with no lines in those parts), so that the side strips' part, the bands' part and what is
+left when both are empty are told apart.  Each variant is timed in a process of its own (best of
+``--rounds`` rounds of ``--steps`` steps from the same state), the variants' processes
+alternating, ``--processes`` of each; the median of a variant's processes counts.  Every
+process loads both kernels (with the layer and without) in the same order, so that each variant
+runs among the same code: the same sweep runs several per cent faster or slower from one
+process to the next, with what else the process loaded before it.  ``oscillators bench``
+measures the whole ``Simulation.step`` (its "instruments" line); this splits the layer's part.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import statistics
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -25,33 +31,51 @@ from sim.forces.absorbing_kicks import LINES, PARTS
 from sim.loops import leapfrog
 from sim.runtime.warming import REHEARSED_STEPS, rehearse_reading
 
-
-def sweep(simulation: sim.Simulation):
-    """A function running n leapfrog steps of ``simulation``'s state with a given layer tuple
-    (None: without the layer)."""
-    stepper = simulation._integrator
-    kernel = stepper.kernel
-    state = simulation.state
-    dt = stepper._dt(simulation.dt)
-
-    def run(layer, steps: int) -> None:
-        leapfrog.leapfrog_steps(
-            steps, dt, *kernel, state.positions, state.velocities, stepper._block_starts,
-            stepper._leapfrog_work, 0.0, None, stepper._saved, layer, np.zeros((1, 2)))
-    return run
+VARIANTS = ("plain", "layer", "bands only", "side strips only", "both emptied")
+"""The variants timed: without the layer, with it, and with parts of it emptied."""
 
 
-def variants(simulation: sim.Simulation) -> dict:
-    """The layer's tuple as the sweep takes it, and the same with parts emptied."""
+def layer_record(simulation: sim.Simulation, variant: str):
+    """The layer's record as the steps take it for ``variant`` (None: without the layer)."""
+    if variant == "plain":
+        return None
     full = simulation._integrator.sponge.arguments(0.5 * simulation.dt, np.float64)
+    emptied = {"layer": (), "bands only": ("left", "right"),
+               "side strips only": ("bottom", "top"), "both emptied": PARTS}[variant]
+    geometry = full.geometry.copy()
+    geometry[[PARTS.index(part) for part in emptied], LINES] = 0
+    return full._replace(geometry=geometry)
 
-    def emptied(*parts: str):
-        geometry = full.geometry.copy()
-        geometry[[PARTS.index(part) for part in parts], LINES] = 0
-        return full._replace(geometry=geometry)
-    return {"layer": full, "bands only": emptied("left", "right"),
-            "side strips only": emptied("bottom", "top"),
-            "both emptied": emptied(*PARTS)}
+
+def time_variant(width: int, variant: str, rounds: int, steps: int) -> float:
+    """Best seconds per step of ``variant`` over ``rounds`` rounds, in this process."""
+    scene = sim.scenes.build("interference")
+    model = scene.model.replace(boundary="absorbing", sponge_width=width)
+    layered = dataclasses.replace(scene, model=model)
+    # both kernels in every process, loaded in the same order, so that every variant runs among
+    # the same code; read from numba's cache, compiled apart if missing (kernels compiled in
+    # this process would run slower: sim.runtime.warming, "Compiled apart")
+    for kernels in (scene, layered):
+        rehearse_reading(kernels, ("verlet", scene.dt, "float64", 1, REHEARSED_STEPS))
+        simulation = sim.Simulation(kernels, integrator="verlet")
+        simulation.step(100)  # waves in the layer
+    stepper, state = simulation._integrator, simulation.state
+    dt = stepper._dt(simulation.dt)
+    layer = layer_record(simulation, variant)
+    start = state.positions.copy(), state.velocities.copy()
+
+    def run(count: int) -> None:
+        leapfrog.leapfrog_steps(
+            count, dt, *stepper.kernel, state.positions, state.velocities, stepper._block_starts,
+            stepper._leapfrog_work, 0.0, None, stepper._saved, layer, np.zeros((1, 2)))
+    run(1)
+    best = float("inf")
+    for _ in range(rounds):
+        state.positions[...], state.velocities[...] = start
+        started = time.perf_counter()
+        run(steps)
+        best = min(best, (time.perf_counter() - started) / steps)
+    return best
 
 
 def main() -> None:
@@ -59,41 +83,36 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--widths", default=f"{sim.model.boundaries.DEFAULT_LAYER_WIDTH},10",
                         help="layer widths in particles (default: the default layer's and 10)")
-    parser.add_argument("--rounds", type=int, default=10)
-    parser.add_argument("--steps", type=int, default=10)
+    parser.add_argument("--rounds", type=int, default=20, help="rounds per process")
+    parser.add_argument("--steps", type=int, default=20, help="steps per round")
+    parser.add_argument("--processes", type=int, default=5, help="processes per variant")
+    parser.add_argument("--variant", choices=VARIANTS, help=argparse.SUPPRESS)
     arguments = parser.parse_args()
     widths = [int(w) for w in arguments.widths.split(",")]
-    measure(widths, arguments.rounds, arguments.steps)
-
-
-def measure(widths: list[int], rounds: int, steps: int) -> None:
-    """Time and print the variants for each layer width."""
-    scene = sim.scenes.build("interference")
+    if arguments.variant:  # one process's timing, for the parent
+        print(time_variant(widths[0], arguments.variant, arguments.rounds, arguments.steps))
+        return
     for width in widths:
-        model = scene.model.replace(boundary="absorbing", sponge_width=width)
-        for kernels in (dataclasses.replace(scene, model=model), scene):
-            # read from numba's cache, compiled apart if missing: kernels compiled in this
-            # process would run slower (sim.runtime.warming, "Compiled apart")
-            rehearse_reading(kernels, ("verlet", scene.dt, "float64", 1, REHEARSED_STEPS))
-        simulation = sim.Simulation(dataclasses.replace(scene, model=model), integrator="verlet")
-        simulation.step(100)  # waves in the layer
-        start = simulation.state.positions.copy(), simulation.state.velocities.copy()
-        run = sweep(simulation)
-        cases = {"plain": None, **variants(simulation)}
-        for layer in cases.values():
-            run(layer, 1)
-        best = dict.fromkeys(cases, float("inf"))
-        for _ in range(rounds):
-            for name, layer in cases.items():
-                simulation.state.positions[...], simulation.state.velocities[...] = start
-                started = time.perf_counter()
-                run(layer, steps)
-                best[name] = min(best[name], (time.perf_counter() - started) / steps)
-        plain = best["plain"]
-        print(f"layer {width} particles deep, {model.nx}x{model.ny}, ms per step "
-              f"(ratio to the plain sweep):")
-        for name, seconds in best.items():
-            print(f"  {name:18s} {seconds * 1e3:7.3f} ms  {seconds / plain:5.2f}x")
+        measure(width, arguments.rounds, arguments.steps, arguments.processes)
+
+
+def measure(width: int, rounds: int, steps: int, processes: int) -> None:
+    """Time every variant in ``processes`` processes each, alternating, and print the medians."""
+    times: dict[str, list[float]] = {variant: [] for variant in VARIANTS}
+    for _ in range(processes):
+        for variant in VARIANTS:
+            output = subprocess.run(
+                [sys.executable, __file__, "--widths", str(width), "--rounds", str(rounds),
+                 "--steps", str(steps), "--variant", variant],
+                check=True, capture_output=True, text=True).stdout
+            times[variant].append(float(output.split()[-1]))
+    plain = statistics.median(times["plain"])
+    print(f"layer {width} particles deep, 682x383, ms per step, median of {processes} processes "
+          f"(ratio to the plain sweep; the processes' range):")
+    for variant, seconds in times.items():
+        median = statistics.median(seconds)
+        print(f"  {variant:18s} {median * 1e3:7.3f} ms  {median / plain:5.2f}x  "
+              f"({min(seconds) * 1e3:.3f}-{max(seconds) * 1e3:.3f})")
 
 
 if __name__ == "__main__":
