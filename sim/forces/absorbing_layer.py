@@ -297,27 +297,31 @@ def act_with(tau, lead, second_half, position, velocity, layer, parameters):
 
 
 @njit(**_JIT)
-def strips_act(start, stop, job, tau, lead, second_half, position, velocity, layer,
-               parameters):
-    """The side strips' action on rows start .. stop - 1 (``act_part``): the part of the
-    layer's action a row block's thread takes."""
+def block_act(b, block_starts, tau, lead, second_half, position, velocity, layer, parameters):
+    """The part of the layer's action (``act_with``) that row block b's thread takes on scratch
+    b: the side strips over the block's rows, and the bottom band in the first block, the top
+    band in the last.  A band's rows belong to the block of its band, strips included, so
+    that no two threads kick one particle (a corner).  Returns the kinetic energy taken out
+    (J)."""
+    geometry = layer.geometry
+    blocks = block_starts.size - 1
+    ny = position.shape[1]
+    bottom, top = FIRST_BAND, FIRST_BAND + 1
+    bottom_end = geometry[bottom, LINES]
+    top_start = geometry[top, FIRST] if geometry[top, LINES] > 0 else ny
+    start = 0 if b == 0 else min(max(block_starts[b], bottom_end), top_start)
+    stop = ny if b == blocks - 1 else min(max(block_starts[b + 1], bottom_end), top_start)
     tension = rest_tension(layer.linearised, parameters)
     taken = 0.0
     for part in range(len(PARTS)):
-        if layer.geometry[part, AXIS] == 0:
-            taken += act_part(part, start, stop, job, tau, lead, second_half, position,
-                              velocity, layer, parameters, tension)
+        if geometry[part, AXIS] == 0:
+            taken += act_part(part, start, stop, b, tau, lead, second_half, position, velocity,
+                              layer, parameters, tension)
+    for part, owner in ((bottom, 0), (top, blocks - 1)):
+        if b == owner:
+            taken += act_part(part, 0, geometry[part, LENGTH], b, tau, lead, second_half,
+                              position, velocity, layer, parameters, tension)
     return taken
-
-
-@njit(**_JIT)
-def band_act(band, tau, lead, second_half, position, velocity, layer, parameters):
-    """Band ``band``'s action (0: the bottom one, 1: the top one; ``act_part``), on scratch
-    ``band``: the part of the layer's action a thread takes after the side strips'."""
-    tension = rest_tension(layer.linearised, parameters)
-    part = FIRST_BAND + band
-    return act_part(part, 0, layer.geometry[part, LENGTH], band, tau, lead, second_half,
-                    position, velocity, layer, parameters, tension)
 
 
 def depth_profile(count: int, near: int, far: int, offset: float) -> np.ndarray:
@@ -412,7 +416,7 @@ class MatchedLayer:
         state's precision (a strip's rows and a band's are read alike), the rest in float64."""
         key = (dtype, jobs)
         if key not in self._scratch:
-            jobs, longest = max(jobs, 2), self._longest  # the two bands act side by side
+            longest = self._longest
             lines = int(self.geometry[:, LINES].max())
             self._scratch[key] = (np.zeros((jobs, 3, lines + 2, longest), dtype=dtype),
                                   np.zeros((jobs, 2, 3, longest)), np.zeros((jobs, 3, longest + 1)),

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from sim.forces.absorbing_layer import act_with, band_act, strips_act
+from sim.forces.absorbing_layer import act_with, block_act
 from sim.forces.drive_table import leapfrog_drive, save_driven
 from sim.forces.springs import (
     components,
@@ -143,8 +143,9 @@ def leapfrog_steps(n, dt, terms, parameters, position, velocity, block_starts, w
 def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_starts, work,
                             time=0.0, drive=None, saved=None, sponge=None, totals=None):
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
-    threads (``prange``; ``numba.set_num_threads`` sets how many), and the layer's action too:
-    its side strips by row block (nothing moves while it acts), then its two bands.  The
+    threads (``prange``; ``numba.set_num_threads`` sets how many), and the layer's action too,
+    in the same parallel loop as the boundary springs (nothing moves while it acts): each
+    block's side strips, the bands in the first and last blocks (``block_act``).  The
     layer's record comes without its springs' parameters (``MatchedLayer.arguments(threads=True,
     jobs=blocks)``: numba's parallel loops do not take them inside a record; ``parameters`` are
     the same).  The loop bodies are functions of their own: numba's parallel transformation of
@@ -155,17 +156,15 @@ def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_
     blocks = block_starts.size - 1
     half = 0.5 * float(dt)
     for step in range(n):
-        if sponge is not None:  # the side strips by row block, then the two bands side by side
-            taken = 0.0
-            for b in prange(blocks):
-                taken += strips_act(block_starts[b], block_starts[b + 1], b, half, half, True,
-                                    position, velocity, sponge, parameters)
-            for band in prange(2):
-                taken += band_act(band, half, half, True, position, velocity, sponge, parameters)
-            totals[0, 1] += taken
-        for b in prange(blocks + 1):
+        taken = 0.0
+        for b in prange(blocks + 1):  # the layer's part of each block, and the springs below it
+            if sponge is not None and b < blocks:
+                taken += block_act(b, block_starts, half, half, True, position, velocity, sponge,
+                                   parameters)
             _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
                               work.boundary)
+        if sponge is not None:
+            totals[0, 1] += taken
         for b in prange(blocks):
             _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
                             time + step * float(dt), drive, saved, totals)
