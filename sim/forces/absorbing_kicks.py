@@ -9,10 +9,10 @@ y for a band); its particles' low and high springs along that axis (left and rig
 above) join it to the lines on either side, and the springs along the line add their net force.
 So one computation, over a line at a time, serves every part.
 
-Each kick returns the kinetic energy it took out (J), measured on the velocities ``lead``
-seconds later under the lattice's forces (a leapfrog's half-step velocities are measured half a
-step on, at the whole step); kicks applied one after another measure from the velocity the
-previous one left, so their takes add up exactly.
+The action (``sim.forces.absorbing_layer.act_part``) counts the kinetic energy each kick takes
+out (J) on the velocities ``lead`` seconds later under the lattice's forces (a leapfrog's
+half-step velocities are measured half a step on, at the whole step); kicks applied one after
+another measure from the velocity the previous one left, so their takes add up exactly.
 """
 
 from __future__ import annotations
