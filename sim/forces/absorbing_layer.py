@@ -288,12 +288,8 @@ def act_on(tau, lead, second_half, position, velocity, layer):
 def act_with(tau, lead, second_half, position, velocity, layer, parameters):
     """``act_on`` with the springs' ``parameters`` given apart from the layer's record (the
     record the threaded leapfrog takes has None in their place), on the calling thread."""
-    tension = rest_tension(layer.linearised, parameters)
-    taken = 0.0
-    for part in range(layer.geometry.shape[0]):
-        taken += act_part(part, 0, layer.geometry[part, LENGTH], 0, tau, lead, second_half,
-                          position, velocity, layer, parameters, tension)
-    return taken
+    return _rows_act(0, position.shape[1], 0, True, True, tau, lead, second_half, position,
+                     velocity, layer, parameters)
 
 
 @njit(**_JIT)
@@ -306,20 +302,30 @@ def block_act(b, block_starts, tau, lead, second_half, position, velocity, layer
     geometry = layer.geometry
     blocks = block_starts.size - 1
     ny = position.shape[1]
-    bottom, top = FIRST_BAND, FIRST_BAND + 1
-    bottom_end = geometry[bottom, LINES]
-    top_start = geometry[top, FIRST] if geometry[top, LINES] > 0 else ny
+    bottom_end = geometry[FIRST_BAND, LINES]
+    top_start = geometry[FIRST_BAND + 1, FIRST] if geometry[FIRST_BAND + 1, LINES] > 0 else ny
     start = 0 if b == 0 else min(max(block_starts[b], bottom_end), top_start)
     stop = ny if b == blocks - 1 else min(max(block_starts[b + 1], bottom_end), top_start)
+    return _rows_act(start, stop, b, b == 0, b == blocks - 1, tau, lead, second_half, position,
+                     velocity, layer, parameters)
+
+
+@njit(**_JIT)
+def _rows_act(start, stop, job, bottom, top, tau, lead, second_half, position, velocity, layer,
+              parameters):
+    """The side strips' action over rows start .. stop - 1, then the bottom band's and the top
+    band's where ``bottom``, ``top``, on scratch ``job`` (``act_part``).  Returns the kinetic
+    energy taken out (J)."""
+    geometry = layer.geometry
     tension = rest_tension(layer.linearised, parameters)
     taken = 0.0
     for part in range(len(PARTS)):
-        if geometry[part, AXIS] == 0:
-            taken += act_part(part, start, stop, b, tau, lead, second_half, position, velocity,
-                              layer, parameters, tension)
-    for part, owner in ((bottom, 0), (top, blocks - 1)):
-        if b == owner:
-            taken += act_part(part, 0, geometry[part, LENGTH], b, tau, lead, second_half,
+        band = geometry[part, AXIS] == 1
+        if not band:
+            taken += act_part(part, start, stop, job, tau, lead, second_half, position,
+                              velocity, layer, parameters, tension)
+        elif (bottom and part == FIRST_BAND) or (top and part == FIRST_BAND + 1):
+            taken += act_part(part, 0, geometry[part, LENGTH], job, tau, lead, second_half,
                               position, velocity, layer, parameters, tension)
     return taken
 
