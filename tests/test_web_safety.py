@@ -477,3 +477,25 @@ def test_a_refused_value_is_replaced_by_the_value_in_use_in_every_folder(web_app
     settle(web_app)
     assert panel.selection.mass.value == mass
     assert "refused" in panel.selection.message.content
+
+
+def test_the_gate_lets_a_button_groups_names_through_and_nothing_else(web_app):
+    """A button group's press arrives as the name of the button pressed; a plain button's as
+    True.  Anything else is refused before a callback runs."""
+    from types import SimpleNamespace
+
+    gate, panel = web_app.gate, web_app.panel
+    gate.connected.add(99)
+
+    def verdict(handle: Any, value: Any) -> str | None:
+        message = SimpleNamespace(uuid=handle._impl.uuid, updates={"value": value})
+        return gate.accept_page_value(99, message)
+
+    group = panel.selection.select_buttons
+    for name in ("particle", "row", "column", "none"):
+        assert verdict(group, name) is None
+    for bad in (True, "rows", "", None, 3, ["row"]):
+        assert "button group" in verdict(group, bad)
+    button = panel.scene.build_button
+    assert verdict(button, True) is None
+    assert "only a press" in verdict(button, "particle")

@@ -208,6 +208,16 @@ class _Bounds:
     max: float | None
 
 
+def _press_refusal(value: Any, options: Any) -> str | None:
+    """Why a press of a button is refused, or None: a button sends ``True``; a button group
+    sends the name of the button pressed, one of its ``options``."""
+    if options is None:
+        return None if value is True else "a button takes only a press"
+    if isinstance(value, str) and value in options:
+        return None
+    return f"a button group takes only one of its buttons' names, not {value!r:.40}"
+
+
 def _type_refusal(current: Any, value: Any, props: Any) -> str | None:
     """Why ``value`` cannot be a control's value whose value in use is ``current``, or None."""
     if isinstance(current, bool):
@@ -313,7 +323,7 @@ class PageGate:
             return f"sets {names!r:.60}; a page may set only a control's value"
         state = viser_adapter.control_state(handle)
         if state.is_button:
-            return None if updates["value"] is True else "a button takes only a press"
+            return _press_refusal(updates["value"], getattr(state.props, "options", None))
         if getattr(state.props, "disabled", False):
             return "for a control that is disabled"
         reason = _type_refusal(state.value, updates["value"], state.props)
