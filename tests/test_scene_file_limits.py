@@ -4,6 +4,7 @@ lattice larger than its particle limit, from an upload or from the server's scen
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
@@ -14,7 +15,7 @@ import viser
 
 import sim
 from app.web.scene_files import MAX_PAGE_PARTICLES, SceneDirectory
-from tests.lying_zip import write_lying_zip
+from tests.lying_zip import many_member_zip, write_lying_zip
 from tests.test_web_safety import send
 
 REPO = Path(__file__).resolve().parent.parent
@@ -58,7 +59,44 @@ def test_a_member_is_refused_the_moment_it_inflates_past_the_limit(tmp_path):
         sim.scenes.scene_files.from_bytes((tmp_path / "big.zip").read_bytes(), "big.zip")
     with zipfile.ZipFile(tmp_path / "big.zip") as archive:
         with pytest.raises(sim.SceneError, match="unpacks to more than the 1,048,576 bytes"):
-            sim.scenes.scene_files._read_member(archive, archive.infolist()[0], 2**20, "big.zip")
+            sim.scenes.scene_archives.read_member(archive, archive.infolist()[0], 2**20, "big.zip")
+
+
+MANY = 700_000
+"""Members of the many-member zip: 61 MB, under the upload limit; most of it directory."""
+
+
+def test_a_zip_of_many_members_is_refused_before_its_directory_is_read(tmp_path):
+    """``zipfile`` reads the whole directory as it opens an archive; the end record is read
+    first, so the refusal costs a few MB whatever the member count."""
+    (tmp_path / "many.zip").write_bytes(many_member_zip(MANY))
+    (tmp_path / "broken.zip").write_bytes(b"PK\x03\x04 not a zip")
+    _, idle, _ = run_cli(["run", "broken.zip"], tmp_path)
+    code, peak, error = run_cli(["run", "many.zip"], tmp_path)
+    assert code == 2 and f"lists {MANY:,} members; at most 2" in error, error
+    assert error.count("\n") <= 2, error
+    assert peak - idle < 8, f"peak {peak:.0f} MB refusing {MANY:,} members, {idle:.0f} MB idle"
+
+
+def test_an_uploaded_zip_of_many_members_is_refused_with_little_memory(web_app):
+    """The page's upload: the archive's own bytes, and a few kB more to refuse it."""
+    import tracemalloc
+
+    data = many_member_zip(MANY)
+    before = web_app.runner.simulation.model
+    tracemalloc.start()
+    try:
+        send(web_app.panel.scene.files.upload_button, viser.UploadedFile("many.zip", data))
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    said = web_app.panel.scene.message.content
+    assert "could not open many.zip" in said and f"{MANY:,} members" in said, said
+    assert web_app.runner.simulation.model is before
+    assert peak < 2**20, f"{peak:,} bytes traced refusing {MANY:,} members"
+    npz = many_member_zip(4)
+    with pytest.raises(sim.SceneError, match="lists 4 members; at most 3"):
+        sim.scenes.scene_archives.read_arrays(io.BytesIO(npz), 2, 2, 2, "arrays.npz")
 
 
 LARGE = f'name = "large"\n[model]\nnx = 2000\nny = {MAX_PAGE_PARTICLES // 2000 + 1}\n'

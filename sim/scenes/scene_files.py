@@ -29,6 +29,13 @@ import tomli_w
 from sim.model import schema
 from sim.model.lattice import Model, ModelError, _whole_number, check_size
 from sim.scenes.building import OVERRIDES, Scene, SceneError
+from sim.scenes.scene_archives import (
+    NPY_HEADER_BYTES,
+    expected_shapes,
+    read_arrays,
+    read_member,
+    small_zip,
+)
 from sim.storage.files import AtomicFile, write_bytes
 
 FORMAT_VERSION = 1
@@ -40,12 +47,6 @@ most 64 sparse displacement rows before it moves them to the ``.npz``."""
 MAX_UPLOAD_BYTES = 64 * 2**20
 """Largest scene given to ``from_bytes`` (64 MB): the masses, displacements and velocities of the
 682x383 interference lattice take 10.4 MB uncompressed."""
-
-ARRAY_MEMBERS = ("masses", "displacements", "velocities")
-"""The arrays an ``.npz`` scene file may hold; any other member is refused."""
-
-_NPY_HEADER_BYTES = 4096
-"""Room allowed for the ``.npy`` header of each member (numpy writes 128 bytes)."""
 
 _ZIP_MAGIC = b"PK\x03\x04"
 
@@ -163,10 +164,11 @@ def _inside(path: Path, root: Path | None, what: str) -> None:
         raise SceneError(f"the {what} {path} is outside {root}")
 
 
-def _read_regular_file(path: Path, limit: int, what: str) -> bytes:
+def _read_regular_file(path: Path, limit: int, what: str, zip_members: int = 0) -> bytes:
     """The content of ``path`` if it is a regular file of at most ``limit`` bytes.  A directory,
     a device or a named pipe is refused before it is opened (and the opened file is checked
-    again, without blocking, in case it was swapped meanwhile)."""
+    again, without blocking, in case it was swapped meanwhile).  ``zip_members``: the file is a
+    zip archive of at most that many members, checked before it is read (``small_zip``)."""
     try:
         status = os.stat(path)
     except OSError as error:
@@ -184,6 +186,8 @@ def _read_regular_file(path: Path, limit: int, what: str) -> bytes:
     with os.fdopen(descriptor, "rb") as stream:
         if not stat.S_ISREG(os.fstat(stream.fileno()).st_mode):
             raise SceneError(f"{path} is not a regular file; a {what} must be one")
+        if zip_members:
+            small_zip(stream, zip_members, f"{what} {path}", open_it=False)
         content = stream.read(limit + 1)
     if len(content) > limit:
         raise SceneError(f"{what} {path} is more than the {limit:,} bytes allowed")
@@ -217,72 +221,6 @@ def _lattice_shape(model_table: dict[str, Any], label: str) -> tuple[int, int, i
     return nx, ny, int(dim)
 
 
-def _expected_shapes(nx: int, ny: int, dim: int) -> dict[str, tuple[tuple[int, ...], ...]]:
-    n = nx * ny
-    return {"masses": ((ny, nx), (n,)), "displacements": ((n, dim),), "velocities": ((n, dim),)}
-
-
-def read_arrays(source: Any, nx: int, ny: int, dim: int, label: str) -> dict[str, np.ndarray]:
-    """The arrays of an ``.npz`` scene file (a path or a binary file object) for an nx x ny
-    lattice in ``dim`` dimensions.
-
-    Before any array is read, every member is checked: its name is one of ``ARRAY_MEMBERS``
-    (other members are refused), its ``.npy`` header gives a numeric dtype of at most 8 bytes and
-    the shape the lattice needs (masses (ny, nx) or (n_particles,), displacements and velocities
-    (n_particles, dim)), and its uncompressed size in the zip directory fits that shape.  So a
-    small file that would unpack to gigabytes is refused without allocating.  Never unpickles.
-    """
-    shapes = _expected_shapes(nx, ny, dim)
-    largest = {key: max(math.prod(shape) for shape in options) * 8 + _NPY_HEADER_BYTES
-               for key, options in shapes.items()}
-    try:
-        with zipfile.ZipFile(source) as archive:
-            members = archive.infolist()
-            if len(members) > len(ARRAY_MEMBERS):
-                raise SceneError(f"{label} has {len(members)} members; at most "
-                                 f"{len(ARRAY_MEMBERS)} ({', '.join(ARRAY_MEMBERS)}) are allowed")
-            checked: dict[str, zipfile.ZipInfo] = {}
-            for info in members:
-                key = info.filename.removesuffix(".npy")
-                if key not in shapes or not info.filename.endswith(".npy") or key in checked:
-                    raise SceneError(f"{label}: unexpected member {info.filename!r} (allowed: "
-                                     f"{', '.join(name + '.npy' for name in ARRAY_MEMBERS)})")
-                if info.file_size > largest[key]:
-                    raise SceneError(f"{label}: {info.filename} unpacks to {info.file_size:,} "
-                                     f"bytes, more than a {nx}x{ny} lattice needs")
-                with archive.open(info) as member:
-                    shape, dtype = _npy_header(member, f"{label}: {info.filename}")
-                if shape not in shapes[key]:
-                    wanted = " or ".join(str(option) for option in shapes[key])
-                    raise SceneError(f"{label}: {key} has shape {shape}; a {nx}x{ny} lattice in "
-                                     f"{dim}-D needs {wanted}")
-                if dtype.kind not in "fiu" or dtype.itemsize > 8 or dtype.hasobject:
-                    raise SceneError(f"{label}: {key} has dtype {dtype}; want float64 numbers")
-                if info.file_size > math.prod(shape) * dtype.itemsize + _NPY_HEADER_BYTES:
-                    raise SceneError(f"{label}: {info.filename} is larger than its header says")
-                checked[key] = info
-            arrays = {}
-            for key, info in checked.items():
-                with archive.open(info) as member:
-                    arrays[key] = np.lib.format.read_array(member, allow_pickle=False)
-            return arrays
-    except SceneError:
-        raise
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile) as error:
-        raise SceneError(f"cannot read the array file {label}: {error}") from None
-
-
-def _npy_header(member: Any, label: str) -> tuple[tuple[int, ...], np.dtype]:
-    version = np.lib.format.read_magic(member)
-    if version == (1, 0):
-        shape, _, dtype = np.lib.format.read_array_header_1_0(member)
-    elif version == (2, 0):
-        shape, _, dtype = np.lib.format.read_array_header_2_0(member)
-    else:
-        raise SceneError(f"{label}: unsupported .npy version {version}")
-    return tuple(int(size) for size in shape), np.dtype(dtype)
-
-
 def load(path: str | Path, *, within: str | Path | None = None,
          max_particles: int | None = None) -> Scene:
     """Read a scene file written by ``save`` (or by hand).  Raises ``SceneError`` saying what is
@@ -304,8 +242,8 @@ def load(path: str | Path, *, within: str | Path | None = None,
     def arrays_for(nx: int, ny: int, dim: int) -> dict[str, np.ndarray]:
         array_path = path.parent / _array_file_name(document, str(path))
         _inside(array_path, root, "array file")
-        shapes = _expected_shapes(nx, ny, dim)
-        limit = sum(max(math.prod(shape) for shape in options) * 8 + 2 * _NPY_HEADER_BYTES
+        shapes = expected_shapes(nx, ny, dim)
+        limit = sum(max(math.prod(shape) for shape in options) * 8 + 2 * NPY_HEADER_BYTES
                     for options in shapes.values()) + 2**16
         content = _read_regular_file(array_path, limit, "array file")
         return read_arrays(io.BytesIO(content), nx, ny, dim, str(array_path))
@@ -318,8 +256,8 @@ def load_file(path: str | Path, *, max_particles: int | None = None) -> Scene:
     makes (read as a regular file of at most ``MAX_UPLOAD_BYTES``, then ``from_bytes``)."""
     path = Path(path)
     if path.suffix.lower() == ".zip":
-        return from_bytes(_read_regular_file(path, MAX_UPLOAD_BYTES, "scene archive"), path.name,
-                          max_particles=max_particles)
+        return from_bytes(_read_regular_file(path, MAX_UPLOAD_BYTES, "scene archive", 2),
+                          path.name, max_particles=max_particles)
     return load(path, max_particles=max_particles)
 
 
@@ -331,7 +269,7 @@ def from_bytes(data: bytes, filename: str, *, max_particles: int | None = None) 
     The same checks as ``load``: at most ``MAX_UPLOAD_BYTES`` in all and ``MAX_SCENE_FILE_BYTES``
     of TOML; a zip holds exactly one ``.toml`` member and at most one ``.npz`` member, both bare
     names (no directories), their sizes checked in the zip directory and again while they are
-    inflated (a running count, ``_read_member``);
+    inflated (a running count, ``read_member``);
     the TOML's ``[arrays] file`` names the ``.npz`` member; the arrays are checked as by
     ``read_arrays``.  Nothing is written to disk.
     """
@@ -348,7 +286,7 @@ def from_bytes(data: bytes, filename: str, *, max_particles: int | None = None) 
 
         return _scene_from_document(document, label, Path(label).stem, no_arrays, max_particles)
     try:
-        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+        with small_zip(io.BytesIO(data), 2, label) as archive:
             members = archive.infolist()
             names = [info.filename for info in members]
             tomls = [info for info in members if info.filename.endswith(".toml")]
@@ -365,9 +303,9 @@ def from_bytes(data: bytes, filename: str, *, max_particles: int | None = None) 
             if npzs and npzs[0].file_size > MAX_UPLOAD_BYTES:
                 raise SceneError(f"{label}: {npzs[0].filename} is larger than the "
                                  f"{MAX_UPLOAD_BYTES:,} bytes allowed")
-            document = _parse_toml(_read_member(archive, tomls[0], MAX_SCENE_FILE_BYTES, label),
+            document = _parse_toml(read_member(archive, tomls[0], MAX_SCENE_FILE_BYTES, label),
                                    f"{label}: {tomls[0].filename}")
-            npz = _read_member(archive, npzs[0], MAX_UPLOAD_BYTES, label) if npzs else None
+            npz = read_member(archive, npzs[0], MAX_UPLOAD_BYTES, label) if npzs else None
     except SceneError:
         raise
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile) as error:
@@ -381,24 +319,6 @@ def from_bytes(data: bytes, filename: str, *, max_particles: int | None = None) 
 
     return _scene_from_document(document, label, Path(tomls[0].filename).stem, arrays_in_zip,
                                 max_particles)
-
-
-_INFLATE_CHUNK = 2**16
-
-
-def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, limit: int, label: str) -> bytes:
-    """A zip member inflated a chunk at a time with a running count, refused the moment it
-    passes ``limit`` bytes: neither the directory's stated size nor a single large inflate is
-    trusted (``ZipFile.read`` inflates a member in one call, as large as the data makes it)."""
-    chunks, total = [], 0
-    with archive.open(info) as member:
-        while chunk := member.read(_INFLATE_CHUNK):
-            total += len(chunk)
-            if total > limit:
-                raise SceneError(f"{label}: {info.filename} unpacks to more than the "
-                                 f"{limit:,} bytes allowed")
-            chunks.append(chunk)
-    return b"".join(chunks)
 
 
 def _limited(data: bytes, limit: int, label: str) -> bytes:
