@@ -208,9 +208,9 @@ def test_huge_or_invalid_lattices_are_refused(capsys, overrides, fragment):
 def test_a_lattice_larger_than_the_memory_is_refused_before_allocating(monkeypatch):
     import tracemalloc
 
-    import sim.model.lattice
+    import sim.model.limits
 
-    monkeypatch.setattr(sim.model.lattice, "available_memory", lambda: 100 * 2**20)
+    monkeypatch.setattr(sim.model.limits, "available_memory", lambda: 100 * 2**20)
     tracemalloc.start()
     try:
         with pytest.raises(sim.model.ModelError, match=r"GB of memory.*0\.10 GB are available"):

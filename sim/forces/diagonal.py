@@ -32,6 +32,8 @@ import math
 import numpy as np
 from numba import njit
 
+from sim.forces.term import ForceTerm, KernelField, Parameter
+
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 ROWS = 9
@@ -246,3 +248,25 @@ def numpy_energy(positions: np.ndarray, stiffness: float, spacing: float,
     """Energy (J) of every diagonal spring, as ``numpy_forces``."""
     return float(sum(energy.sum() for _, energy, _, _ in _numpy_springs(
         positions, stiffness, spacing, origin, row_ends, linear)))
+
+
+TERM = ForceTerm(
+    "diagonal springs",
+    "next-nearest springs from each particle to the diagonal neighbours above it",
+    parameters=(Parameter("diagonal_stiffness", "k₂", "N/m", "Diagonal springs",
+                          "spring constant of the diagonal springs (0: none); k₂ = k/2 makes an "
+                          "isotropic elastic solid", 0.0, 1e9, 0.0),),
+    fields=(KernelField("diagonal_stiffness", "springs", "number",
+                        lambda model: model.diagonal_stiffness or None),),
+    present=lambda model: model.diagonal_stiffness > 0,
+    describe=lambda model: f"diagonal springs k2={model.diagonal_stiffness:g}",
+    example={"diagonal_stiffness": 17.5},
+    leapfrog=False,
+    absorbing_layer=False,
+    numpy_force=lambda model, positions, velocities: numpy_forces(
+        positions, model.diagonal_stiffness, model.spacing, model.origin, model.row_ends,
+        model.linear),
+    numpy_energy=lambda model, positions: numpy_energy(
+        positions, model.diagonal_stiffness, model.spacing, model.origin, model.row_ends,
+        model.linear),
+)

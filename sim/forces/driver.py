@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from sim.forces.energy import _spring_energy
+from sim.forces.energy import spring_energy
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 
@@ -31,12 +31,16 @@ def kick_particle(velocity, j, i, dvx, dvy, dvz, mass):
 
 
 @njit(**_JIT)
-def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
-                 tension_stiffness, spacing, origin_x, origin_y, row_ends):
-    """Kinetic energy of particle (i, j) plus the energy of its four springs (J), measured from
-    the rest lattice, as ``sim.forces.springs.energy_terms`` counts them.  ``row_ends``: 0 fixed walls
-    one spacing outside the lattice, 1 rows closed into rings, 2 free row ends."""
+def local_energy(position, velocity, j, i, mass, linear, parameters):
+    """Kinetic energy of particle (i, j) plus the energy of its four nearest springs (J),
+    measured from the rest lattice, as ``sim.forces.energy.energy_terms`` counts them;
+    ``parameters`` the model's ``SpringParameters`` (float64), ``linear`` true for the linearised
+    law.  The rows end in walls one spacing outside the lattice, rings (``periodic``) or free
+    ends (``free_ends``)."""
     dim, ny, nx = position.shape
+    spacing = parameters.spacing
+    row_ends = 1 if parameters.periodic is not None else (
+        2 if parameters.free_ends is not None else 0)
     x = float(position[0, j, i])
     y = float(position[1, j, i])
     z = float(position[2, j, i]) if dim == 3 else 0.0
@@ -61,8 +65,8 @@ def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
             oy = float(position[1, nj, ni])
             oz = float(position[2, nj, ni]) if dim == 3 else 0.0
         else:
-            ox = origin_x + ni * spacing
-            oy = origin_y + nj * spacing
+            ox = parameters.origin_x + ni * spacing
+            oy = parameters.origin_y + nj * spacing
             oz = 0.0
         # separation from the lower/left end to the upper/right end
         if di < 0 or dj < 0:
@@ -70,10 +74,9 @@ def local_energy(position, velocity, j, i, mass, linear, stiffness, rest_length,
         else:
             dx, dy, dz = ox - x, oy - y, oz - z
         axis = 0 if dj == 0 else 1
-        energy += _spring_energy(dx, dy, dz, axis, linear, stiffness, rest_length,
-                                 tension_stiffness, spacing)
+        energy += spring_energy(dx, dy, dz, axis, linear, parameters)
         if linear and row_ends == 2 and axis == 0:  # the rest tension's work (free ends)
-            energy += tension_stiffness * spacing * (dx - spacing)
+            energy += parameters.tension_stiffness * spacing * (dx - spacing)
     return energy
 
 

@@ -1,5 +1,5 @@
 """The energy of a state in one compiled pass: kinetic, and that of every spring (the nearest
-springs' law as in ``sim.forces.springs``, the diagonal springs' from ``sim.forces.diagonal``),
+springs' law as in ``sim.forces.axial``, the diagonal springs' from ``sim.forces.diagonal``),
 measured from the rest lattice.  A NaN or infinity anywhere in the state makes the result
 non-finite, so the pass doubles as the blow-up check.
 """
@@ -8,15 +8,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from sim.forces.axial import axial_energy
 from sim.forces.diagonal import diagonal_energy
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 
 @njit(**_JIT)
-def _spring_energy(dx, dy, dz, axis, linear, stiffness, rest_length, tension_stiffness, spacing):
-    """Energy (J) of one spring with separation (dx, dy, dz) relative to the rest lattice;
-    ``axis`` 0 for a horizontal spring, 1 for a vertical one (used by the linearised law)."""
+def spring_energy(dx, dy, dz, axis, linear, parameters):
+    """Energy (J) of one nearest spring with separation (dx, dy, dz), measured from the rest
+    lattice; ``axis`` 0 for a horizontal spring, 1 for a vertical one (used by the linearised
+    law, ``linear`` true); ``parameters`` a ``SpringParameters`` record."""
+    spacing = parameters.spacing
     if linear:
         if axis == 0:
             stretch = dx - spacing
@@ -24,10 +27,12 @@ def _spring_energy(dx, dy, dz, axis, linear, stiffness, rest_length, tension_sti
         else:
             stretch = dy - spacing
             across = dx * dx + dz * dz
-        return 0.5 * stiffness * stretch * stretch + 0.5 * tension_stiffness * across
+        return (0.5 * parameters.stiffness * stretch * stretch
+                + 0.5 * parameters.tension_stiffness * across)
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
-    rest_stretch = spacing - rest_length
-    return 0.5 * stiffness * ((length - rest_length) ** 2 - rest_stretch * rest_stretch)
+    rest_length = parameters.rest_length
+    return (axial_energy(length - rest_length, parameters)
+            - axial_energy(spacing - rest_length, parameters))
 
 
 @njit(**_JIT)
@@ -37,7 +42,6 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
     The spring energy is measured from the rest lattice.  A NaN or infinity anywhere in the
     state makes the result non-finite, so this doubles as the blow-up check.
     """
-    stiffness, rest_length = parameters.stiffness, parameters.rest_length
     tension_stiffness, spacing = parameters.tension_stiffness, parameters.spacing
     origin_x, origin_y = parameters.origin_x, parameters.origin_y
     ny, nx = x.shape
@@ -69,8 +73,7 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
                 if z is not None:
                     dz = z[j, i] - z[j, i - 1]
             if i > 0 or parameters.free_ends is None:
-                spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
-                                         tension_stiffness, spacing)
+                spring += spring_energy(dx, dy, dz, 0, linear, parameters)
             if i > 0 and linear and parameters.free_ends is not None:
                 # the rest tension's work T (dx - a), which sums to zero between two walls
                 spring += tension_stiffness * spacing * (dx - spacing)
@@ -85,22 +88,19 @@ def energy_terms(x, y, z, vx, vy, vz, masses, linear, parameters):
                 dy = y[j, i] - y[j - 1, i]
                 if z is not None:
                     dz = z[j, i] - z[j - 1, i]
-            spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
-                                     tension_stiffness, spacing)
+            spring += spring_energy(dx, dy, dz, 1, linear, parameters)
         if parameters.periodic is None and parameters.free_ends is None:
             # the spring from the last particle of the row to the right wall anchor
             dx = (origin_x + nx * spacing) - x[j, nx - 1]
             dy = row_y_rest - y[j, nx - 1]
             if z is not None:
                 dz = -z[j, nx - 1]
-            spring += _spring_energy(dx, dy, dz, 0, linear, stiffness, rest_length,
-                                     tension_stiffness, spacing)
+            spring += spring_energy(dx, dy, dz, 0, linear, parameters)
     for i in range(nx):  # the springs from the top row to the top wall anchors
         dx = (origin_x + i * spacing) - x[ny - 1, i]
         dy = (origin_y + ny * spacing) - y[ny - 1, i]
         if z is not None:
             dz = -z[ny - 1, i]
-        spring += _spring_energy(dx, dy, dz, 1, linear, stiffness, rest_length,
-                                 tension_stiffness, spacing)
+        spring += spring_energy(dx, dy, dz, 1, linear, parameters)
     spring += diagonal_energy(parameters.diagonal_stiffness, x, y, z, linear, parameters)
     return kinetic, spring

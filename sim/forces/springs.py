@@ -39,53 +39,69 @@ A spring squeezed to zero length exerts no force instead of producing NaN.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
 
+from sim.forces import registry
+from sim.forces.axial import tension_factor
+from sim.forces.dashpot import dashpot_factor
 from sim.forces.diagonal import diagonal_net, diagonal_springs
+from sim.forces.drag import drag_force, drag_power
+from sim.forces.gravity import gravity_vector
 from sim.forces.terms import inverse_mass_at
+
+__all__ = ["SpringParameters", "components", "drag_power", "gravity_vector", "horizontal_springs",
+           "particle_acceleration", "row_accelerations", "site", "spring_force",
+           "vertical_springs"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
-class SpringParameters(NamedTuple):
+_BASE_FIELDS = (
+    ("stiffness", "number"), ("rest_length", "number"), ("tension_stiffness", "number"),
+    ("spacing", "number"), ("origin_x", "number"), ("origin_y", "number"),
+    ("smallest_squared_length", "number"), ("inverse_sqrt_estimate", "flag"),
+    ("periodic", "flag"), ("free_ends", "flag"),
+)
+_FIELDS = _BASE_FIELDS + tuple((field.name, field.kind) for field in registry.fields("springs"))
+_KINDS = dict(_FIELDS)
+
+
+class SpringParameters(namedtuple("SpringParameters", [name for name, _ in _FIELDS],
+                                  defaults=(1e-24,) + (None,) * (len(_FIELDS) - 7))):
     """The spring constants as the kernels take them (a numba-friendly named tuple).
 
     ``stiffness`` k (N/m), ``rest_length`` L (m), ``tension_stiffness`` T/a (N/m) of the
     linearised law, ``spacing`` a (m), ``origin_x``/``origin_y`` rest position of particle (0, 0)
-    (m).  All fields have the precision of the state they are used with (``as_type``).
+    (m); ``smallest_squared_length`` (m^2): below it a spring has no direction and its force is
+    taken as zero.  ``inverse_sqrt_estimate`` None: 1/sqrt computed as 1 / sqrt(x); True: from
+    the CPU's single-precision estimate and two Newton steps (float64 only; which is faster
+    depends on the host, ``sim.loops.host_tuning``).  ``periodic`` True: each row is a ring, its
+    last particle joined to its first by one spring (None: walls at the rows' ends);
+    ``free_ends`` True: no spring to the left and right walls.  Then one field per
+    ``KernelField`` a force term adds to this record (``sim.forces.registry``: the diagonal
+    springs' k2, ...), None where the model does not have the term.  Flags and absent terms
+    are compile-time choices.  All numbers have the precision of the state they are used with
+    (``as_type``).
     """
 
-    stiffness: float
-    rest_length: float
-    tension_stiffness: float
-    spacing: float
-    origin_x: float
-    origin_y: float
-    smallest_squared_length: float = 1e-24
-    """Below this squared length (m^2) a spring has no direction; its force is taken as zero."""
-    inverse_sqrt_estimate: object = None
-    """None: 1/sqrt computed as 1 / sqrt(x); True: from the CPU's single-precision estimate and
-    two Newton steps (float64 only; which is faster depends on the host, ``sim.loops.host_tuning``)."""
-    periodic: object = None
-    """None: walls at the left and right ends of the rows; True: each row is a ring, its last
-    particle joined to its first by one spring (the left and right edges are the same spring,
-    seen from both sides).  A compile-time choice like the optional terms."""
-    free_ends: object = None
-    """True: the rows' end particles have no spring to the left and right walls (free ends);
-    None: they do.  A compile-time choice."""
-    diagonal_stiffness: object = None
-    """k2 (N/m) of the diagonal springs (``sim.forces.diagonal``); None: none, compiled out."""
+    __slots__ = ()
 
     def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
         """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
         scalar = np.dtype(dtype).type
-        numbers = (scalar(value) for value in self[:7])
-        diagonal = None if self.diagonal_stiffness is None else scalar(self.diagonal_stiffness)
-        return SpringParameters(*numbers, inverse_sqrt_estimate=inverse_sqrt_estimate,
-                                periodic=self.periodic, free_ends=self.free_ends,
-                                diagonal_stiffness=diagonal)
+        values = {}
+        for name, value in self._asdict().items():
+            kind = _KINDS[name]
+            if value is None or kind == "flag":
+                values[name] = value
+            elif kind == "vector":
+                values[name] = np.asarray(value, dtype=scalar)
+            else:
+                values[name] = scalar(value)
+        values["inverse_sqrt_estimate"] = inverse_sqrt_estimate
+        return SpringParameters(**values)
 
 
 @njit(**_JIT)
@@ -141,16 +157,14 @@ def _nonlinear_law(dx, dy, dz, dvx, dvy, dvz, parameters, dashpot):
     """Force (fx, fy, fz) on the first end of a spring with d = r_second - r_first and
     dv = v_second - v_first: k (|d| - L) d / |d|, plus the dashpot's c (dv . d) d / |d|^2; and the
     power the dashpot dissipates (W).  A spring shorter than the smallest length has no force."""
-    stiffness, rest_length = parameters.stiffness, parameters.rest_length
     squared = max(dx * dx + dy * dy + dz * dz, parameters.smallest_squared_length)
     inverse_length = _inverse_square_root(squared, parameters.inverse_sqrt_estimate)
-    factor = stiffness - stiffness * rest_length * inverse_length
+    factor = tension_factor(squared, inverse_length, parameters)
     power = 0.0
     if dashpot is not None:
-        rate = dx * dvx + dy * dvy + dz * dvz
-        damping_factor = dashpot * rate * inverse_length * inverse_length
+        damping_factor, power = dashpot_factor(dashpot, dx * dvx + dy * dvy + dz * dvz,
+                                               inverse_length)
         factor += damping_factor
-        power = damping_factor * rate
     return factor * dx, factor * dy, factor * dz, power
 
 
@@ -193,15 +207,6 @@ def spring_force(first, second, axis, linearised, parameters, dashpot):
 
 
 @njit(**_JIT)
-def gravity_vector(gravity, zero):
-    """The (3,) gravity array as a tuple (gx, gy, gz) in m/s^2 for ``particle_acceleration``;
-    (zero, zero, zero) when there is none (``gravity`` None), which compiles to nothing."""
-    if gravity is None:
-        return zero, zero, zero
-    return gravity[0], gravity[1], gravity[2]
-
-
-@njit(**_JIT)
 def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity,
                           diagonal=None):
     """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
@@ -218,9 +223,10 @@ def particle_acceleration(left, right, below, above, velocity, inverse_mass, dra
         fy += diagonal[1]
         fz += diagonal[2]
     if drag is not None:
-        fx -= drag * velocity[0]
-        fy -= drag * velocity[1]
-        fz -= drag * velocity[2]
+        drag_x, drag_y, drag_z = drag_force(drag, velocity)
+        fx += drag_x
+        fy += drag_y
+        fz += drag_z
     return (fx * inverse_mass + gravity[0], fy * inverse_mass + gravity[1],
             fz * inverse_mass + gravity[2])
 
@@ -361,19 +367,6 @@ def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, 
 
 
 # --- accelerations ------------------------------------------------------------------------------
-
-
-@njit(**_JIT)
-def drag_power(drag, vx, vy, vz, r):
-    """Power (W) that ``drag`` (None: none) takes from the particles stored at row index r."""
-    power = 0.0
-    if drag is not None:
-        for i in range(vx.shape[1]):
-            speed_squared = vx[r, i] * vx[r, i] + vy[r, i] * vy[r, i]
-            if vz is not None:
-                speed_squared += vz[r, i] * vz[r, i]
-            power += drag * speed_squared
-    return power
 
 
 @njit(**_JIT)

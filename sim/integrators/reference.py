@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.forces.diagonal import numpy_forces
+from sim.forces import registry
 from sim.integrators.butcher import ButcherTable
 from sim.model.lattice import Model
 
@@ -38,6 +38,8 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
     v = _padded(model, velocities, rest=False)
     k, length, c = model.stiffness, model.rest_length, model.damping
     force = np.zeros_like(positions)
+    present = registry.present(model)
+    axial_terms = [term for term in present if term.numpy_axial is not None]
 
     # separation vectors of horizontal (dim, ny, nx + 1) and vertical (dim, ny + 1, nx) springs,
     # pointing from the first end (left / lower) to the second end (right / upper)
@@ -59,7 +61,11 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
             return result
         distance = np.sqrt((separation**2).sum(axis=0))
         safe = np.maximum(distance, 1e-12)
-        result = k * (distance - length) / safe * separation
+        stretch = distance - length
+        along = k * stretch
+        for term in axial_terms:
+            along = along + term.numpy_axial(model, stretch)[0]
+        result = along / safe * separation
         if c > 0:
             rate = (separation * relative_velocity).sum(axis=0)
             result += c * rate / safe**2 * separation
@@ -69,15 +75,10 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
     on_lower = spring_forces(vertical, vertical_velocity, 1)
     force += on_left[:, :, 1:] - on_left[:, :, :-1]
     force += on_lower[:, 1:, :] - on_lower[:, :-1, :]
-    if model.diagonal_stiffness > 0:
-        force += numpy_forces(positions, model.diagonal_stiffness, model.spacing, model.origin,
-                              model.row_ends, model.linear)
-    if model.drag > 0:
-        force -= model.drag * velocities
-    acceleration = force / model.masses
-    for component in range(model.dim):
-        acceleration[component] += model.gravity[component]
-    return acceleration
+    for term in present:  # the other terms' numpy twins: diagonal springs, drag, gravity, ...
+        if term.numpy_force is not None:
+            force += term.numpy_force(model, positions, velocities)
+    return force / model.masses
 
 
 # Each method advances (x, v) by one step dt and returns (x, v, carried): ``carried`` is what

@@ -17,7 +17,9 @@ import numba
 import numpy as np
 
 from sim.forces import drive_table as instruments
+from sim.forces import registry
 from sim.forces.springs import SpringParameters
+from sim.forces.term import KernelField
 from sim.forces.terms import Terms
 from sim.integrators.butcher import ButcherTable
 from sim.loops import host_tuning, leapfrog, row_blocks, wavefront
@@ -50,14 +52,23 @@ class KernelArguments(NamedTuple):
             uniform_inverse_mass=(
                 scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),
-            dashpot=scalar(model.damping) if model.damping > 0 else None,
-            drag=scalar(model.drag) if model.drag > 0 else None,
-            gravity=np.array(model.gravity, dtype=dtype) if model.has_gravity else None,
+            damped=True if registry.velocity_dependent(model) else None,
+            **{field.name: _in_precision(field, field.value(model), scalar)
+               for field in registry.fields("terms")},
         )
         parameters = model.kernel_parameters.as_type(
             dtype, host_tuning.inverse_sqrt_estimate(loop) if scalar is np.float64 else None
         )
         return cls(terms, parameters)
+
+
+def _in_precision(field: KernelField, value: object, scalar: type) -> object:
+    """A term's kernel value in the kernels' precision (None stays None: the term is absent)."""
+    if value is None or field.kind == "flag":
+        return value
+    if field.kind == "vector":
+        return np.array(value, dtype=scalar)
+    return scalar(value)
 
 
 class Integrator:
@@ -152,8 +163,8 @@ class Verlet(Integrator):
         """Undamped nonlinear springs: the steps between the first and the last run as fused
         leapfrog sweeps over row blocks (one block per thread), the fastest loop shape; it has
         no diagonal springs, which the row sweeps carry."""
-        damped = model.damping > 0 or model.drag > 0
-        plain = not (damped or model.linear or model.diagonal_stiffness)
+        plain = registry.leapfrog(model) and not (registry.velocity_dependent(model)
+                                                   or model.linear)
         return "leapfrog" if plain else "sweep"
 
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
@@ -207,7 +218,7 @@ class Verlet(Integrator):
         layer = self.sponge
         if layer is not None:  # half the layer's action before the steps, half after them
             layer.act(state, 0.5 * dt)
-            if self.kernel.terms.dashpot is not None or self.kernel.terms.drag is not None:
+            if self.kernel.terms.damped is not None:
                 self._cached_for = None  # the forces depend on the velocities it kicked
         if self._cached_for != stamp:
             self._driven_accelerations(state, state.time)

@@ -60,7 +60,7 @@ def _loop_seconds(loop: str, estimate: object) -> float:
     inverse_mass.setflags(write=False)  # as the model's (``sim.model.read_only``)
     # a planar lattice of equal masses, nonlinear springs, no other term
     terms = Terms(linear=None, out_of_plane=None, inverse_mass=inverse_mass,
-                  uniform_inverse_mass=1.0, dashpot=None, drag=None, gravity=None)
+                  uniform_inverse_mass=1.0)
     if loop == "leapfrog":  # on one thread
         block_starts = np.array([0, ny], dtype=np.int64)
         work = LeapfrogWork(np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)))

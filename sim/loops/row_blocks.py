@@ -91,7 +91,7 @@ def verlet_steps_parallel(n, dt, terms, parameters, position, velocity, accelera
     accelerations and the second half kick, each phase over the row blocks in parallel.
     ``acceleration`` holds a(x, v) on entry and on exit, as for ``verlet_steps``.
     Returns (dissipated, power)."""
-    damped = terms.dashpot is not None or terms.drag is not None
+    damped = terms.damped is not None
     force_velocity = predicted_velocity if damped else velocity
     blocks = block_starts.size - 1
     powers = np.zeros(blocks)

@@ -133,7 +133,7 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
     on entry already hold the drive at ``time``.
     Returns (dissipated, power).
     """
-    damped = terms.dashpot is not None or terms.drag is not None
+    damped = terms.damped is not None
     out_of_plane = terms.out_of_plane
     x, y, z = components(out_of_plane, position)
     if damped:

@@ -336,13 +336,7 @@ class Forcing:
         self._matched = (matched_layer.MatchedLayer(model, widths, model.sponge_strength)  # type: ignore[arg-type]
                          if model.walls.absorbing else None)
         if self.entries:
-            parameters = model.kernel_parameters
-            self._spring_arguments = (
-                bool(model.linear), float(parameters.stiffness), float(parameters.rest_length),
-                float(parameters.tension_stiffness), float(parameters.spacing),
-                float(parameters.origin_x), float(parameters.origin_y),
-                {"walls": 0, "ring": 1, "free": 2}[model.row_ends],
-            )
+            self._spring_arguments = (bool(model.linear), model.kernel_parameters)
 
     @property
     def has_sponge(self) -> bool:

@@ -1,4 +1,4 @@
-"""The immutable description of a lattice: sizes, masses, springs, damping, gravity, flags.
+"""The immutable description of a lattice: sizes, masses, springs, force terms, walls, flags.
 
 A ``Model`` says *what* is simulated and never changes; changing a parameter mid-run builds a new
 model with ``Model.replace``.  Geometry conventions (used everywhere in the project):
@@ -18,78 +18,35 @@ model with ``Model.replace``.  Geometry conventions (used everywhere in the proj
   ``concatenate([particles, anchors])``; anchors are numbered left (ny), right (ny), bottom (nx),
   top (nx).
 
-Size limits: ``nx`` and ``ny`` are at most ``MAX_SIDE`` and the lattice has at most
-``MAX_PARTICLES`` particles; ``Model.create`` also refuses a lattice whose simulation would not fit
-in the memory available now (``estimated_bytes``, checked before any array is allocated).
+Size limits (``sim.model.limits``): ``nx`` and ``ny`` are at most ``MAX_SIDE`` and the lattice
+has at most ``MAX_PARTICLES`` particles; ``Model.create`` also refuses a lattice whose simulation
+would not fit in the memory available now (``estimated_bytes``, checked before any array is
+allocated).  The force terms' parameters (dashpots, drag, gravity, diagonal springs, ...) are
+declared by the terms (``sim.forces.registry``) and stored in ``Model.term_values``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from functools import cached_property
 from typing import Any
 
 import numpy as np
-import psutil
 
+from sim.forces import registry
 from sim.model import boundaries, schema
 from sim.model.boundaries import Boundary
+from sim.model.limits import (  # re-exported: the lattice's size limits
+    MAX_PARTICLES,
+    MAX_SIDE,
+    ModelError,
+    available_memory,
+    check_size,
+    estimated_bytes,
+)
 
-
-class ModelError(ValueError):
-    """An invalid lattice parameter (the message says which one and why)."""
-
-
-MAX_SIDE = 20_000
-"""Largest nx or ny (a 20,000-particle chain; the paper's largest run is 682x383)."""
-
-MAX_PARTICLES = 20_000_000
-"""Largest nx * ny: about 5 GB for a 2-D simulation (see ``estimated_bytes``), and still about 4
-RK4 steps per second."""
-
-
-def estimated_bytes(nx: int, ny: int, dim: int) -> int:
-    """Memory (bytes) a ``Simulation`` of an nx x ny lattice in ``dim`` dimensions needs at its
-    peak, a slightly generous estimate (measured peaks: 225 bytes per particle in 2-D, 330 in 3-D).
-
-    Per particle, in float64 (8 bytes) per component (dim of them):
-      2 state (positions, velocities) + 2 blow-up checkpoint + 2 scene initial condition
-      + 1 rest positions + 2 integrator work arrays (Verlet; RK4 and Heun keep a few rows only)
-      + 3 temporaries of the energy and strain evaluations  = 12 arrays: 96 * dim bytes;
-    plus masses and inverse masses (16 bytes) and about 2 springs per particle, each with two
-    int64 end indices and a float64 strain (48 bytes).  2-D: 256 bytes, 3-D: 352 bytes.
-    """
-    particles = nx * ny
-    springs = ny * (nx + 1) + (ny + 1) * nx
-    return particles * (96 * dim + 16) + springs * 24
-
-
-def available_memory() -> int | None:
-    """Bytes of memory available now to a new process without swapping (``psutil``: Linux's
-    MemAvailable); None when it cannot be read."""
-    try:
-        return int(psutil.virtual_memory().available)
-    except (OSError, RuntimeError, AttributeError, NotImplementedError):
-        return None
-
-
-def check_size(nx: int, ny: int, dim: int) -> None:
-    """Raise ``ModelError`` if the lattice exceeds ``MAX_SIDE`` / ``MAX_PARTICLES`` or if its
-    simulation would need more memory than is available (``estimated_bytes``)."""
-    for name, value in (("nx", nx), ("ny", ny)):
-        if value > MAX_SIDE:
-            raise ModelError(f"{name} must be at most {MAX_SIDE:,}, got {value:,}")
-    if nx * ny > MAX_PARTICLES:
-        raise ModelError(f"{nx}x{ny} = {nx * ny:,} particles is more than the {MAX_PARTICLES:,} allowed")
-    needed = estimated_bytes(nx, ny, dim)
-    available = available_memory()
-    if available is not None and needed > available:
-        raise ModelError(
-            f"a {nx}x{ny} lattice in {dim}-D needs about {needed / 2**30:.2f} GB of memory "
-            f"({needed / (nx * ny):.0f} bytes per particle), only {available / 2**30:.2f} GB "
-            "are available; use a smaller nx/ny"
-        )
+__all__ = ["MAX_PARTICLES", "MAX_SIDE", "Model", "ModelError", "available_memory", "check_size",
+           "estimated_bytes", "read_only"]
 
 
 def _finite_positive(name: str, value: Any, allow_zero: bool = False) -> float:
@@ -136,11 +93,11 @@ class Model:
         spacing: lattice spacing a (m), also the distance to the wall anchors.
         masses: (ny, nx) particle masses (kg), read-only.
         stiffness: spring constant k (N/m) of every nearest-neighbour spring.
-        diagonal_stiffness: k2 (N/m) of the diagonal springs (``sim.forces.diagonal``), 0: none.
         rest_length: spring rest length L (m); L < a pre-tensions the lattice with T = k (a - L).
-        damping: dashpot coefficient c (N s/m) beside every spring, on the along-spring velocity.
-        drag: drag coefficient (N s/m) on every particle's absolute velocity.
-        gravity: (3,) acceleration vector (m/s^2); the z component only acts when dim == 3.
+        term_values: the parameters of the force terms (``sim.forces.registry``), each answered
+            as an attribute: ``damping`` c (N s/m) of the dashpots, ``drag`` (N s/m),
+            ``gravity`` (3,) m/s^2 (z acts only when dim == 3), ``diagonal_stiffness`` k2 (N/m);
+            a term's default (the term absent) when not given.
         linear: use the springs linearised about the rest lattice instead of the full law.
         driver: a ``sim.model.forcing.Driver`` (a sinusoidal force or displacement on one particle),
             or None.
@@ -160,9 +117,6 @@ class Model:
     masses: np.ndarray
     stiffness: float
     rest_length: float
-    damping: float
-    drag: float
-    gravity: tuple[float, float, float]
     linear: bool
     driver: Any = None
     sources: tuple = ()
@@ -171,7 +125,19 @@ class Model:
     sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH
     sponge_strength: float = boundaries.DEFAULT_LAYER_STRENGTH
     sponge_sides: tuple[str, ...] = ()
-    diagonal_stiffness: float = 0.0
+    term_values: dict = dataclasses.field(default_factory=dict)
+
+    def __getattr__(self, name: str) -> Any:
+        """A force term's parameter (``term_values``, else the term's default)."""
+        if name.startswith("_") or name == "term_values":
+            raise AttributeError(name)
+        values = self.__dict__.get("term_values", {})
+        if name in values:
+            return values[name]
+        default = _TERM_DEFAULTS.get(name, _MISSING)
+        if default is _MISSING:
+            raise AttributeError(f"a Model has no attribute {name!r}")
+        return default
 
     @classmethod
     def create(
@@ -184,9 +150,6 @@ class Model:
         mass: float | np.ndarray = 1.0,
         stiffness: float = 1.0,
         rest_length: float | None = None,
-        damping: float = 0.0,
-        drag: float = 0.0,
-        gravity: float | tuple[float, ...] | np.ndarray = 0.0,
         linear: bool = False,
         driver: Any = None,
         sources: Any = (),
@@ -195,13 +158,15 @@ class Model:
         sponge_width: int = boundaries.DEFAULT_LAYER_WIDTH,
         sponge_strength: float | None = None,
         sponge_sides: Any = "auto",
-        diagonal_stiffness: float = 0.0,
+        **term_values: Any,
     ) -> Model:
         """Validate the parameters and build a model.
 
         ``mass`` is a scalar or an (ny, nx) array; ``rest_length`` defaults to ``spacing``
-        (unstressed); ``gravity`` is a vector of 2 or 3 components, or a scalar g meaning
-        (0, -g, 0) ("downwards").  Raises ``ModelError`` with a clear message on invalid values.
+        (unstressed); ``term_values``: the force terms' parameters (``sim.forces.registry``:
+        ``damping``, ``drag``, ``gravity`` (a vector of 2 or 3 components, or a scalar g
+        meaning (0, -g, 0), "downwards"), ``diagonal_stiffness``, ...).  Raises ``ModelError``
+        with a clear message on invalid values.
         """
         nx = _whole_number("nx", nx)
         ny = _whole_number("ny", ny)
@@ -211,11 +176,8 @@ class Model:
         spacing = _finite_positive("spacing", spacing)
         stiffness = _finite_positive("stiffness", stiffness)
         rest_length = spacing if rest_length is None else _finite_positive("rest_length", rest_length)
-        damping = _finite_positive("damping", damping, allow_zero=True)
-        drag = _finite_positive("drag", drag, allow_zero=True)
-        diagonal_stiffness = _finite_positive("diagonal_stiffness", diagonal_stiffness, True)
+        term_values = _term_values(term_values)
         masses = _mass_array(mass, nx, ny)
-        gravity_vector = _gravity_vector(gravity)
         linear = schema.flag(linear, "linear", error=ModelError)
         from sim.model import forcing
         from sim.model import sources as sources_module
@@ -243,9 +205,6 @@ class Model:
         if driver is not None and dim == 2 and driver.direction[2] != 0.0:
             raise ModelError("a planar (2-D) lattice cannot be driven out of the plane (z)")
         sides: tuple[str, ...] = ()
-        if boundaries.get(boundary).absorbing and diagonal_stiffness > 0:
-            raise ModelError("the absorbing layer has no diagonal springs yet; use fixed walls "
-                             "far away (boundary fixed) or diagonal_stiffness 0")
         if boundaries.get(boundary).absorbing:
             try:
                 if sponge_sides is None or (not isinstance(sponge_sides, str)
@@ -254,13 +213,16 @@ class Model:
                 sides = forcing.check_sides(sponge_sides, nx, ny, sponge_width)
             except forcing.ForcingError as error:
                 raise ModelError(str(error)) from None
-        return cls(
+        model = cls(
             nx=nx, ny=ny, dim=int(dim), spacing=spacing, masses=masses, stiffness=stiffness,
-            rest_length=rest_length, damping=damping, drag=drag, gravity=gravity_vector,
-            linear=bool(linear), driver=driver, sources=sources, barriers=barriers,
-            boundary=boundary, sponge_width=sponge_width, sponge_strength=sponge_strength,
-            sponge_sides=sides, diagonal_stiffness=diagonal_stiffness,
+            rest_length=rest_length, linear=bool(linear), driver=driver, sources=sources,
+            barriers=barriers, boundary=boundary, sponge_width=sponge_width,
+            sponge_strength=sponge_strength, sponge_sides=sides, term_values=term_values,
         )
+        conflicts = registry.conflicts(model)
+        if conflicts:
+            raise ModelError("; ".join(conflicts))
+        return model
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Unpickled (a worker, a child compiling kernels): its arrays read-only again, as built."""
@@ -278,11 +240,11 @@ class Model:
         """The scalar parameters as keyword arguments of ``create`` (masses excluded)."""
         return dict(
             nx=self.nx, ny=self.ny, dim=self.dim, spacing=self.spacing, stiffness=self.stiffness,
-            rest_length=self.rest_length, damping=self.damping, drag=self.drag,
-            gravity=self.gravity, linear=self.linear, driver=self.driver, sources=self.sources,
-            barriers=self.barriers, boundary=self.boundary, sponge_width=self.sponge_width,
-            sponge_strength=self.sponge_strength, sponge_sides=self.sponge_sides,
-            diagonal_stiffness=self.diagonal_stiffness,
+            rest_length=self.rest_length, linear=self.linear, driver=self.driver,
+            sources=self.sources, barriers=self.barriers, boundary=self.boundary,
+            sponge_width=self.sponge_width, sponge_strength=self.sponge_strength,
+            sponge_sides=self.sponge_sides,
+            **{name: getattr(self, name) for name in _TERM_DEFAULTS},
         )
 
     @property
@@ -346,12 +308,13 @@ class Model:
             float(self.spacing), float(origin_x), float(origin_y),
             periodic=True if self.periodic else None,
             free_ends=True if self.walls.free_ends else None,
-            diagonal_stiffness=float(self.diagonal_stiffness) or None,
+            **{field.name: field.value(self) for field in registry.fields("springs")},
         )
 
     @property
     def is_damped(self) -> bool:
-        return self.damping > 0 or self.drag > 0
+        """Whether a term depends on the velocities (dashpots, drag: ``sim.forces.registry``)."""
+        return registry.velocity_dependent(self)
 
     @property
     def has_gravity(self) -> bool:
@@ -429,15 +392,7 @@ class Model:
 
     def describe(self) -> str:
         """One line a person can read."""
-        extras = []
-        if self.damping:
-            extras.append(f"dashpots c={self.damping:g}")
-        if self.drag:
-            extras.append(f"drag {self.drag:g}")
-        if self.has_gravity:
-            extras.append("gravity (" + ", ".join(f"{g:g}" for g in self.gravity[: self.dim]) + ")")
-        if self.diagonal_stiffness:
-            extras.append(f"diagonal springs k2={self.diagonal_stiffness:g}")
+        extras = [term.describe(self) for term in registry.present(self) if term.describe]
         if self.linear:
             extras.append("linearised springs")
         if self.periodic:
@@ -485,16 +440,36 @@ def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
     return array
 
 
-def _gravity_vector(gravity: float | tuple[float, ...] | np.ndarray) -> tuple[float, float, float]:
-    array = _numeric_array(gravity, "gravity", "a number (downwards) or a 2- or 3-vector")
-    if array.ndim == 0:
-        vector = (0.0, -float(array), 0.0)
-    elif array.shape in ((2,), (3,)):
-        vector = tuple(float(component) for component in array) + (0.0,) * (3 - array.shape[0])
-    else:
-        raise ModelError(f"gravity must be a number (downwards) or a 2- or 3-vector, got {gravity!r}")
-    if not all(math.isfinite(component) for component in vector):
-        raise ModelError(f"gravity must be finite, got {vector}")
-    for component in vector:
-        schema.parameter(component, "gravity", error=ModelError)
-    return vector  # type: ignore[return-value]
+_MISSING = object()
+_TERM_DEFAULTS: dict[str, Any] = {
+    row.name: row.default for term in registry.TERMS for row in term.parameters
+    if row.name not in ("stiffness", "rest_length")
+}
+"""The force terms' parameters a model stores in ``term_values``, with their defaults."""
+
+
+def _term_values(given: dict[str, Any]) -> dict[str, Any]:
+    """The force terms' parameters checked (``ForceTerm.check``, then the rows' bounds); those
+    equal to their default are left out.  An unknown name is refused, naming the known ones."""
+    values = {}
+    for name, value in given.items():
+        term = registry.owner(name)
+        if term is None or name not in _TERM_DEFAULTS:
+            raise ModelError(f"unknown lattice parameter {name!r}; the force terms' are "
+                             f"{', '.join(_TERM_DEFAULTS)}")
+        default = _TERM_DEFAULTS[name]
+        if isinstance(default, bool):
+            value = schema.flag(value, name, error=ModelError)
+        elif term.check is not None:
+            try:
+                value = term.check(name, value)
+            except ValueError as error:
+                raise ModelError(str(error)) from None
+        if isinstance(value, tuple):
+            value = tuple(schema.parameter(c, name, error=ModelError) for c in value)
+        elif not isinstance(value, bool):
+            value = (_finite_positive(name, value, allow_zero=True) if schema.BOUNDS[name][0] >= 0
+                     else schema.parameter(value, name, error=ModelError))
+        if value != default:
+            values[name] = value
+    return values

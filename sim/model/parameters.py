@@ -5,46 +5,19 @@ symbol and unit, its bounds (numbers only), a short label and a sentence of help
 shows or checks a parameter reads this table: the checks of every outside value
 (``sim.model.schema.BOUNDS``), the keys ``--set`` and ``build`` accept
 (``sim.scenes.building.OVERRIDES``), the recording's read-me and the page's sliders (their labels).
-Adding a parameter is one row here plus its use in the model.
+A force term's rows come from its declaration (``sim.forces.registry``); adding another
+parameter is one row here plus its use in the model.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
+from sim.forces import registry
+from sim.forces.term import Parameter
 from sim.model import boundaries
 
-
-@dataclasses.dataclass(frozen=True)
-class Parameter:
-    """One scene parameter.
-
-    ``low``/``high``: the bounds of a number (SI units; None for whole numbers, flags, choices and
-    records, which the model checks itself).  ``symbol``: as in the docs and the paper (``-`` when
-    it has none); ``unit``: the SI unit, or what the value is when it has none; ``label``: the few
-    words a control shows; ``help``: one sentence for read-mes and ``--help``.
-    """
-
-    name: str
-    symbol: str
-    unit: str
-    label: str
-    help: str
-    low: float | None = None
-    high: float | None = None
-
-    @property
-    def bounds(self) -> tuple[float, float] | None:
-        """(smallest, largest) of a number, None for anything else."""
-        if self.low is None or self.high is None:
-            return None
-        return (self.low, self.high)
-
-    def caption(self) -> str:
-        """The label with its symbol and unit, as a control shows it: "Spring constant k (N/m)"."""
-        symbol = "" if self.symbol == "-" else f" {self.symbol}"
-        return f"{self.label}{symbol} ({self.unit})"
+__all__ = ["Parameter", "bounds", "get", "names", "register", "rows"]
 
 
 _TABLE: dict[str, Parameter] = {}
@@ -94,19 +67,7 @@ for _row in (
               "lattice spacing, also the distance to the wall anchors", 1e-6, 1e6),
     Parameter("mass", "m", "kg", "Mass", "mass of every particle (a preset may vary it)",
               1e-9, 1e9),
-    Parameter("stiffness", "k", "N/m", "Stiffness",
-              "spring constant of every nearest-neighbour spring", 1e-9, 1e9),
-    Parameter("diagonal_stiffness", "k₂", "N/m", "Diagonal springs",
-              "spring constant of the diagonal springs (0: none); k₂ = k/2 makes an isotropic "
-              "elastic solid", 0.0, 1e9),
-    Parameter("rest_length", "L", "m", "Rest length",
-              "spring rest length; L < a pre-tensions the lattice with T = k (a - L)", 1e-6, 1e6),
-    Parameter("damping", "c", "N s/m", "Dashpot",
-              "dashpot beside every spring (relative velocity along it)", 0.0, 1e9),
-    Parameter("drag", "b", "N s/m", "Drag", "drag on every particle's absolute velocity",
-              0.0, 1e9),
-    Parameter("gravity", "g", "m/s²", "Gravity", "acceleration of gravity (x, y, z)",
-              -1e6, 1e6),
+    *registry.parameters(),
     Parameter("linear", "-", "true/false (no unit)", "Linear springs",
               "springs linearised about the rest lattice"),
     Parameter("dim", "d", "dimensions", "Dimensions",

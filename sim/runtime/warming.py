@@ -50,6 +50,8 @@ from collections.abc import Callable, Hashable, Iterator
 from pathlib import Path
 from typing import Any
 
+from sim.forces import registry
+
 LOGGER = logging.getLogger("oscillators.warming")
 
 
@@ -69,15 +71,17 @@ def step_shapes(steps: int, chunk: int) -> str:
 def kernel_key(simulation: Any, steps: int = 1) -> tuple:
     """The combination of kernel variants ``simulation`` needs to run ``steps`` steps per call
     (see the module docstring).  Values that only change numbers (stiffness, dt, amplitudes)
-    are left out; every flag that may change a type is in."""
+    are left out; every flag that may change a type is in: the force terms' from their
+    registration (``sim.forces.registry.kernel_flags``), the lattice's, the instruments' and
+    the call's."""
     model = simulation.model
     driver = model.driver
     threads = int(simulation.threads)
     return (
         simulation.integrator, simulation.precision, threads,
         min(model.ny, 64) if threads > 1 else 0,
-        model.dim, bool(model.linear), model.uniform_mass, model.damping > 0, model.drag > 0,
-        model.has_gravity, model.boundary, bool(model.sponge_sides),
+        model.dim, bool(model.linear), model.uniform_mass, registry.kernel_flags(model),
+        model.boundary, bool(model.sponge_sides),
         None if driver is None else (driver.kind, str(driver.row) == "all"),
         tuple(sorted({(source.kind, str(source.row) == "all") for source in model.sources})),
         bool(model.barriers),

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from sim.forces import registry
 from sim.model import schema
 from sim.model.lattice import Model, ModelError, _whole_number, check_size
 from sim.scenes.building import OVERRIDES, Scene, SceneError
@@ -77,13 +78,10 @@ def _scene_document(scene: Scene, array_file_name: str) -> tuple[dict[str, Any],
         arrays["velocities"] = np.asarray(scene.initial_velocities)
     model_table: dict[str, Any] = {
         "nx": model.nx, "ny": model.ny, "dim": model.dim, "spacing": float(model.spacing),
-        "mass": mass, "stiffness": float(model.stiffness), "rest_length": float(model.rest_length),
-        "damping": float(model.damping), "drag": float(model.drag),
-        "gravity": [float(component) for component in model.gravity], "linear": bool(model.linear),
-        "boundary": model.boundary,
+        "mass": mass, "linear": bool(model.linear), "boundary": model.boundary,
     }
-    if model.diagonal_stiffness:
-        model_table["diagonal_stiffness"] = float(model.diagonal_stiffness)
+    for row in registry.parameters():  # every force term's, set or not, to be edited
+        model_table[row.name] = _plain(getattr(model, row.name))
     if model.walls.absorbing:
         model_table.update(sponge_width=int(model.sponge_width),
                            sponge_strength=float(model.sponge_strength),
@@ -106,6 +104,15 @@ def _scene_document(scene: Scene, array_file_name: str) -> tuple[dict[str, Any],
     if arrays:
         document["arrays"] = {"file": array_file_name}
     return document, arrays
+
+
+def _plain(value: Any) -> Any:
+    """A parameter's value as TOML writes it: floats, booleans and lists of floats."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, tuple | list):
+        return [float(component) for component in value]
+    return float(value)
 
 
 def _scene_text(scene: Scene, array_file_name: str) -> tuple[str, dict[str, np.ndarray]]:

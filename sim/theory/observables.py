@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from sim.forces.diagonal import numpy_energy
+from sim.forces import registry
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
 from sim.theory.lattice_waves import diagonal_mode_sample
@@ -105,11 +105,9 @@ def strains(model: Model, positions: np.ndarray) -> np.ndarray:
 def spring_energy(model: Model, positions: np.ndarray) -> float:
     """Elastic energy stored in the springs, relative to the rest lattice (J)."""
     positions = np.asarray(positions, dtype=float)
-    diagonal = 0.0
-    if model.diagonal_stiffness > 0:
-        diagonal = numpy_energy(positions, model.diagonal_stiffness, model.spacing, model.origin,
-                                model.row_ends, model.linear)
-    return _nearest_spring_energy(model, positions) + diagonal
+    others = sum(term.numpy_energy(model, positions) for term in registry.present(model)
+                 if term.numpy_energy is not None)
+    return _nearest_spring_energy(model, positions) + others
 
 
 def _nearest_spring_energy(model: Model, positions: np.ndarray) -> float:
@@ -133,7 +131,12 @@ def _nearest_spring_energy(model: Model, positions: np.ndarray) -> float:
             listed[0 : model.ny * (model.nx + 1) : model.nx + 1] = False
         stretch = stretch[listed]
     rest_stretch = model.spacing - model.rest_length
-    return float(0.5 * k * (np.dot(stretch, stretch) - stretch.size * rest_stretch**2))
+    energy = 0.5 * k * (np.dot(stretch, stretch) - stretch.size * rest_stretch**2)
+    for term in registry.present(model):  # terms of the law along the springs (FPU's, ...)
+        if term.numpy_axial is not None:
+            energy += (term.numpy_axial(model, stretch)[1].sum()
+                       - stretch.size * term.numpy_axial(model, np.array(rest_stretch))[1])
+    return float(energy)
 
 
 def kinetic_energy(model: Model, velocities: np.ndarray) -> float:

@@ -1,0 +1,87 @@
+"""The registry of force terms: the one list every face reads.
+
+Each term is one ``sim.forces.term.ForceTerm`` declared in its own module; ``TERMS`` lists them
+in the order the parameter table shows them.  Adding a term is its module and one line here: the
+parameter table, the model's checks and stored values, the kernel records' fields, the kernel key,
+the loops' choice of shape, the model's description, scene files and the page read this list.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sim.forces import dashpot, diagonal, drag, gravity, nearest
+from sim.forces.term import ForceTerm, KernelField, Parameter
+
+TERMS: tuple[ForceTerm, ...] = (
+    nearest.TERM,
+    diagonal.TERM,
+    dashpot.TERM,
+    drag.TERM,
+    gravity.TERM,
+)
+"""Every force term, in the parameter table's order."""
+
+
+def get(name: str) -> ForceTerm:
+    """The term called ``name``; a clear error lists the known names."""
+    for term in TERMS:
+        if term.name == name:
+            return term
+    raise KeyError(f"no force term {name!r}; known: {', '.join(term.name for term in TERMS)}")
+
+
+def parameters() -> tuple[Parameter, ...]:
+    """Every term's parameter rows, in order."""
+    return tuple(row for term in TERMS for row in term.parameters)
+
+
+def owner(parameter: str) -> ForceTerm | None:
+    """The term that declares ``parameter``, or None."""
+    for term in TERMS:
+        if any(row.name == parameter for row in term.parameters):
+            return term
+    return None
+
+
+def fields(record: str) -> tuple[KernelField, ...]:
+    """The fields the terms add to the kernel record ``record`` ("springs" or "terms")."""
+    return tuple(field for term in TERMS for field in term.fields if field.record == record)
+
+
+def present(model: Any) -> tuple[ForceTerm, ...]:
+    """The terms ``model`` has."""
+    return tuple(term for term in TERMS if term.present(model))
+
+
+def kernel_flags(model: Any) -> tuple:
+    """What of every term changes the compiled kernels' types (``ForceTerm.flag``), in order: the
+    force terms' part of the kernel key."""
+    return tuple(term.flag(model) for term in TERMS)
+
+
+def velocity_dependent(model: Any) -> bool:
+    """Whether a term ``model`` has depends on the velocities (dashpots, drag)."""
+    return any(term.velocity_dependent for term in present(model))
+
+
+def leapfrog(model: Any) -> bool:
+    """Whether the fused leapfrog loop carries every term ``model`` has."""
+    return all(term.leapfrog for term in present(model))
+
+
+def conflicts(model: Any) -> list[str]:
+    """Why ``model``'s terms cannot run together (empty: they can): a term without a
+    linearised law on linear springs, one the absorbing layer does not take, or two terms that
+    exclude each other."""
+    reasons = []
+    terms = present(model)
+    names = {term.name for term in terms}
+    for term in terms:
+        if model.linear and not term.linearised:
+            reasons.append(f"the {term.name} have no linearised law; set linear false")
+        if model.walls.absorbing and not term.absorbing_layer:
+            reasons.append(f"the absorbing layer has no {term.name} yet; use fixed walls far "
+                           f"away (boundary fixed) or no {term.name}")
+        reasons.extend(reason for other, reason in term.excludes.items() if other in names)
+    return reasons
