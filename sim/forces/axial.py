@@ -2,7 +2,8 @@
 
 A spring of length |d| and rest length L has the extension s = |d| - L; Hooke's law gives the
 force k s along it (on the first end, towards the second: f d with f = k s / |d|) and the
-energy k s^2 / 2.  ``tension_factor`` is f, which ``sim.forces.springs`` multiplies by d;
+energy k s^2 / 2.  ``tension_factor`` is f, which ``sim.forces.springs`` multiplies by d (``along_force``: the
+same law along the rest direction, for the linearised springs);
 ``axial_energy`` the energy, which ``sim.forces.energy`` and the driver's local energy
 (``sim.forces.driver``) sum.  Terms of the law along the spring (``ForceTerm.numpy_axial``)
 add to both here, their parameters read from the ``SpringParameters`` record (None: absent,
@@ -22,6 +23,13 @@ def tension_factor(squared, inverse_length, parameters):
     ``squared`` (m^2, 1/|d| = ``inverse_length``): k (|d| - L) / |d|."""
     stiffness = parameters.stiffness
     return stiffness - stiffness * parameters.rest_length * inverse_length
+
+
+@njit(**_JIT)
+def along_force(stretch, parameters):
+    """Force (N) along a spring of the linearised law stretched by ``stretch`` (m) along its
+    rest direction: k s."""
+    return parameters.stiffness * stretch
 
 
 @njit(**_JIT)

@@ -27,8 +27,7 @@ def spring_energy(dx, dy, dz, axis, linear, parameters):
         else:
             stretch = dy - spacing
             across = dx * dx + dz * dz
-        return (0.5 * parameters.stiffness * stretch * stretch
-                + 0.5 * parameters.tension_stiffness * across)
+        return axial_energy(stretch, parameters) + 0.5 * parameters.tension_stiffness * across
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     rest_length = parameters.rest_length
     return (axial_energy(length - rest_length, parameters)

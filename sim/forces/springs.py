@@ -45,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from sim.forces import registry
-from sim.forces.axial import tension_factor
+from sim.forces.axial import along_force, tension_factor
 from sim.forces.dashpot import dashpot_factor
 from sim.forces.diagonal import diagonal_net, diagonal_springs
 from sim.forces.drag import drag_force, drag_power
@@ -172,18 +172,18 @@ def _nonlinear_law(dx, dy, dz, dvx, dvy, dvz, parameters, dashpot):
 def _linear_law(dx, dy, dz, dvx, dvy, dvz, axis, parameters, dashpot):
     """The linearised law: stiffness k along the spring's rest direction (``axis`` 0: x, 1: y),
     T/a across it, the dashpot along it; same arguments and results as ``_nonlinear_law``."""
-    stiffness, tension_stiffness = parameters.stiffness, parameters.tension_stiffness
+    tension_stiffness = parameters.tension_stiffness
     spacing = parameters.spacing
     power = 0.0
     if axis == 0:
-        fx = stiffness * (dx - spacing)
+        fx = along_force(dx - spacing, parameters)
         fy = tension_stiffness * dy
         if dashpot is not None:
             fx += dashpot * dvx
             power = dashpot * dvx * dvx
     else:
         fx = tension_stiffness * dx
-        fy = stiffness * (dy - spacing)
+        fy = along_force(dy - spacing, parameters)
         if dashpot is not None:
             fy += dashpot * dvy
             power = dashpot * dvy * dvy

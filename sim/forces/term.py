@@ -26,6 +26,8 @@ class Parameter:
     it has none); ``unit``: the SI unit, or what the value is when it has none; ``label``: the few
     words a control shows; ``help``: one sentence for read-mes and ``--help``.  ``default``: the
     value a model has when nobody sets it (a force term's parameters: the term absent).
+    ``page``: (lowest, highest, step) of the slider the page's Physics folder shows for a force
+    term's parameter; None: no slider of this kind (the folder's own controls, or none).
     """
 
     name: str
@@ -36,6 +38,7 @@ class Parameter:
     low: float | None = None
     high: float | None = None
     default: Any = None
+    page: tuple[float, float, float] | None = None
 
     @property
     def bounds(self) -> tuple[float, float] | None:

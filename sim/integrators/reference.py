@@ -56,6 +56,8 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
             displacement[axis] -= model.spacing
             result = tension_stiffness * displacement
             result[axis] = k * displacement[axis]
+            for term in axial_terms:
+                result[axis] += term.numpy_axial(model, displacement[axis])[0]
             if c > 0:
                 result[axis] += c * relative_velocity[axis]
             return result

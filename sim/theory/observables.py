@@ -122,7 +122,12 @@ def _nearest_spring_energy(model: Model, positions: np.ndarray) -> float:
         across = (horizontal[1:] ** 2).sum() + (vertical[0] ** 2).sum()
         if model.dim == 3:
             across += (vertical[2] ** 2).sum()
-        return float(0.5 * k * along + 0.5 * model.tension_stiffness * across)
+        energy = 0.5 * k * along + 0.5 * model.tension_stiffness * across
+        for term in registry.present(model):  # terms of the law along the springs
+            if term.numpy_axial is not None:
+                energy += sum(term.numpy_axial(model, stretch)[1].sum()
+                              for stretch in (horizontal[0], vertical[1]))
+        return float(energy)
     stretch = spring_lengths(model, positions) - model.rest_length
     if model.row_ends != "walls":  # the closing spring once, or no end springs at all
         listed = np.ones(model.n_springs, dtype=bool)

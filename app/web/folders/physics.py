@@ -19,6 +19,7 @@ from app.web.control import MASS_PATTERNS
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, choice, from_user
 from app.web.widgets import Limits, say
+from sim.forces import registry
 from sim.model import parameters
 
 MAX_STIFFNESS = 100.0
@@ -40,6 +41,10 @@ def mass_pattern_of(model: sim.Model) -> str:
     if even.size and odd.size and np.all(even == even.flat[0]) and np.all(odd == LIGHT_MASS):
         return "ionic"
     return AS_LOADED
+
+
+TERM_ROWS = tuple(row for row in registry.parameters() if row.page is not None)
+"""The force terms' parameters shown as sliders of their own (``Parameter.page``)."""
 
 
 class PhysicsFolder(Folder):
@@ -74,17 +79,22 @@ class PhysicsFolder(Folder):
                 "as loaded: the scene's own masses (shown, not chosen)",
             )
             self.heavy_mass = gui.add_slider("Heavy mass (kg)", 0.1, 20.0, 0.1, 4.0)
+            self.term_sliders = {  # the other force terms' parameters, from their registration
+                row.name: gui.add_slider(row.caption(), *row.page, float(row.default),
+                                         hint=row.help)
+                for row in TERM_ROWS}
             self.message = gui.add_html("")
         # The server's own limits; show_scene widens them to show a scene's larger values.
         self.limits = Limits(
             {"stiffness": (1.0, MAX_STIFFNESS), "diagonal": (0.0, MAX_STIFFNESS),
              "rest_ratio": (0.5, 1.2), "damping": (0.0, 10.0),
-             "gravity": (0.0, 30.0), "heavy_mass": (0.1, 20.0)},
+             "gravity": (0.0, 30.0), "heavy_mass": (0.1, 20.0),
+             **{row.name: row.page[:2] for row in TERM_ROWS}},
             low_open=("stiffness", "heavy_mass"),
             sliders={"stiffness": self.stiffness, "diagonal": self.diagonal,
                      "rest_ratio": self.rest_ratio,
                      "damping": self.damping, "gravity": self.gravity,
-                     "heavy_mass": self.heavy_mass},
+                     "heavy_mass": self.heavy_mass, **self.term_sliders},
         )
         check = self.limits.check
 
@@ -128,6 +138,10 @@ class PhysicsFolder(Folder):
         self.gravity.on_update(gravity)
         self.linear.on_update(physics_callback(
             lambda: control.set_linear(bool(self.linear.value))))
+        for row in TERM_ROWS:
+            self.term_sliders[row.name].on_update(physics_callback(
+                lambda row=row: control.set_parameters(**{row.name: check(
+                    row.name, self.term_sliders[row.name], f"{row.label} ({row.unit})")})))
 
         def masses() -> Any:
             pattern = choice(self.mass_pattern.value, "mass pattern", [*MASS_PATTERNS, AS_LOADED])
@@ -152,6 +166,8 @@ class PhysicsFolder(Folder):
         if model.has_gravity:
             show("gravity", self.gravity, float(np.linalg.norm(model.gravity)))
         self.linear.value = model.linear
+        for row in TERM_ROWS:
+            show(row.name, self.term_sliders[row.name], float(getattr(model, row.name)))
         pattern = mass_pattern_of(model)
         self.mass_pattern.value = pattern
         if pattern == "ionic":
