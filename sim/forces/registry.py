@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sim.forces import dashpot, diagonal, drag, gravity, nearest
+from sim.forces import dashpot, diagonal, drag, fpu, gravity, nearest
 from sim.forces.term import ForceTerm, KernelField, Parameter
 
 TERMS: tuple[ForceTerm, ...] = (
@@ -19,6 +19,7 @@ TERMS: tuple[ForceTerm, ...] = (
     dashpot.TERM,
     drag.TERM,
     gravity.TERM,
+    fpu.TERM,
 )
 """Every force term, in the parameter table's order."""
 
