@@ -57,6 +57,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="write the probes' motion as sound to this WAV file: the last seconds of the run "
         "sped up by a round factor that brings the dominant frequency to 190-475 Hz (one probe: "
         "mono; two: stereo, the first left); needs --probe")
+    parser.add_argument(
+        "--modes", type=int, metavar="K",
+        help="measure the harmonic energy of the chain's modes 1..K over time and when the "
+        "first mode's energy comes back (the FPU recurrence, docs/fput.md); a one-row chain of "
+        "equal masses between walls only; default 8 on such a chain with the FPU spring law "
+        "(the fput scene), 0 for none")
     parser.add_argument("--force", action="store_true", help="replace an existing --sound file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_run)
@@ -110,6 +116,10 @@ def command_run(arguments: argparse.Namespace) -> int:
         chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
     if packet is not None:
         chunk = min(chunk, packet.chunk(simulation.dt))
+    modes = _mode_shares(arguments.modes, simulation)
+    if modes is not None:
+        chunk = min(chunk, max(1, round(modes.period / modes.samples_per_period / simulation.dt)))
+        _sample_modes(modes, simulation)
     kernels.prepare(simulation, chunk, talk)
     started = time.perf_counter()
     status = 0
@@ -126,6 +136,8 @@ def command_run(arguments: argparse.Namespace) -> int:
                     probes.add(simulation.time, simulation.state.particle_positions())
                 if packet is not None:
                     packet.add(simulation)
+                if modes is not None:
+                    _sample_modes(modes, simulation)
                 if fields is not None and done == fields.next_step:
                     fields.add(simulation, done)
         except BlowUpError as error:
@@ -155,6 +167,8 @@ def command_run(arguments: argparse.Namespace) -> int:
         summary["fields"] = fields.save()
     if packet is not None:
         summary.update(packet.report())
+    if modes is not None:
+        summary["modes"] = modes.report()
     if arguments.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -195,8 +209,50 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
               f"{probe['row']}), {probe['component']} motion: {peaks}")
     if "packet" in summary:
         print_packet(summary)
+    if "modes" in summary:
+        _print_modes(summary["modes"])
     if "sound_file" in summary:
         print(f"sound: {summary['sound_file']}: {summary['sound_description']}")
+
+
+def _mode_shares(asked: int | None, simulation: Any) -> Any:
+    """The ``ModeShares`` instrument ``--modes`` asks for (None: none; refused with one line
+    where the lattice is not a chain it measures)."""
+    from sim.forces import fpu
+    from sim.instruments.mode_shares import ModeShares
+
+    model = simulation.model
+    if asked is None:
+        chain = model.ny == 1 and model.uniform_mass and model.row_ends == "walls"
+        asked = 8 if chain and fpu.TERM.present(model) else 0
+    if asked < 0:
+        raise ValueError(f"--modes must be 0 or more, got {asked}")
+    if asked == 0:
+        return None
+    try:
+        return ModeShares(model, asked)
+    except ValueError as error:
+        raise ValueError(f"--modes: {error}") from None
+
+
+def _sample_modes(modes: Any, simulation: Any) -> None:
+    state = simulation.state
+    modes.add(simulation.time, state.particle_positions(), state.particle_velocities())
+
+
+def _print_modes(report: dict[str, Any]) -> None:
+    """Mode 1's lowest share and its returns, as lines."""
+    period = report["mode_period"]
+    lowest = report["lowest_share"]
+    print(f"mode 1 (period {period:.4g} s): its share of the harmonic energy fell to "
+          f"{lowest['share']:.3f} at {lowest['periods']:.1f} periods")
+    returns = report["recurrences"]
+    if not returns:
+        print("mode 1's energy has not come back yet (run longer: the first return of the fput "
+              "chain is near 153 periods)")
+    for number, back in enumerate(returns, 1):
+        print(f"return {number}: {back['share']:.1%} of the energy back in mode 1 at "
+              f"{back['periods']:.1f} periods (t = {back['time']:,.0f} s)")
 
 
 def _probe_report(probes: Any) -> list[dict[str, Any]]:
