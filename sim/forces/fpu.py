@@ -32,10 +32,10 @@ TERM = ForceTerm(
     "FPU spring law",
     "the quadratic (alpha) and cubic (beta) terms of the Fermi-Pasta-Ulam-Tsingou springs",
     parameters=(
-        Parameter("spring_alpha", "α", "1/m", "FPU α",
+        Parameter("spring_alpha", "α", "1/m", "FPU quadratic term",
                   "quadratic term of the nearest springs' law, k (s + α s² + β s³) (0: none)",
                   -1e6, 1e6, 0.0, page=(-1.0, 1.0, 0.01)),
-        Parameter("spring_beta", "β", "1/m²", "FPU β",
+        Parameter("spring_beta", "β", "1/m²", "FPU cubic term",
                   "cubic term of the nearest springs' law, k (s + α s² + β s³) (0: none)",
                   -1e6, 1e6, 0.0, page=(0.0, 10.0, 0.1)),
     ),

@@ -16,22 +16,45 @@ line says so with the seconds it has taken; the buttons and every other control 
 
 from __future__ import annotations
 
+import math
 import time
 
 import viser
 
+from app.web.control import MAX_STEPS_PER_FRAME
 from app.web.host import Folder, PanelHost
 from app.web.inputs import amber_html, as_html, from_user, warning_html
 from sim.runtime.runner import Frame
 
 STATUS_INTERVAL = 0.5
 """Seconds between two updates of the status line."""
-SPEEDS = {"x1/4": 0.25, "x1/2": 0.5, "x1": 1.0, "as fast as it can": None}
-"""The page's speeds: simulated seconds per second of wall time (None: no pacing)."""
+SPEEDS = {"x1/4": 0.25, "x1/2": 0.5, "x1": 1.0, "x10": 10.0, "x50": 50.0, "x200": 200.0,
+          "as fast as it can": None}
+"""The page's speeds: simulated seconds per second of wall time (None: no pacing).  A speed
+above what the scene's steps per frame reach at ``MAX_FPS`` runs more steps per frame."""
+WATCHED_SECONDS = 90.0
+"""A small scene whose duration takes longer than ``LONG_SCENE`` in real time starts at the
+slowest speed that plays it within this many seconds (the fput chain: x200)."""
+LONG_SCENE = 600.0
 MAX_FPS = 60.0
 """Frames a second at most when a speed is asked for."""
 LARGE = 50_000
 """From this many particles on, a scene plays as fast as it can by default."""
+
+
+def default_speed(simulation) -> str:
+    """The speed a scene starts at: as fast as it can for a large lattice; for a scene whose
+    duration takes longer than ``LONG_SCENE`` in real time, the slowest listed speed that plays
+    it within ``WATCHED_SECONDS``; else real time."""
+    if simulation.model.n_particles >= LARGE:
+        return "as fast as it can"
+    duration = float(simulation.scene.duration)
+    if duration > LONG_SCENE:
+        for name, speed in SPEEDS.items():
+            if speed is not None and duration / speed <= WATCHED_SECONDS:
+                return name
+        return "as fast as it can"
+    return "x1"
 
 
 class RunFolder(Folder):
@@ -84,6 +107,7 @@ class RunFolder(Folder):
             host.control.reset()
 
         self._fastest_fps = host.runner.max_fps
+        self._base_steps = max(1, int(host.runner.steps_per_frame))
         self.go_on = False
         """Whether the user asked to run past the scene's duration."""
         self._reached_end = False
@@ -99,7 +123,8 @@ class RunFolder(Folder):
         """Real time for small scenes, as fast as it can for large lattices."""
         self.go_on = self._reached_end = False
         self._fastest_fps = self.host.runner.max_fps
-        self.speed.value = "as fast as it can" if simulation.model.n_particles >= LARGE else "x1"
+        self._base_steps = max(1, int(self.host.runner.steps_per_frame))
+        self.speed.value = default_speed(simulation)
         self._pace()
 
     def _pace(self) -> None:
@@ -108,10 +133,13 @@ class RunFolder(Folder):
         runner = self.host.runner
         speed = SPEEDS.get(self.speed.value)
         if speed is None:
+            runner.steps_per_frame = self._base_steps
             runner.max_fps = self._fastest_fps
             return
-        seconds_per_frame = max(1, int(runner.steps_per_frame)) * runner.simulation.dt
-        runner.max_fps = min(MAX_FPS, speed / seconds_per_frame)
+        dt = runner.simulation.dt
+        runner.steps_per_frame = min(MAX_STEPS_PER_FRAME, max(
+            self._base_steps, math.ceil(speed / (dt * MAX_FPS) - 1e-9)))
+        runner.max_fps = min(MAX_FPS, speed / (runner.steps_per_frame * dt))
 
     def _show_playing(self) -> None:
         playing = self.host.runner.playing

@@ -38,6 +38,7 @@ from app.web.inputs import (
     warning_html,
     whole_number,
 )
+from app.web.mode_shares_view import ModeSharesView
 from app.web.plots import ENTERING, PADDING
 from app.web.widgets import MATPLOTLIB_LOCK, say
 from sim.runtime.runner import Frame
@@ -115,6 +116,7 @@ class SpectrumFolder(Folder):
         self.last_energies: list[np.ndarray] | None = None
         model = host.runner.simulation.model
         with gui.add_folder("Modes", expand_by_default=False) as self._folder:
+            self.mode_shares = ModeSharesView(gui, self._folder, host.runner)
             self.polarisation = gui.add_dropdown(
                 "Polarisation", list(POLARISATION_NAMES[: model.dim]), initial_value="y",
                 hint="x: motion along the rows, y: along the columns, z: out of the plane",
@@ -247,6 +249,7 @@ class SpectrumFolder(Folder):
         return REFRESH_SECONDS * max(1.0, model.n_particles / 50_000)
 
     def update(self, frame: Frame, now: float) -> None:
+        self.mode_shares.update(now)
         if now - self._last < self._interval(frame.model) or self._working.locked():
             return
         self._last = now
