@@ -232,3 +232,24 @@ def test_absorbing_layer_is_outlined_and_explained(tmp_path):
     assert corners.max(axis=0) == pytest.approx([model.nx - w, model.ny - w])
     text = document(chunks)
     assert "**Absorbing walls**" in text and f"{w} particles deep" in text
+
+
+def test_an_fput_recording_has_the_mode_shares_and_the_return(tmp_path):
+    path = tmp_path / "fput.rrd"
+    assert main(["record", "fput", "--modes", "-o", str(path), "--quiet"]) == 0
+    chunks = read_chunks(path)
+    first = temporal(chunks, "/modes/shares/1", "Scalars:scalars")
+    shares = np.array([scalar(first[step]) for step in sorted(first)])
+    assert shares[0] > 0.99 and shares.min() < 0.1
+    for mode in (2, 3, 4):
+        assert max(scalar(v) for v in temporal(chunks, f"/modes/shares/{mode}",
+                                               "Scalars:scalars").values()) > 0.2
+    returns = [chunk.to_record_batch() for chunk in chunks
+               if chunk.entity_path == "/modes/shares/returns" and not chunk.is_static]
+    times = [t / 1e9 for batch in returns
+             for t in batch.column("sim_time").cast("int64").to_pylist()]
+    values = [scalar(v) for batch in returns for v in batch.column("Scalars:scalars")]
+    assert len(values) == 1 and values[0] > 0.97
+    assert times[0] / sim.scenes.presets.FPUT_PERIOD == pytest.approx(153.4, abs=1.0)
+    assert view_origins(path)["share of energy in modes 1-4"] == "/modes/shares"
+    assert "mode 1's energy came back: 98.1% at 153" in document(chunks)

@@ -33,6 +33,7 @@ import rerun as rr
 from app.colours import MAGNITUDE, Colour, map_values
 from app.recording.layout import COMPONENT_NAMES, TreePaths, probe_label
 from app.recording.style import legend_png
+from sim.instruments.mode_shares import ModeShares
 from sim.model import boundaries
 from sim.model.lattice import Model, ModelError
 from sim.runtime.runner import Frame
@@ -275,8 +276,20 @@ def mode_legend_png(top_energy: float) -> bytes:
     )
 
 
+def shares_measured(model: Model) -> bool:
+    """Whether a recording of ``model``'s modes also has the lines of the shares of modes 1-4
+    (a chain of equal masses between walls: ``sim.instruments.mode_shares``)."""
+    return model.ny == 1 and model.uniform_mass and model.row_ends == "walls"
+
+
+SHARE_COLOURS = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189))
+"""Colours of modes 1-4's share lines (as on the page's Modes folder)."""
+
+
 class ModeLog:
-    """The mode energies of one tree: a tensor and a log-colour heat map per polarisation."""
+    """The mode energies of one tree: a tensor and a log-colour heat map per polarisation; on a
+    chain (``shares_measured``) also the share of modes 1-4 of the harmonic energy, every
+    frame, and mode 1's returns, marked at the end."""
 
     def __init__(self, paths: TreePaths, model: Model, top_energy: float, basis: Any = None,
                  every: int = 1) -> None:
@@ -287,12 +300,34 @@ class ModeLog:
         self.bottom, self.top = mode_colour_range(top_energy)
         self.model = model
         self.basis = basis if basis is not None else modal_basis(model)
+        self.shares = ModeShares(model, len(SHARE_COLOURS)) if shares_measured(model) else None
 
     def log_static(self, stream: rr.RecordingStream) -> None:
-        """Nothing: the colour legend is the recording's (``mode_legend_png``)."""
+        """The share lines' names and colours (the heat maps' legend is the recording's,
+        ``mode_legend_png``)."""
+        if self.shares is None:
+            return
+        for mode, colour in enumerate(SHARE_COLOURS, 1):
+            stream.log(self.paths.mode_share(mode),
+                       rr.SeriesLines(names=f"mode {mode}", colors=[colour]), static=True)
+        stream.log(self.paths.mode_share("returns"),
+                   rr.SeriesPoints(names="mode 1 back", colors=[(0, 0, 0)], marker_sizes=[6.0]),
+                   static=True)
 
     def finish(self, stream: rr.RecordingStream) -> list[str]:
-        return []
+        """Mode 1's returns, each marked at its time, and a note saying them."""
+        if self.shares is None or not self.shares.times.size:
+            return []
+        returns = self.shares.recurrences()
+        for back in returns:
+            stream.set_time("sim_time", duration=back.time)
+            stream.log(self.paths.mode_share("returns"), rr.Scalars(back.share))
+        stream.set_time("sim_time", duration=float(self.shares.times[-1]))
+        if not returns:
+            return ["mode 1's energy did not come back within the recording"]
+        return ["mode 1's energy came back: " + ", ".join(
+            f"{back.share:.1%} at {back.periods:.1f} periods of mode 1 (t = {back.time:,.0f} s)"
+            for back in returns)]
 
     def model_changed(self, stream: rr.RecordingStream, model: Model,
                       same_lattice: bool) -> str | None:
@@ -323,7 +358,13 @@ class ModeLog:
     def log_frame(self, stream: rr.RecordingStream, frame: Frame, index: int) -> None:
         """Every ``every``-th frame that carries velocities: each mode's energy."""
         positions, velocities = frame.positions, frame.velocities
-        if velocities is None or index % self.every:
+        if velocities is None:
+            return
+        if self.shares is not None:
+            self.shares.add(frame.time, positions, velocities)
+            for mode, share in enumerate(self.shares.shares[-1], 1):
+                stream.log(self.paths.mode_share(mode), rr.Scalars(float(share)))
+        if index % self.every:
             return
         table = MAGNITUDE.table()
         for name, energies in zip(self.polarisations, self.energies(positions, velocities),

@@ -97,6 +97,14 @@ class TreePaths:
         """Energy per normal mode of one polarisation, a tensor (J)."""
         return self.below(f"modes/{polarisation}/energy")
 
+    def mode_share(self, mode: int) -> str:
+        """Share of the harmonic energy in mode ``mode`` of a chain (``returns``: mode 1 back)."""
+        return self.below(f"modes/shares/{mode}")
+
+    @property
+    def mode_shares(self) -> str:
+        return self.below("modes/shares")
+
     def mode_image(self, polarisation: str) -> str:
         """The same energies as a log-colour heat map."""
         return self.below(f"modes/{polarisation}/image")
@@ -105,15 +113,21 @@ class TreePaths:
         return self.below(f"energy/{term}")
 
 
+WHOLE_RUN = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                   end=rrb.TimeRangeBoundary.infinite()))
+"""A time series' x axis over the whole recording (a long run's lines whole, not a window)."""
+
+
 def tree_paths(name: str | None) -> TreePaths:
     return TreePaths("" if not name else f"/{name}")
 
 
 def instrument_views(
-    trees: Sequence[str | None], *, probes: bool, modes: Sequence[str],
+    trees: Sequence[str | None], *, probes: bool, modes: Sequence[str], shares: bool = False,
 ) -> list[rrb.View | rrb.Container]:
     """Views of the probes (displacement time series; their spectra, logged at the end) and of
-    the mode energies (one log-colour heat map per polarisation), per tree."""
+    the mode energies (one log-colour heat map per polarisation; with ``shares``, a chain's
+    lines of the shares of modes 1-4, mode 1's returns marked), per tree."""
     views: list[rrb.View | rrb.Container] = []
     for name in trees:
         paths = tree_paths(name)
@@ -124,6 +138,10 @@ def instrument_views(
                 rrb.BarChartView(origin=paths.spectra,
                                  name=f"{label}probe spectra (m against Hz, at the end)"),
             ))
+        if shares:
+            views.append(rrb.TimeSeriesView(
+                origin=paths.mode_shares, name=f"{label}share of energy in modes 1-4",
+                axis_y=rrb.ScalarAxis(range=(0.0, 1.0)), axis_x=WHOLE_RUN))
         for polarisation in modes:
             views.append(rrb.Spatial2DView(
                 origin=paths.mode_image(polarisation),
@@ -134,7 +152,7 @@ def instrument_views(
 
 def blueprint(
     trees: Sequence[str | None], *, dim: int, show_lattice: bool, show_field: bool,
-    legends: int = 1, probes: bool = False, modes: Sequence[str] = (),
+    legends: int = 1, probes: bool = False, modes: Sequence[str] = (), shares: bool = False,
 ) -> rrb.Blueprint:
     """Lattice (or field image) views beside the energy and energy-balance-error plots, the scene
     document, colour legend and event log; the time panel on ``DEFAULT_TIMELINE`` (seconds).
@@ -157,17 +175,20 @@ def blueprint(
         main: rrb.Container | rrb.View = pictures[0]
     else:
         main = rrb.Grid(*pictures)
-    instruments = instrument_views(trees, probes=probes, modes=modes)
+    instruments = instrument_views(trees, probes=probes, modes=modes, shares=shares)
     if instruments:
-        main = rrb.Vertical(main, rrb.Horizontal(*instruments), row_shares=[3, 2])
+        # a chain's share lines (first) get room to show a long run
+        columns = [2.0 if shares and index == 0 else 1.0 for index in range(len(instruments))]
+        main = rrb.Vertical(main, rrb.Horizontal(*instruments, column_shares=columns),
+                            row_shares=[3, 2])
 
     if len(trees) == 1:
         paths = tree_paths(trees[0])
         energy: rrb.View | rrb.Container = rrb.TimeSeriesView(
-            origin=paths.energy, name="energy (J)"
+            origin=paths.energy, name="energy (J)", axis_x=WHOLE_RUN
         )
         drift: rrb.View | rrb.Container = rrb.TimeSeriesView(
-            origin=paths.drift, name="energy-balance error (%)")
+            origin=paths.drift, name="energy-balance error (%)", axis_x=WHOLE_RUN)
         settings_plot = rrb.TimeSeriesView(origin=paths.settings, name="dt (s)")
         logs = rrb.TextLogView(origin=paths.log, name="events")
     else:

@@ -193,6 +193,7 @@ class Recorder:
             show_lattice=self.plan.positions_every > 0, show_field=self.plan.field is not None,
             legends=len(legends), probes=bool(self.plan.probes),
             modes=COMPONENT_NAMES[: self.model.dim] if self.plan.modes_every else (),
+            shares=bool(self.plan.modes_every) and instruments.shares_measured(self.model),
         )
         self.stream.save(self._output.library_path, default_blueprint=bp)
         self.stream.send_blueprint(bp, make_active=True, make_default=True)
@@ -366,7 +367,7 @@ class Recorder:
                 unsubscribe()
             for track in self.tracks.values():
                 self._submit(track.finish)
-            if self.plan.probes:
+            if self.plan.probes or self.plan.modes_every:
                 self._submit(self._log_probe_notes)
             self._closed = True
         if self._worker is not None and self._worker is not threading.current_thread():
@@ -393,15 +394,17 @@ class Recorder:
         return self.path
 
     def _log_probe_notes(self) -> None:
-        """The read-me again, now with the probes' spectral peaks (static: it replaces the
-        first)."""
+        """The read-me again, now with what the instruments found at the end: the probes'
+        spectral peaks, a chain's returns of mode 1 (static: it replaces the first)."""
         lines: list[str] = []
         for name, track in self.tracks.items():
             if track.notes:
                 lines += ([f"### {name}", ""] if name else []) + track.notes + [""]
         if not lines:
             return
-        text = self.document + "\n\n## Probes: spectra (computed at the end)\n\n" + "\n".join(lines)
+        heading = ("Probes: spectra (computed at the end)" if self.plan.probes
+                   else "Modes (computed at the end)")
+        text = self.document + f"\n\n## {heading}\n\n" + "\n".join(lines)
         self.stream.log(SCENE_ENTITY, rr.TextDocument(text.rstrip(),
                                                       media_type=rr.MediaType.MARKDOWN),
                         static=True)
