@@ -242,8 +242,14 @@ def _sample_modes(modes: Any, simulation: Any) -> None:
 
 def _print_modes(report: dict[str, Any]) -> None:
     """Mode 1's lowest share and its returns, as lines."""
+    from sim.instruments.mode_shares import AWAY_SHARE
+
     period = report["mode_period"]
     lowest = report["lowest_share"]
+    if lowest["share"] >= AWAY_SHARE:
+        print(f"mode 1 (period {period:.4g} s) kept at least {lowest['share']:.1%} of the "
+              "harmonic energy throughout: it did not give its energy away")
+        return
     print(f"mode 1 (period {period:.4g} s): its share of the harmonic energy fell to "
           f"{lowest['share']:.3f} at {lowest['periods']:.1f} periods")
     returns = report["recurrences"]
