@@ -73,3 +73,29 @@ def test_viser_adapter_reaches_every_internal_it_reads():
             assert isinstance(getattr(viser_adapter.messages, name), type), name
     finally:
         server.stop()
+
+
+def test_the_adapters_wire_functions_make_and_recognise_visers_messages():
+    """The page's modules speak viser's protocol only through these functions."""
+    from viser import _messages
+
+    from app.web import viser_adapter
+
+    update = _messages.GuiUpdateMessage("id", {"value": 1})
+    assert viser_adapter.control_update(update) == ("id", {"value": 1})
+    assert viser_adapter.message_name(update) == "GuiUpdateMessage"
+    assert not viser_adapter.is_reply_or_camera(update)
+    click = _messages.ScenePointerMessage(event_type="click", ray_origin=(0.0, 0.0, 1.0),
+                                          ray_direction=(0.0, 0.0, -1.0), screen_pos=(),
+                                          modifier=None)
+    assert viser_adapter.is_pointer(click)
+    assert viser_adapter.pointer_click(click) == ((0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
+
+    class Queue:
+        sent: list = []
+
+        def queue_message(self, message):
+            self.sent.append(message)
+
+    viser_adapter.show_control(Queue(), "id", {"disabled": True})
+    assert Queue.sent[0].updates == {"disabled": True}

@@ -38,19 +38,20 @@ import viser
 
 import sim
 from app import memory
+from app.web import viser_adapter
 from app.web.clients import ClientWatch
 from app.web.control import LatticeRunner, SimulationControl
 from app.web.page_views import PageViews
 from app.web.panel import ControlPanel
 from app.web.recording import WebRecordings
-from app.web.roles import STUDENT_MESSAGES, ClassRoles
+from app.web.roles import ClassRoles
 from app.web.scene_files import SceneDirectory
 from app.web.security import AccessPolicy, PageGate, checked_server
 from app.web.view import NARROW, PHONE_PANEL_SHARE, VIEW_FOV, LatticeView, camera_fit, laptop_fit
 from sim.runtime.runner import Frame
 from sim.runtime.warming import KernelPreparer
 
-STUDENT_TYPES = frozenset(message.__name__ for message in STUDENT_MESSAGES)
+STUDENT_TYPES = viser_adapter.STUDENT_MESSAGE_NAMES
 DEFAULT_SCENES_DIR = Path("scenes")
 """Where ``serve`` looks for scene files the page may open (by name)."""
 DEFAULT_RECORDINGS_DIR = Path("recordings")

@@ -41,7 +41,6 @@ from typing import Any
 import viser
 
 from app.web import viser_adapter
-from app.web.viser_adapter import messages as _messages
 
 MAX_FPS = 15.0
 """Most pictures per second sent to one page."""
@@ -114,8 +113,7 @@ class PicturePacer:
         self._ids = itertools.count()
         self._lock = threading.RLock()
         self._handler = self._acknowledged
-        viser_adapter.websocket_server(server).register_handler(
-            _messages.LocalStorageGetItemResponseMessage, self._handler)
+        viser_adapter.on_local_storage_reply(server, self._handler)
 
     # --- the stream -------------------------------------------------------------------------------
 
@@ -164,11 +162,7 @@ class PicturePacer:
             pages, self.pages = self.pages, {}
         for page in pages.values():
             page.handle.remove()
-        try:
-            viser_adapter.websocket_server(self.server).unregister_handler(
-                _messages.LocalStorageGetItemResponseMessage, self._handler)
-        except (AssertionError, ValueError):
-            pass
+        viser_adapter.off_local_storage_reply(self.server, self._handler)
 
     # --- one page ---------------------------------------------------------------------------------
 
@@ -207,9 +201,7 @@ class PicturePacer:
     def _ask(self, client: Any, page: PageState) -> None:
         """Ask the page to say when it has drawn what it was sent."""
         page.waiting = f"{ACK_PREFIX}{next(self._ids)}"
-        connection = viser_adapter.client_queue(client)
-        connection.queue_message(_messages.LocalStorageGetItemRequestMessage(
-            key=ACK_KEY, request_uuid=page.waiting))
+        viser_adapter.ask_local_storage(client, ACK_KEY, page.waiting)
         client.flush()
 
     def _later(self, delay: float, client_id: int) -> None:

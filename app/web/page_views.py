@@ -35,7 +35,6 @@ from typing import Any
 import viser
 
 from app.web import viser_adapter
-from app.web.viser_adapter import messages as _messages
 
 SOFTWARE_PIXEL_RATIO = 0.5
 """The drawing resolution of a page drawing in software, as a fraction of its pixel ratio."""
@@ -116,8 +115,7 @@ class PageViews:
         self.ratio = ratio
         self.sizes: dict[int, tuple[int, int]] = {}
         self._lock = threading.Lock()
-        viser_adapter.websocket_server(server).register_handler(
-            _messages.LocalStorageGetItemResponseMessage, self._reply)
+        viser_adapter.on_local_storage_reply(server, self._reply)
         server.on_client_connect(self._connected)
         server.on_client_disconnect(self._left)
 
@@ -140,13 +138,11 @@ class PageViews:
     def ask(self, client: Any) -> None:
         """Ask the page for its view's size (the reply calls ``on_size`` if it changed)."""
         key = f"{KEY_PREFIX}{client.client_id}"
-        viser_adapter.client_queue(client).queue_message(
-            _messages.LocalStorageGetItemRequestMessage(key=key, request_uuid=key))
+        viser_adapter.ask_local_storage(client, key, key)
         client.flush()
 
     def _connected(self, client: Any) -> None:
-        viser_adapter.client_queue(client).queue_message(
-            _messages.RunJavascriptMessage(source=script(client.client_id, self.ratio)))
+        viser_adapter.run_javascript(client, script(client.client_id, self.ratio))
         self.ask(client)
         canvas = {"size": (0, 0)}
 

@@ -26,8 +26,8 @@ reconnects first cannot take the run.
 page sends (``install``), so whatever a student page sends (a button, a slider, a dropdown, a
 drag of the gizmo, an upload, a shared-selection click), from the page or from a program
 speaking viser's protocol, is refused on the server and counted in ``refused``; a refused
-control is set back on that page to the value in use.  Only ``STUDENT_MESSAGES`` pass (the
-camera, replies to the server's own requests).  Without ``--class`` there are no roles.
+control is set back on that page to the value in use.  Only a page's own camera and its replies pass (the
+requests answered, ``viser_adapter.is_reply_or_camera``).  Without ``--class`` there are no roles.
 """
 
 from __future__ import annotations
@@ -46,7 +46,6 @@ import viser
 
 from app.web import viser_adapter
 from app.web.inputs import as_html
-from app.web.viser_adapter import messages as _messages
 from sim.runtime.runner import Frame
 
 TEACHER_PATH = "/teacher/"
@@ -55,12 +54,6 @@ STUDENT_PATH = "/student"
 """Websocket path of the student link (a student page, even on the server's own machine)."""
 CONTROLS_CHECK = 1.0
 """Seconds between two checks that each student page shows the shared controls disabled."""
-STUDENT_MESSAGES = (
-    _messages.ViewerCameraMessage,
-    _messages.GetRenderResponseMessage,
-    _messages.LocalStorageGetItemResponseMessage,
-)
-"""What a student page may send: its own camera, and replies to the server's requests."""
 PROBE_INTERVAL = 0.5
 """Seconds between two updates of a student's own read-out."""
 STUDENT_NOTE = ("Student view: the teacher runs this lattice (the shared controls are greyed "
@@ -157,7 +150,7 @@ class ClassRoles:
                 shared = getattr(viser_adapter.control_state(handle).props, "disabled", None)
                 if shown.get(uuid, "unsent") == shared:
                     continue
-                connection.queue_message(_messages.GuiUpdateMessage(uuid, {"disabled": True}))
+                viser_adapter.show_control(connection, uuid, {"disabled": True})
                 shown[uuid] = shared
                 count += 1
         return count
@@ -177,7 +170,7 @@ class ClassRoles:
         websocket_server = viser_adapter.websocket_server(self.server)
         dispatch = viser_adapter.incoming_dispatch(self.server)
 
-        async def gated(client_id: int, message: _messages.Message) -> None:
+        async def gated(client_id: int, message: Any) -> None:
             if self.gate(client_id, message):
                 await dispatch(client_id, message)
 
@@ -193,35 +186,37 @@ class ClassRoles:
         self.server.on_client_connect(self.greet)
         return self
 
-    def gate(self, client_id: int, message: _messages.Message) -> bool:
-        """Whether ``message`` from page ``client_id`` may reach the app.  A student's click
-        goes to its own probe instead; anything else a student sends is refused."""
-        if client_id in self.teachers or isinstance(message, STUDENT_MESSAGES):
+    def gate(self, client_id: int, message: Any) -> bool:
+        """Whether ``message`` from page ``client_id`` may reach the app.  A student page may
+        send its own camera and replies to the server's requests; its click goes to its own
+        probe instead; anything else a student sends is refused."""
+        if client_id in self.teachers or viser_adapter.is_reply_or_camera(message):
             return True
-        if isinstance(message, _messages.ScenePointerMessage):
-            if message.event_type == "click" and message.ray_origin and message.ray_direction:
-                self.student_click(client_id, message.ray_origin, message.ray_direction)
+        if viser_adapter.is_pointer(message):
+            click = viser_adapter.pointer_click(message)
+            if click is not None:
+                self.student_click(client_id, *click)
             return False
-        self.refused.append((client_id, type(message).__name__))
+        name = viser_adapter.message_name(message)
+        self.refused.append((client_id, name))
         if len(self.refused) == 1 or len(self.refused) % 100 == 0:
             print(f"web page: refused {len(self.refused)} change(s) from student pages "
-                  f"(the last a {type(message).__name__} from page {client_id})",
-                  file=sys.stderr)
-        if isinstance(message, _messages.GuiUpdateMessage):
-            self._restore(client_id, message)
+                  f"(the last a {name} from page {client_id})", file=sys.stderr)
+        update = viser_adapter.control_update(message)
+        if update is not None:
+            self._restore(client_id, *update)
         return False
 
-    def _restore(self, client_id: int, message: _messages.GuiUpdateMessage) -> None:
+    def _restore(self, client_id: int, uuid: Any, updates: dict) -> None:
         """Set a refused control back, on that page, to the value in use."""
-        handle = viser_adapter.gui_input(self.server.gui, message.uuid)
+        handle = viser_adapter.gui_input(self.server.gui, uuid)
         client = self.server.get_clients().get(client_id)
         if handle is None or client is None:
             return
         state = viser_adapter.control_state(handle)
-        current = {name: getattr(state, name) for name in message.updates if hasattr(state, name)}
+        current = {name: getattr(state, name) for name in updates if hasattr(state, name)}
         if current:
-            viser_adapter.client_queue(client).queue_message(
-                _messages.GuiUpdateMessage(message.uuid, current))
+            viser_adapter.show_control(viser_adapter.client_queue(client), uuid, current)
 
     # --- a student's own probe -------------------------------------------------------------------
 

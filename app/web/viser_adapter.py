@@ -105,3 +105,76 @@ def set_image_bytes(handle: Any, data: bytes) -> None:
 async def dispatch_from(connection: Any, message: Any) -> None:
     """Hand ``message`` to viser as if page ``connection`` had sent it."""
     await connection._handle_incoming_message(connection.client_id, message)
+
+
+# --- viser's wire messages: made, recognised and handled here alone ---------------------------
+
+_STUDENT_MESSAGES = (_messages.ViewerCameraMessage, _messages.GetRenderResponseMessage,
+                     _messages.LocalStorageGetItemResponseMessage)
+STUDENT_MESSAGE_NAMES = frozenset(message.__name__ for message in _STUDENT_MESSAGES)
+"""The types of message a watching page may send (``is_reply_or_camera``)."""
+
+
+def message_name(message: Any) -> str:
+    """The name of a page's message type ("GuiUpdateMessage", ...), for logs."""
+    return type(message).__name__
+
+
+def is_reply_or_camera(message: Any) -> bool:
+    """Whether a page's message is its own camera or a reply to the server's request (all a
+    watching page may send)."""
+    return isinstance(message, _STUDENT_MESSAGES)
+
+
+def pointer_click(message: Any) -> tuple[Any, Any] | None:
+    """(ray origin, ray direction) of a click in the 3-D view, or None for any other message."""
+    if (isinstance(message, _messages.ScenePointerMessage) and message.event_type == "click"
+            and message.ray_origin and message.ray_direction):
+        return message.ray_origin, message.ray_direction
+    return None
+
+
+def is_pointer(message: Any) -> bool:
+    """Whether a page's message is a pointer event in the 3-D view."""
+    return isinstance(message, _messages.ScenePointerMessage)
+
+
+def control_update(message: Any) -> tuple[Any, dict] | None:
+    """(control id, updates) of a page's change to a control, or None for another message."""
+    if isinstance(message, _messages.GuiUpdateMessage):
+        return message.uuid, message.updates
+    return None
+
+
+def show_control(queue: Any, uuid: Any, updates: dict[str, Any]) -> None:
+    """Queue, on one page's or every page's ``queue``, a control's ``updates`` (its value, or
+    whether it is disabled)."""
+    queue.queue_message(_messages.GuiUpdateMessage(uuid, updates))
+
+
+def ask_local_storage(client: Any, key: str, request_uuid: str) -> None:
+    """Ask page ``client`` for its local-storage value ``key``; the reply carries
+    ``request_uuid`` (``on_local_storage_reply``)."""
+    client_queue(client).queue_message(
+        _messages.LocalStorageGetItemRequestMessage(key=key, request_uuid=request_uuid))
+
+
+def run_javascript(client: Any, source: str) -> None:
+    """Run ``source`` on page ``client``."""
+    client_queue(client).queue_message(_messages.RunJavascriptMessage(source=source))
+
+
+def on_local_storage_reply(server: Any, handler: Callable[[int, Any], Any]) -> None:
+    """Call ``handler(client_id, reply)`` (``reply.request_uuid``, ``reply.value``) for every
+    page's local-storage reply."""
+    websocket_server(server).register_handler(_messages.LocalStorageGetItemResponseMessage,
+                                              handler)
+
+
+def off_local_storage_reply(server: Any, handler: Callable[[int, Any], Any]) -> None:
+    """Stop calling ``handler`` (nothing if it was not registered)."""
+    try:
+        websocket_server(server).unregister_handler(
+            _messages.LocalStorageGetItemResponseMessage, handler)
+    except (AssertionError, ValueError):
+        pass
