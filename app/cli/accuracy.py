@@ -21,7 +21,7 @@ from app.cli.study_output import (
     scene_picture,
 )
 from app.study.accuracy_reference import REFINEMENT
-from sim.integrators.registry import INTEGRATORS, most_accurate
+from sim.integrators.registry import ALL_INTEGRATORS, most_accurate, names
 from sim.runtime.errors import MEASURES
 
 LARGE_LATTICE = 20_000
@@ -73,8 +73,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_scene_arguments(parser, default_scene="grid")
     parser.add_argument(
-        "--integrators", nargs="+", metavar="NAME", default=None, choices=INTEGRATORS,
-        help=f"integrators to compare (default: {' '.join(INTEGRATORS)})",
+        "--integrators", nargs="+", metavar="NAME", default=None, choices=ALL_INTEGRATORS,
+        help="integrators to compare (default: every compiled one that applies to the scene)",
     )
     parser.add_argument(
         "--dts", nargs="+", type=positive_float, metavar="DT",
@@ -123,7 +123,7 @@ def command_accuracy(arguments: argparse.Namespace) -> int:
     default_plot(arguments, scene_picture(scene, "work-precision"))
     if arguments.integrator and not arguments.integrators:
         arguments.integrators = [arguments.integrator]
-    integrators = arguments.integrators or list(INTEGRATORS)
+    integrators = arguments.integrators or list(names(scene.model, kernel_only=True))
     dts = arguments.dts or ([arguments.dt] if arguments.dt else None)
     if dts:
         until = arguments.until or default_until(scene)

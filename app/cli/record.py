@@ -254,7 +254,7 @@ def _runner_log_quiet() -> Iterator[None]:
 
 
 def _integrators(text: str | None) -> list[str]:
-    from sim import INTEGRATORS
+    from sim.integrators import ALL_INTEGRATORS as INTEGRATORS
 
     if text is None:
         return []

@@ -17,7 +17,7 @@ from app.cli.study_output import (
     progress_bar,
     write_picture,
 )
-from sim.integrators.registry import INTEGRATORS
+from sim.integrators.registry import ALL_INTEGRATORS
 
 STABILITY_STEPS = (10, 100_000)
 """Smallest and largest --steps of a stability trial."""
@@ -67,7 +67,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="only these built-in cases (see --list)")
     parser.add_argument("--list", action="store_true", help="list the built-in cases and exit")
     parser.add_argument("--integrators", nargs="+", metavar="NAME", default=None,
-                        choices=INTEGRATORS)
+                        choices=ALL_INTEGRATORS,
+                        help="integrators to study (default: every compiled one, each on the "
+                        "cases it applies to)")
     parser.add_argument(
         "--steps", type=bounded_int(*STABILITY_STEPS), default=400,
         help="steps per trial run (default 400; fewer on lattices above 100,000 particles)",

@@ -222,7 +222,8 @@ def accuracy_study(
     if not any(plan.values()):
         raise ValueError("give at least one dt")
     probe = sim.Simulation(scene)
-    limits = {name: probe.stable_dt(name) for name in sim.INTEGRATORS}
+    limits = {name: probe.stable_dt(name) for name in dict.fromkeys([*sim.INTEGRATORS,
+                                                                      *integrators])}
     omega_max = highest_frequency(scene.model)
     smallest_dt = min(dt for steps in plan.values() for dt in steps)
     reference = reference_solution(scene, until, min(smallest_dt, until / 16), progress)

@@ -289,6 +289,11 @@ def measured_limit(
     return low, trials
 
 
+SPLITTING_METHODS = tuple(d.name for d in sim.integrators.descriptions()
+                          if d.splitting is not None)
+"""The splitting methods: studied on the cases they apply to."""
+
+
 def stability_study(
     cases: Sequence[Case], integrators: Sequence[str] | None = None, steps: int = 400,
     precision: float = 0.005, progress: ProgressCallback | None = None,
@@ -299,9 +304,13 @@ def stability_study(
     serial in this process); ``progress`` is called as each completes.  ``whole_run``: each
     trial is the scene's own run over its duration (``whole_run_trial``), not a short perturbed
     one."""
-    names = [sim.integrators.check_integrator_name(n) for n in (integrators or sim.INTEGRATORS)]
+    names = [sim.integrators.check_integrator_name(n)
+             for n in (integrators or sim.integrators.names(kernel_only=True)
+                       + SPLITTING_METHODS)]
+    # each integrator on the cases it applies to (splitting methods: undamped, unforced)
     tasks = [(case, name, case.steps or steps, precision, whole_run)
-             for case in cases for name in names]
+             for case in cases for name in names
+             if sim.integrators.describe(name).reason_not_applicable(case.scene.model) is None]
     labels = [f"{task[0].name}: {task[1]}" for task in tasks]
     limits = (executor or serial()).map(case_limit, tasks, labels, progress)
     return StabilityStudy(list(cases), list(limits))

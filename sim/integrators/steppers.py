@@ -22,6 +22,7 @@ from sim.forces.springs import SpringParameters
 from sim.forces.term import KernelField
 from sim.forces.terms import Terms
 from sim.integrators.butcher import ButcherTable
+from sim.integrators.splitting import SplittingTable
 from sim.loops import host_tuning, leapfrog, row_blocks, wavefront
 from sim.loops import row_sweep as stepping
 from sim.loops.leapfrog import LeapfrogWork
@@ -239,17 +240,18 @@ class Verlet(Integrator):
             acceleration = self.work[0]
             half = 0.5 * dt
             state.driven += half * self._drive_power
-            stepping.verlet_open(step, state.positions, state.velocities, acceleration)
+            stepping.kick_drift_all(self.dtype(half), step, state.positions, state.velocities,
+                                    acceleration)
             steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
             self._block_totals[:] = 0.0
             steps(
-                n - 1, step, *self._common(state), self._block_starts, self._leapfrog_work,
-                start + dt, drive, self._saved, sponge, self._block_totals,
+                np.full((n - 1, 2), step), *self._common(state), self._block_starts,
+                self._leapfrog_work, start + dt, drive, self._saved, sponge, self._block_totals,
             )
             state.driven += float(self._block_totals[:, 0].sum())
             state.dissipated += float(self._block_totals[:, 1].sum())
             self._driven_accelerations(state, start + n * dt, half)
-            stepping.verlet_close(step, state.velocities, acceleration)
+            stepping.kick_all(self.dtype(half), state.velocities, acceleration)
             state.driven += half * self._drive_power
         elif self.parallel and not instrumented:
             dissipated, self._power = row_blocks.verlet_steps_parallel(
@@ -269,6 +271,75 @@ class Verlet(Integrator):
             self._drive_power = float(totals[2])
         if layer is not None:
             layer.act(state, 0.5 * dt)
+        state.advance_clock(n, dt)
+        self._cached_for = (state.revision, state.time)
+
+
+class Splitting(Integrator):
+    """A splitting method given by its table (``sim.integrators.splitting``): kick and drift
+    sweeps with the table's weights.  Undamped nonlinear springs run the fused leapfrog sweeps
+    (``sim.loops.leapfrog``, row blocks on threads); other lattices a force sweep and a kick and
+    drift pass per stage.  The last forces of a call are kept for the next (the first kick of a
+    step uses the forces of the last drift), recomputed whenever the state or the model may have
+    changed.  ``Splitting.of(table)`` is the stepper class of one table."""
+
+    table: ClassVar[SplittingTable]
+    work_arrays = 1
+
+    @classmethod
+    def of(cls, table: SplittingTable, name: str) -> type[Splitting]:
+        """The stepper class that runs ``table``, registered as ``name``."""
+        return type(f"Splitting[{table.label}]", (cls,), {
+            "table": table, "name": name, "__doc__": f"{table.label}: {cls.__doc__}"})
+
+    @classmethod
+    def loop_family(cls, model: Model) -> str:
+        plain = registry.leapfrog(model) and not (registry.velocity_dependent(model)
+                                                   or model.linear)
+        return "leapfrog" if plain else "sweep"
+
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        super().__init__(model, dtype, threads)
+        self._cached_for: tuple[int, float] | None = None
+        self._leapfrog = self.loop_family(model) == "leapfrog"
+        blocks = self._block_starts.size - 1
+        self._leapfrog_work = LeapfrogWork(
+            boundary=np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype),
+            below=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
+            horizontal=np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype),
+        )
+        self._totals = np.zeros((blocks, 2))
+
+    def invalidate(self) -> None:
+        self._cached_for = None
+
+    def _accelerations(self, state: State) -> None:
+        if self.parallel:
+            row_blocks.accelerations_parallel(*self._common(state), self.work[0],
+                                              self._block_starts)
+        else:
+            stepping.accelerations(*self._common(state), self.work[0])
+
+    def advance(self, state: State, n: int, dt: float) -> None:
+        if self.parallel:
+            self._start_threads()
+        if self._cached_for != (state.revision, state.time):
+            self._accelerations(state)
+        acceleration = self.work[0]
+        sweeps = self.table.sweeps(n, dt).astype(self.dtype)
+        stepping.kick_drift_all(sweeps[0, 0], sweeps[0, 1], state.positions, state.velocities,
+                                acceleration)
+        if self._leapfrog:
+            steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
+            steps(sweeps[1:], *self._common(state), self._block_starts, self._leapfrog_work,
+                  state.time, None, None, None, self._totals)
+        else:
+            for kick, drift in sweeps[1:]:
+                self._accelerations(state)
+                stepping.kick_drift_all(kick, drift, state.positions, state.velocities,
+                                        acceleration)
+        self._accelerations(state)
+        stepping.kick_all(self.dtype(self.table.kicks[-1] * dt), state.velocities, acceleration)
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
 

@@ -64,8 +64,8 @@ def _loop_seconds(loop: str, estimate: object) -> float:
     if loop == "leapfrog":  # on one thread
         block_starts = np.array([0, ny], dtype=np.int64)
         work = LeapfrogWork(np.zeros((2, 3, nx)), np.zeros((1, 3, nx)), np.zeros((1, 3, nx + 1)))
-        arguments = (1, 0.01, terms, parameters, position, velocity, block_starts, work, 0.0,
-                     None, np.zeros((1, 3)), None, np.zeros((1, 2)))
+        arguments = (np.full((1, 2), 0.01), terms, parameters, position, velocity, block_starts,
+                     work, 0.0, None, np.zeros((1, 3)), None, np.zeros((1, 2)))
 
         def run() -> None:
             leapfrog_steps(*arguments)

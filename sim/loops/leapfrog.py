@@ -1,5 +1,8 @@
-"""Numba loops of the undamped leapfrog (velocity Verlet between its first and last step), the
-fastest loop shape: each row's forces and its kick and drift fused into one pass over the row.
+"""Numba loops of the undamped leapfrog (velocity Verlet between its first and last step, and
+every splitting method of ``sim.integrators.splitting``), the fastest loop shape: each row's
+forces and its kick and drift fused into one pass over the row.  A sweep kicks by its own kick
+weight and drifts by its own drift weight (``sweeps``: (count, 2) kick and drift times dt, s):
+Verlet's sweeps are all (dt, dt), a splitting method's follow its table.
 
 Undamped nonlinear springs only (``sim.integrators.steppers.Verlet`` picks this loop for them).  The lattice
 is cut into row blocks (``block_starts`` (blocks + 1,) int64: block b is rows block_starts[b] ..
@@ -42,9 +45,9 @@ class LeapfrogWork(NamedTuple):
     horizontal: np.ndarray
 
 @njit(**_JIT)
-def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, velocity, work, b,
-                  time, drive, saved, totals):
-    """One leapfrog kick and drift (v += dt a(x); x += dt v) of rows j0 .. j1-1 (row block b),
+def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, position,
+                  velocity, work, b, time, drive, saved, totals):
+    """One leapfrog kick and drift (v += kick a(x); x += drift v) of rows j0 .. j1-1 (block b),
     undamped nonlinear springs, with each row's forces and update fused into one pass over it.
 
     Of the ``LeapfrogWork`` ``work``: ``below[b]`` holds the forces of the springs below row j0
@@ -60,10 +63,11 @@ def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, 
 
     The drive table (``sim.forces.drive_table``, None compiles it out) acts last: the driven
     particles get their drive at ``time`` (s; velocities kept in ``saved`` (drives, 3) before
-    their row's pass).  ``totals`` (2,) receives the drive's work (J).
+    their row's pass; Verlet's sweeps only, kick = drift = dt).  ``totals`` (2,) receives the
+    drive's work (J).
     """
     below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
-    zero = type(dt)(0.0)
+    zero = type(kick)(0.0)
     pull = gravity_vector(terms.gravity, zero)
     nx = x.shape[1]
     for j in range(j0, j1):
@@ -98,26 +102,27 @@ def leapfrog_rows(j0, j1, dt, x, y, z, vx, vy, vz, terms, parameters, position, 
                     (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
                     pull,
                 )
-                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, dt, dt)
+                z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, kick, drift)
                 below[2, i] = above[2]
-            x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, dt, dt)
-            y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, dt, dt)
+            x[j, i], vx[j, i] = kick_drift(x[j, i], vx[j, i], ax, kick, drift)
+            y[j, i], vy[j, i] = kick_drift(y[j, i], vy[j, i], ay, kick, drift)
             below[0, i] = above[0]
             below[1, i] = above[1]
     if drive is not None:
-        totals[0] += leapfrog_drive(j0, j1, time, dt, drive, position, velocity, saved)
+        totals[0] += leapfrog_drive(j0, j1, time, kick, drive, position, velocity, saved)
 
 
 @njit(**_JIT)
-def leapfrog_steps(n, dt, terms, parameters, position, velocity, block_starts, work, time=0.0,
+def leapfrog_steps(sweeps, terms, parameters, position, velocity, block_starts, work, time=0.0,
                    drive=None, saved=None, sponge=None, totals=None):
-    """n leapfrog steps (kick by dt, drift by dt) of undamped nonlinear springs, in row blocks.
+    """One leapfrog sweep per row of ``sweeps`` ((count, 2): kick by sweeps[s, 0], drift by
+    sweeps[s, 1], in the state's precision) of undamped nonlinear springs, in row blocks.
 
     The springs below each block (and the top wall springs) go into ``work.boundary`` before the
     blocks are swept (``leapfrog_rows``; ``work`` a ``LeapfrogWork``).  This one runs the blocks
     one after the other on the calling thread; ``leapfrog_steps_parallel`` runs them on numba's
-    threads and computes the same numbers.  The drive as in ``leapfrog_rows`` (the kick of step
-    s at ``time`` + s dt); the absorbing layer (``sponge``:
+    threads and computes the same numbers.  The drive as in ``leapfrog_rows`` (the kick of sweep
+    s at ``time`` + s dt, Verlet's sweeps); the absorbing layer (``sponge``:
     ``sim.forces.absorbing_layer.MatchedLayer.arguments``) acts over dt / 2 twice between steps
     (as at the end of one step and the start of the next) at the positions each sweep kicks
     with, before the sweep: its kick does not depend on the velocities, so the sweep's drift
@@ -127,20 +132,21 @@ def leapfrog_steps(n, dt, terms, parameters, position, velocity, block_starts, w
     if parameters.diagonal_stiffness is not None:
         raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
-    for step in range(n):
+    for step in range(sweeps.shape[0]):
+        kick, drift = sweeps[step, 0], sweeps[step, 1]
         if sponge is not None:
-            totals[0, 1] += act_with(0.5 * float(dt), 0.5 * float(dt), True, position, velocity,
-                                     sponge, parameters)
+            totals[0, 1] += act_with(0.5 * float(drift), 0.5 * float(drift), True, position,
+                                     velocity, sponge, parameters)
         for b in range(blocks + 1):
             _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
                               work.boundary)
         for b in range(blocks):
-            _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
-                            time + step * float(dt), drive, saved, totals)
+            _leapfrog_block(b, kick, drift, terms, parameters, position, velocity, block_starts,
+                            work, time + step * float(drift), drive, saved, totals)
 
 
 @njit(parallel=True, **_JIT)
-def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_starts, work,
+def leapfrog_steps_parallel(sweeps, terms, parameters, position, velocity, block_starts, work,
                             time=0.0, drive=None, saved=None, sponge=None, totals=None):
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
     threads (``prange``; ``numba.set_num_threads`` sets how many), and the layer's action too,
@@ -154,8 +160,9 @@ def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_
     if parameters.diagonal_stiffness is not None:
         raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
-    half = 0.5 * float(dt)
-    for step in range(n):
+    for step in range(sweeps.shape[0]):
+        kick, drift = sweeps[step, 0], sweeps[step, 1]
+        half = 0.5 * float(drift)
         taken = 0.0
         for b in prange(blocks + 1):  # the layer's part of each block, and the springs below it
             if sponge is not None and b < blocks:
@@ -166,8 +173,8 @@ def leapfrog_steps_parallel(n, dt, terms, parameters, position, velocity, block_
         if sponge is not None:
             totals[0, 1] += taken
         for b in prange(blocks):
-            _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work,
-                            time + step * float(dt), drive, saved, totals)
+            _leapfrog_block(b, kick, drift, terms, parameters, position, velocity, block_starts,
+                            work, time + step * float(drift), drive, saved, totals)
 
 
 @njit(**_JIT)
@@ -181,11 +188,11 @@ def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_sta
 
 
 @njit(**_JIT)
-def _leapfrog_block(b, dt, terms, parameters, position, velocity, block_starts, work, time,
-                    drive, saved, totals):
+def _leapfrog_block(b, kick, drift, terms, parameters, position, velocity, block_starts, work,
+                    time, drive, saved, totals):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
     work.below[b, :, :] = work.boundary[b]
     x, y, z = components(terms.out_of_plane, position)
     vx, vy, vz = components(terms.out_of_plane, velocity)
-    leapfrog_rows(block_starts[b], block_starts[b + 1], dt, x, y, z, vx, vy, vz, terms, parameters,
-                  position, velocity, work, b, time, drive, saved, totals[b])
+    leapfrog_rows(block_starts[b], block_starts[b + 1], kick, drift, x, y, z, vx, vy, vz, terms,
+                  parameters, position, velocity, work, b, time, drive, saved, totals[b])

@@ -187,22 +187,21 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
 
 
 @njit(**_JIT)
-def verlet_open(dt, position, velocity, acceleration):
-    """Velocity Verlet state (x, v, a) -> leapfrog state: v += dt/2 a; x += dt v (in place)."""
-    half = type(dt)(0.5) * dt
+def kick_drift_all(kick, drift, position, velocity, acceleration):
+    """v += kick a; x += drift v over the whole state (in place): a splitting method's kick and
+    drift with forces already known (velocity Verlet's opening: kick dt/2, drift dt)."""
     flat_position = position.reshape(-1)
     flat_velocity = velocity.reshape(-1)
     flat_acceleration = acceleration.reshape(-1)
     for k in range(flat_position.size):
         flat_position[k], flat_velocity[k] = kick_drift(flat_position[k], flat_velocity[k],
-                                                        flat_acceleration[k], half, dt)
+                                                        flat_acceleration[k], kick, drift)
 
 
 @njit(**_JIT)
-def verlet_close(dt, velocity, acceleration):
-    """Leapfrog half-step velocity -> whole step: v += dt/2 a, with a = a(x) just computed."""
-    half = type(dt)(0.5) * dt
+def kick_all(kick, velocity, acceleration):
+    """v += kick a over the whole state, a = a(x) just computed (a step's last kick)."""
     flat_velocity = velocity.reshape(-1)
     flat_acceleration = acceleration.reshape(-1)
     for k in range(flat_velocity.size):
-        flat_velocity[k] += half * flat_acceleration[k]
+        flat_velocity[k] += kick * flat_acceleration[k]
