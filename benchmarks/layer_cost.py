@@ -73,8 +73,9 @@ def time_variant(width: int, variant: str, rounds: int, steps: int, threads: int
 
     def run(count: int) -> None:
         steps_of(
-            np.full((count, 2), dt), *stepper.kernel, state.positions, state.velocities, stepper._block_starts,
-            stepper._leapfrog_work, 0.0, None, stepper._saved, layer, totals)
+            np.full((count, 2), dt), *stepper.kernel, state.positions, state.velocities,
+            stepper._block_starts, stepper._leapfrog_work, 0.0, None, stepper._saved, layer,
+            totals)
     run(1)
     best = float("inf")
     for _ in range(rounds):
