@@ -15,6 +15,7 @@ import numpy as np
 
 from sim.forces import registry
 from sim.integrators.butcher import ButcherTable
+from sim.integrators.splitting import SplittingTable
 from sim.model.lattice import Model
 
 
@@ -143,6 +144,21 @@ def runge_kutta(table: ButcherTable):
     return method
 
 
+def splitting_method(table: SplittingTable):
+    """The step of the splitting method of ``table`` in its textbook form: kick b_1, drift
+    a_1, ..., drift a_s, kick b_(s+1), each kick with the forces at the positions it finds
+    (velocity-independent forces: a splitting method runs undamped lattices)."""
+
+    def method(model: Model, x, v, dt: float, carried=None):
+        for index, kick in enumerate(table.kicks):
+            v = v + kick * dt * accelerations(model, x, v)
+            if index < table.stages:
+                x = x + table.drifts[index] * dt * v
+        return x, v, None
+
+    return method
+
+
 METHODS = {"euler": _euler, "heun": _heun, "verlet": _verlet, "rk4": _rk4}
 """The numpy version of each compiled integrator written out by hand, by its registry name."""
 
@@ -155,12 +171,14 @@ def _method(integrator: str | ButcherTable):
     from sim.integrators.registry import IntegratorError, describe
 
     try:
-        table = describe(integrator).butcher
+        description = describe(integrator)
     except (IntegratorError, KeyError):
-        table = None
-    if table is None:
+        raise ValueError(f"unknown integrator {integrator!r}") from None
+    if description.splitting is not None:
+        return splitting_method(description.splitting)
+    if description.butcher is None:
         raise ValueError(f"unknown integrator {integrator!r}")
-    return runge_kutta(table)
+    return runge_kutta(description.butcher)
 
 
 def step(model: Model, integrator: str | ButcherTable, positions, velocities, dt: float):
