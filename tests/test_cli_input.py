@@ -383,3 +383,20 @@ def test_an_error_entry_cut_by_a_full_disk_is_cut_back_to_the_last_whole_message
     assert part.readable_bytes == part.total_bytes and part.messages > 0
     steps = temporal(read_chunks(path), "/energy/total", "Scalars:scalars")
     assert 0 < len(steps) <= 30
+
+
+@pytest.mark.parametrize("arguments, fragment", [
+    (["--packet", "inf,0"], "finite"),
+    (["--packet", "0.5,nan"], "finite"),
+    (["--set", "nx=３"], "ASCII"),
+    (["--steps", "３"], "ASCII"),
+    (["--dt", "０.01"], "ASCII"),
+])
+def test_infinite_packets_and_non_ascii_numbers_are_one_line(capsys, arguments, fragment):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy warning reaches the terminal first
+        assert_refused(capsys, ["run", "grid", *arguments, "--steps", "1", "--quiet"]
+                       if "--steps" not in arguments else ["run", "grid", *arguments, "--quiet"],
+                       fragment)

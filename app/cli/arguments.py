@@ -52,11 +52,26 @@ class OneLineErrorParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
+def ascii_float(text: str) -> float:
+    """``float(text)`` for text in ASCII only: Python's ``float`` also reads other scripts'
+    digits ("３" as 3), which a command line should say rather than guess (ValueError)."""
+    if not text.isascii():
+        raise ValueError(f"{text!r} is not written in ASCII digits (0-9, '.', 'e', '-')")
+    return float(text)
+
+
+def ascii_int(text: str) -> int:
+    """``int(text)`` for text in ASCII only (``ascii_float``)."""
+    if not text.isascii():
+        raise ValueError(f"{text!r} is not written in ASCII digits (0-9)")
+    return int(text)
+
+
 def _number(text: str) -> float:
     try:
-        return float(text)
+        return ascii_float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a number in ASCII digits, got {text!r}") from None
 
 
 def positive_float(text: str) -> float:
@@ -77,9 +92,10 @@ def bounded_int(smallest: int, largest: int | None) -> Callable[[str], int]:
 
     def parse(text: str) -> int:
         try:
-            value = int(text)
+            value = ascii_int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+            raise argparse.ArgumentTypeError(
+                f"expected a whole number in ASCII digits, got {text!r}") from None
         if value < smallest or (largest is not None and value > largest):
             span = f"at least {smallest}" if largest is None else f"from {smallest} to {largest}"
             raise argparse.ArgumentTypeError(f"must be {span}, got {text!r}")
@@ -110,6 +126,8 @@ def _parse_value(text: str) -> Any:
         return True
     if lowered in ("false", "no", "off"):
         return False
+    if not text.isascii():
+        raise ValueError(f"--set: {text!r} is not written in ASCII (numbers take the digits 0-9)")
     if "," in text:
         return tuple(float(part) for part in text.split(","))
     try:

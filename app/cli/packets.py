@@ -9,6 +9,8 @@ import argparse
 import math
 from typing import Any
 
+from app.cli.arguments import ascii_float
+
 PACKET_HELP = (
     "replace the scene's initial state by a wave packet of wave vector (QX, QY) in rad/m "
     "(inside the first zone, |QX|, |QY| <= pi / spacing) and polarisation x, y or z (nearest "
@@ -32,9 +34,11 @@ def parse_packet(text: str, model: Any):
     if len(parts) not in (2, 3):
         raise ValueError(f"--packet takes QX,QY or QX,QY,POLARISATION, got {text!r}")
     try:
-        qx, qy = float(parts[0]), float(parts[1])
+        qx, qy = ascii_float(parts[0]), ascii_float(parts[1])
     except ValueError:
         raise ValueError(f"--packet: QX and QY must be numbers (rad/m), got {text!r}") from None
+    if not (math.isfinite(qx) and math.isfinite(qy)):
+        raise ValueError(f"--packet: QX and QY must be finite numbers (rad/m), got {text!r}")
     try:
         name = parts[2] if len(parts) == 3 else default_polarisation(model, qx, qy)
         spec = PacketSpec(qx, qy, name)
