@@ -16,9 +16,12 @@ from sim.runtime import kernel_cache as _kernel_cache
 
 
 def test_the_kernels_cache_is_stamped_with_every_kernel_source_of_the_package():
+    """Beside the sources, or in the directory NUMBA_CACHE_DIR names where a user set it."""
+    expected = ("PackageUserCacheLocator" if os.environ.get("NUMBA_CACHE_DIR")
+                else "PackageCacheLocator")
     for kernel in (kernels.spring_force, leapfrog.leapfrog_steps):
         locator = kernel._cache._impl._locator
-        assert type(locator).__name__ == "PackageCacheLocator"
+        assert type(locator).__name__ == expected
         assert locator.get_source_stamp() == _kernel_cache.package_stamp()
     sources = [path for path, _, _ in _kernel_cache._kernel_sources()]
     assert any(path.endswith("absorbing_layer.py") for path in sources)
@@ -58,6 +61,24 @@ def test_kernels_compiled_at_another_optimisation_level_are_cached_apart():
     assert paths["3"] == [Path(kernels.__file__).parent / "__pycache__",
                           Path(raster.__file__).parent / "__pycache__"]
     assert paths["1"] == [path / "opt-1" for path in paths["3"]]
+
+
+def test_with_numba_cache_dir_the_kernels_are_stamped_and_split_by_level_there(tmp_path):
+    """Clusters, containers and read-only installs set NUMBA_CACHE_DIR: the cache goes there,
+    stale kernels are still told by the package's stamp, and levels stay apart."""
+    ask = ("import sim; from sim.loops import leapfrog; from sim.runtime import kernel_cache\n"
+           "locator = leapfrog.leapfrog_steps._cache._impl._locator\n"
+           "print(type(locator).__name__, locator.get_cache_path(),\n"
+           "      locator.get_source_stamp() == kernel_cache.package_stamp())")
+    answers = {}
+    for level in ("3", "1"):
+        environment = dict(os.environ, NUMBA_OPT=level, NUMBA_CACHE_DIR=str(tmp_path))
+        answers[level] = subprocess.run([sys.executable, "-c", ask], env=environment,
+                                        capture_output=True, text=True, check=True).stdout.split()
+    name, path, stamped = answers["3"]
+    assert name == "PackageUserCacheLocator" and stamped == "True"
+    assert Path(path).is_relative_to(tmp_path)
+    assert Path(answers["1"][1]) == Path(path) / "opt-1"
 
 
 def test_an_index_naming_a_type_the_sources_lack_is_a_miss(tmp_path):

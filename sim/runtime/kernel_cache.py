@@ -10,8 +10,9 @@ cached and nothing changes).  Kernels compiled at another optimisation level tha
 the package's and any other module's, are kept in a subfolder of their own
 (``optimisation_folder``).
 
-It is registered before any kernel is defined (``sim/__init__.py`` imports this module first);
-``NUMBA_CACHE_DIR``, when set, keeps numba's own choice.  An index of cached versions that cannot
+It is registered before any kernel is defined (``sim/__init__.py`` imports this module first).
+Where ``NUMBA_CACHE_DIR`` is set the cache is in the directory it names (numba's own layout there),
+stamped and split by level the same way.  An index of cached versions that cannot
 be read (it names a type the sources no longer define) counts as a miss, not an error.  If
 numba's cache internals differ from what this expects, numba's default locators stay in place.
 """
@@ -77,28 +78,32 @@ def optimisation_folder() -> str:
     return "" if level == "3" else f"opt-{level}"
 
 
-def _register() -> None:
+def _inside_package(py_file: str) -> bool:
     try:
-        from numba.core import caching
-    except ImportError:  # pragma: no cover - numba is a dependency
-        return
-    base = getattr(caching, "InTreeCacheLocator", None)
-    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
-    if base is None or impl is None or not isinstance(getattr(impl, "_locator_classes", None),
-                                                       list):
-        return
+        return PACKAGE in Path(py_file).resolve().parents
+    except (OSError, ValueError):
+        return False
+
+
+def _locators(base: type, user_directory: bool) -> tuple[type, type]:
+    """(the package's stamped locator, the level locator) over numba's ``base``: its in-tree
+    cache (``user_directory`` False: answers when ``NUMBA_CACHE_DIR`` is unset) or the
+    directory ``NUMBA_CACHE_DIR`` names (True: answers when it is set)."""
+
+    def wanted() -> bool:
+        return bool(os.environ.get("NUMBA_CACHE_DIR")) == user_directory
 
     class LevelCacheLocator(base):  # type: ignore[misc, valid-type]
-        """numba's in-tree cache (``__pycache__`` beside the module), in the subfolder of a
-        non-default optimisation level; for kernels outside ``sim`` (e.g. ``app.movie.raster``)
-        only at such a level, numba's own locators answering at the default one."""
+        """numba's cache, in the subfolder of a non-default optimisation level; for kernels
+        outside ``sim`` (e.g. ``app.movie.raster``) only at such a level, numba's own locators
+        answering at the default one."""
 
         def get_cache_path(self):  # noqa: D102 - numba's interface
             return os.path.join(super().get_cache_path(), optimisation_folder())
 
         @classmethod
         def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
-            if not optimisation_folder() or os.environ.get("NUMBA_CACHE_DIR"):
+            if not optimisation_folder() or not wanted():
                 return None
             return super().from_function(py_func, py_file)
 
@@ -111,15 +116,32 @@ def _register() -> None:
 
         @classmethod
         def from_function(cls, py_func, py_file):  # noqa: D102 - numba's interface
-            try:
-                inside = PACKAGE in Path(py_file).resolve().parents
-            except (OSError, ValueError):
-                return None
-            if not inside or os.environ.get("NUMBA_CACHE_DIR"):
+            if not _inside_package(py_file) or not wanted():
                 return None
             return super(LevelCacheLocator, cls).from_function(py_func, py_file)  # numba's
 
-    for position, locator in enumerate((PackageCacheLocator, LevelCacheLocator)):
+    if user_directory:
+        LevelCacheLocator.__name__ = LevelCacheLocator.__qualname__ = "LevelUserCacheLocator"
+        PackageCacheLocator.__name__ = PackageCacheLocator.__qualname__ = \
+            "PackageUserCacheLocator"
+    return PackageCacheLocator, LevelCacheLocator
+
+
+def _register() -> None:
+    try:
+        from numba.core import caching
+    except ImportError:  # pragma: no cover - numba is a dependency
+        return
+    in_tree = getattr(caching, "InTreeCacheLocator", None)
+    user = getattr(caching, "UserProvidedCacheLocator", None)
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    if in_tree is None or user is None or impl is None or not isinstance(
+            getattr(impl, "_locator_classes", None), list):
+        return
+    # NUMBA_CACHE_DIR set (clusters, containers, read-only installs): the same stamp and levels
+    # in the directory it names; unset: beside the sources
+    ours = (*_locators(user, True), *_locators(in_tree, False))
+    for position, locator in enumerate(ours):
         if not any(cls.__name__ == locator.__name__ for cls in impl._locator_classes):
             impl._locator_classes.insert(position, locator)
 
