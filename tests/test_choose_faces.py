@@ -39,7 +39,7 @@ def test_choose_accuracy_and_scenes_give_the_same_answer(answer, capsys) -> None
     recommendation = json.loads(capsys.readouterr().out)["recommendation"]
     assert (recommendation["integrator"], recommendation["dt"]) == answer
     assert main(["scenes", SCENE, "--measure", "--tolerance", str(TOLERANCE)]) == 0
-    found = re.search(r"choose: --integrator (\w+) --dt (\S+)", capsys.readouterr().out)
+    found = re.search(r"choose: --integrator ([\w-]+) --dt (\S+)", capsys.readouterr().out)
     assert found is not None and (found[1], float(found[2])) == answer
 
 
