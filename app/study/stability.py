@@ -350,7 +350,8 @@ def case_limit(task: tuple[Case, str, int, float, bool]) -> Limit:
 
 def format_report(study: StabilityStudy) -> str:
     """One line per case and integrator."""
-    header = (f"{'case':24s} {'integrator':8s} {'omega_max':>10s} {'theory dt':>10s} "
+    width = max([len("integrator"), *(len(limit.integrator) for limit in study.limits)])
+    header = (f"{'case':24s} {'integrator':{width}s} {'omega_max':>10s} {'theory dt':>10s} "
               f"{'measured dt':>11s} {'ratio':>6s}  note")
     lines = [header, "-" * len(header)]
     for limit in study.limits:
@@ -366,7 +367,7 @@ def format_report(study: StabilityStudy) -> str:
             note = (note + f" unstable again at {windows};").strip()
         if limit.measured is not None and limit.theory is None:
             note = (note + " growth too slow to see in the run (theory: none stable)").strip()
-        lines.append(f"{limit.case:24s} {limit.integrator:8s} {limit.omega_max:10.4g} "
+        lines.append(f"{limit.case:24s} {limit.integrator:{width}s} {limit.omega_max:10.4g} "
                      f"{theory:>10s} {measured:>11s} {ratio:>6s}  {note}")
     lines.append("")
     lines.append("theory: Simulation.stable_dt() (lattice linearised about rest); measured: "
