@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import sim  # noqa: E402
 from sim.integrators.registry import describe  # noqa: E402
 
-METHODS = ("verlet", "yoshida4", "blanes-moan", "heun", "ralston3", "rk4")
+METHODS = ("verlet", "yoshida4", "blanes-moan", "euler", "heun", "ralston3", "rk4")
 EVALUATIONS_PER_SECOND = (12, 24, 48, 96, 192)
 """Force evaluations per simulated second of the work-precision sweeps."""
 
