@@ -264,7 +264,9 @@ class PageGate:
       runs the app's checks for it, only after its first camera message: the gate gives viser a
       first camera message at once, so the checks run for every client);
     * an upload must name a control the server created, announce at most ``MAX_UPLOAD_BYTES``
-      and arrive within ``MAX_UPLOAD_SECONDS``; parts beyond the announced size, or late, drop it.
+      and arrive within ``MAX_UPLOAD_SECONDS``; parts beyond the announced size, or late, drop it;
+      an upload is its page's own: another upload under the same id, or a part of it sent by
+      another page, is refused and the upload goes on.
     """
 
     def __init__(self, server: viser.ViserServer) -> None:
@@ -360,6 +362,9 @@ class PageGate:
             reason = f"of {size!r:.20} bytes in {parts!r:.20} parts (at most {MAX_UPLOAD_BYTES:,})"
         elif mine >= MAX_UPLOADS_PER_CLIENT:
             reason = "while this client has uploads in progress"
+        elif (message.transfer_uuid in self._upload_started
+              or message.transfer_uuid in viser_adapter.upload_states(self.gui)):
+            reason = "under an id already in use (each upload needs its own)"
         if reason is not None:
             self._refuse(client_id, f"upload {reason}")
             return
@@ -372,8 +377,11 @@ class PageGate:
         state = states.get(message.transfer_uuid)
         if state is None:
             return
+        if state.get("client_id") != client_id:  # another page's upload goes on untouched
+            self._refuse(client_id, "upload part for another page's upload")
+            return
         content = message.content
-        if (state.get("client_id") != client_id or not isinstance(content, bytes)
+        if (not isinstance(content, bytes)
                 or state["transferred_bytes"] + len(content) > state["total_bytes"]):
             self._drop_upload(message.transfer_uuid)
             self._refuse(client_id, "upload part beyond the announced size; upload dropped")
