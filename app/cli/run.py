@@ -96,6 +96,11 @@ def command_run(arguments: argparse.Namespace) -> int:
     print(f"{simulation.scene.summary()}", file=talk)
     print(f"integrator {simulation.integrator}, dt = {simulation.dt:g} s, {steps} steps; {limit}",
           file=talk)
+    from sim.theory.hanging import hanging_problem
+
+    hanging = hanging_problem(simulation.model)
+    if hanging is not None:
+        print(f"note: {hanging}", file=talk)
     start_energy = simulation.energy()
     chunk = max(1, steps // CHECKS_PER_RUN)
     probes = None

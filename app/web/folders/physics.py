@@ -17,10 +17,11 @@ import viser
 import sim
 from app.web.control import MASS_PATTERNS
 from app.web.host import Folder, PanelHost
-from app.web.inputs import InputRefused, choice, from_user
+from app.web.inputs import InputRefused, amber_html, choice, from_user
 from app.web.widgets import Limits, say
 from sim.forces import registry
 from sim.model import parameters
+from sim.theory.hanging import hanging_problem
 
 MAX_STIFFNESS = 100.0
 """The stiffness slider's maximum (N/m); the paper's default 35 N/m is 35 % of it."""
@@ -84,6 +85,8 @@ class PhysicsFolder(Folder):
                                          hint=row.help)
                 for row in TERM_ROWS}
             self.message = gui.add_html("")
+            self.hanging = gui.add_html("", visible=False)
+            """Amber: why the lattice cannot hang under this gravity (``sim.theory.hanging``)."""
         # The server's own limits; show_scene widens them to show a scene's larger values.
         self.limits = Limits(
             {"stiffness": (1.0, MAX_STIFFNESS), "diagonal": (0.0, MAX_STIFFNESS),
@@ -107,6 +110,7 @@ class PhysicsFolder(Folder):
             error = future.exception()
             if error is None:
                 say(self.message, None)
+                self.show_hanging(host.runner.simulation.model)
             else:
                 refused(error)
 
@@ -153,6 +157,12 @@ class PhysicsFolder(Folder):
         self.mass_pattern.on_update(physics_callback(masses))
         self.heavy_mass.on_update(physics_callback(masses))
 
+    def show_hanging(self, model: sim.Model) -> None:
+        """Say, in amber, why the lattice cannot hang under its gravity (or nothing)."""
+        problem = hanging_problem(model)
+        self.hanging.content = amber_html(problem) if problem else ""
+        self.hanging.visible = problem is not None
+
     def show_scene(self, simulation: sim.Simulation) -> None:
         model = simulation.model
         show = self.limits.show
@@ -166,6 +176,7 @@ class PhysicsFolder(Folder):
         if model.has_gravity:
             show("gravity", self.gravity, float(np.linalg.norm(model.gravity)))
         self.linear.value = model.linear
+        self.show_hanging(model)
         for row in TERM_ROWS:
             show(row.name, self.term_sliders[row.name], float(getattr(model, row.name)))
         pattern = mass_pattern_of(model)
