@@ -8,8 +8,8 @@ import numpy as np
 
 import sim
 from sim.theory.hanging import hanging_problem
-from tests.test_web_safety import PageClient, send, settle
 from tests.helpers import wait_for
+from tests.test_web_safety import PageClient, send, settle
 
 
 def _hangs(scene: sim.Scene, seconds: float = 30.0) -> bool:
