@@ -116,3 +116,15 @@ def test_a_refused_number_is_said_in_red_and_no_number_box_has_limits_the_page_w
     assert all(box._impl.props.min is None and box._impl.props.max is None for box in boxes), [
         box.label for box in boxes if box._impl.props.min is not None
         or box._impl.props.max is not None]
+
+
+def test_the_accuracy_folders_words_use_the_plots_unit():
+    from app.web.folders.accuracy import error_words
+    from app.web.widgets import History
+
+    history = History(10)
+    for time, error in ((0.0, 0.0), (1.0, 3e-5), (2.0, 1.2e-5)):
+        history.add(time, (error,))
+    assert error_words(1.2e-5, history) == "+12 ppm"
+    history.add(3.0, (0.02,))
+    assert error_words(0.02, history) == "+2.000%"

@@ -39,7 +39,7 @@ from app.web.inputs import (
     warning_html,
 )
 from app.web.plots import LivePlot
-from app.web.widgets import RATIO_UNITS, History, PlotAxis, say
+from app.web.widgets import RATIO_UNITS, History, PlotAxis, axis_range, say
 from sim.integrators.registry import describe
 from sim.runtime.runner import Frame
 
@@ -69,6 +69,19 @@ def explanation(integrator: str, error: float, model: sim.Model) -> str:
                      for other in applicable if not has_time_step_error(other.name)]
     remedy = "Try " + ", or ".join(remedies) + " (Choose for me picks the cheapest)."
     return f"{describe(integrator).drift_explanation(error)} {remedy}"
+
+
+def error_words(error: float, history: History) -> str:
+    """The error in the unit the plot's axis shows for the run so far (%, ppm, ppb, ...), so the
+    words and the plot speak one unit."""
+    if not math.isfinite(error):
+        return f"{error}"
+    _, values = history.columns()
+    factor, unit, _ = axis_range(values[0] if values.size else np.array([error]), "",
+                                 RATIO_UNITS)
+    if unit == "%":
+        return f"{error:+.3%}"
+    return f"{error / factor:+.3g} {unit}"
 
 
 class AccuracyFolder(Folder):
@@ -222,7 +235,8 @@ class AccuracyFolder(Folder):
             tolerance = self.tolerance_value()
         except InputRefused:
             tolerance = DEFAULT_TOLERANCE
-        text = f"energy-balance error {error:+.3%} (tolerance {100 * tolerance:.3g} %)"
+        text = f"energy-balance error {error_words(error, self.history)} (tolerance " \
+               f"{100 * tolerance:.3g} %)"
         size = abs(error) if math.isfinite(error) else math.inf
         if size > 10 * tolerance:
             live = warning_html(text)
