@@ -36,7 +36,7 @@ class FrameSource(Protocol):
     summary: str
     frames: int
 
-    def scales(self, colour: str) -> ColourScales:
+    def scales(self, colour: str, watch: Any = None) -> ColourScales:
         """The fixed colour scales of the whole movie for ``colour`` (one of ``COLOURS``)."""
         ...
 

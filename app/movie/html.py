@@ -273,12 +273,14 @@ def write_html(source: FrameSource, path: Path, options: MovieOptions, *,
     ``on_frame(done, planned)`` returning False stops with ``MovieCancelled``."""
     from tqdm import tqdm
 
-    from app.movie.render import MovieCancelled
+    from app.movie.render import MovieCancelled, cancel_within_frames
 
     model = source.model
+    done = [0]
+    watch = cancel_within_frames(source, on_frame, done)
     scene = source.scene
     colour = "strain" if model.n_particles <= SPHERE_LIMIT and model.dim == 2 else "displacement"
-    scales = source.scales(colour)
+    scales = source.scales(colour, watch)
     limits = {"strain": scales.strain or 1e-3, "displacement": scales.field or model.spacing}
     if model.dim == 3 and model.n_particles <= SPHERE_LIMIT:
         limits["displacement"] = scales.height or scales.field or model.spacing
@@ -305,6 +307,7 @@ def write_html(source: FrameSource, path: Path, options: MovieOptions, *,
                 shown_limits.append(lattice.show(state))
                 times.append(state.time)
                 bar.update(1)
+                done[0] = count
                 if on_frame is not None and not on_frame(count, source.frames):
                     raise MovieCancelled(f"cancelled after {count} of {source.frames} frames")
         finally:

@@ -109,7 +109,7 @@ class RecordingSource:
         vectors = ends[model.springs[:, 1]] - ends[model.springs[:, 0]]
         return np.linalg.norm(vectors, axis=1) / model.rest_length - 1.0
 
-    def scales(self, colour: str) -> ColourScales:
+    def scales(self, colour: str, watch: Any = None) -> ColourScales:
         """Scales from the recording's own frames (99.9th percentiles over up to 60 of them)."""
         model = self.model
         axis = displacement_axis(self.scene)

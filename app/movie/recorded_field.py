@@ -149,7 +149,7 @@ class FieldRecordingSource:
         self.scale_policy = self.policy if self.kind != "DepthImage:buffer" else None
         self._table = (SIGNED_FIELD if self.signed else MAGNITUDE).table()
 
-    def scales(self, colour: str) -> ColourScales:
+    def scales(self, colour: str, watch: Any = None) -> ColourScales:
         model = self.model
         rest_strain = (model.spacing - model.rest_length) / model.rest_length
         return ColourScales(strain=1.0, field=self.limit, height=0.0, axis=self.axis,

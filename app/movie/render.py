@@ -54,20 +54,33 @@ CANCEL_INTERVAL = 0.1
 """Seconds of stepping between two looks at ``on_frame`` within a frame."""
 
 
-def _cancel_within_frames(source: FrameSource, on_frame: OnFrame, done: list[int]) -> None:
+def cancel_within_frames(source: FrameSource, on_frame: OnFrame | None, done: list[int]) -> Any:
     """Make the steps between two frames of ``source`` (its ``simulation``, if it has one) look
     at ``on_frame(done[0], planned)`` about every ``CANCEL_INTERVAL`` seconds, raising
-    ``MovieCancelled`` when it returns False: a frame of a long scene can take minutes."""
+    ``MovieCancelled`` when it returns False: a frame of a long scene can take minutes.
+    Returns the same watch for another simulation (the colour scales' look-ahead run, which
+    comes before the first frame), or None without ``on_frame``."""
+    if on_frame is None:
+        return None
+
+    def watch(simulation: Any) -> None:
+        _look_while_stepping(simulation, on_frame, done, source.frames)
+
     simulation = getattr(source, "simulation", None)
-    if simulation is None:
-        return
+    if simulation is not None:
+        watch(simulation)
+    return watch
+
+
+def _look_while_stepping(simulation: Any, on_frame: OnFrame, done: list[int],
+                         planned: int) -> None:
     step = simulation.step
 
     def step_looking(n: int = 1) -> None:
         piece, left = 1, int(n)
         while left > 0:
-            if not on_frame(done[0], source.frames):
-                raise MovieCancelled(f"cancelled after {done[0]} of {source.frames} frames")
+            if not on_frame(done[0], planned):
+                raise MovieCancelled(f"cancelled after {done[0]} of {planned} frames")
             count = min(piece, left)
             started = time.perf_counter()
             step(count)
@@ -86,7 +99,9 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
     colour = options.colour or getattr(source, "colour", None) or default_colour(model)
     if options.scale is None and getattr(source, "scale_policy", None):
         options = dataclasses.replace(options, scale=source.scale_policy)
-    scales = source.scales(colour)
+    done = [0]
+    watch = cancel_within_frames(source, on_frame, done)
+    scales = source.scales(colour, watch)
     painter = Painter(source.scene, model, source.summary, colour, scales, options)
     width, height = options.size
     writer = open_writer(target, kind, width, height, options.fps, palette=painter.table)
@@ -96,9 +111,6 @@ def _render(source: FrameSource, target: str | Path | BinaryIO, kind: str,
                               name="movie-encoder", daemon=True)
     worker.start()
     count = 0
-    done = [0]
-    if on_frame is not None:
-        _cancel_within_frames(source, on_frame, done)
     bar = tqdm(total=source.frames, unit="frame", disable=not options.progress,
                dynamic_ncols=True, desc="movie")
     try:

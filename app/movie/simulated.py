@@ -38,11 +38,13 @@ class SimulationSource:
         self.summary = (f"{scene.name}: {self.model.describe()}; {self.simulation.integrator}, "
                         f"dt={dt:g} s" + (f"; from t = {start_time:.2f} s" if start_time else ""))
 
-    def scales(self, colour: str) -> ColourScales:
+    def scales(self, colour: str, watch: Any = None) -> ColourScales:
+        """The colour scales of a look-ahead run; ``watch(simulation)`` before it steps."""
         quantity = "speed" if colour == "speed" else colour
         return look_ahead(self.scene, integrator=self.simulation.integrator,
                           dt=self.simulation.dt, quantity=quantity,
-                          strains=colour == "strain" and self.model.n_particles <= DETAIL_LIMIT)
+                          strains=colour == "strain" and self.model.n_particles <= DETAIL_LIMIT,
+                          watch=watch)
 
     def states(self, velocities: bool, strains: bool) -> Iterator[State]:
         from sim import BlowUpError

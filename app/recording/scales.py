@@ -152,19 +152,22 @@ def look_ahead(
     scene: Any, *, integrator: str | None = None, dt: float | None = None,
     quantity: str = "displacement", strains: bool = True,
     budget_seconds: float = LOOK_AHEAD_BUDGET_SECONDS, samples: int = PERCENTILE_SAMPLES,
-    energies: bool = False,
+    energies: bool = False, watch: Any = None,
 ) -> ColourScales:
     """Run a copy of ``scene`` and return fixed colour scales (see the module docstring).
 
     integrator: one name, or a comma-separated comparison (``look_ahead_integrator`` picks the
     accurate one); dt: the step (s), default the scene's.  A blow-up ends the look-ahead early
     (the scales use what was sampled).  ``energies``: also find the largest kinetic + spring
-    energy (``ColourScales.energy``)."""
+    energy (``ColourScales.energy``).  ``watch(simulation)``: called with the look-ahead's
+    simulation before it steps (a movie makes its steps look for a cancel)."""
     from sim import BlowUpError, Simulation
 
     model = scene.model
     name = look_ahead_integrator(integrator, scene)
     simulation = Simulation(scene, integrator=name, dt=dt or scene.dt)
+    if watch is not None:
+        watch(simulation)
     dt = simulation.dt
     wanted = max(1, math.ceil(scene.duration / dt - 1e-9))
     step_seconds = describe(name).seconds_per_step(model.n_particles)
