@@ -230,3 +230,24 @@ def test_the_page_plays_the_probes_and_forgets_them_on_reset(tmp_path):
         assert probes.player.content == ""
     finally:
         app.stop()
+
+
+def test_run_goes_on_until_the_probes_sound_lasts_three_seconds(tmp_path, capsys):
+    """The chain's own 20 s would give 0.04 s of sound: run says how much it needs, runs on,
+    and the WAV lasts 3 s; with a duration given, it makes the shorter sound and says the
+    duration that 3 s need."""
+    import wave
+
+    from app.cli import main
+
+    path = tmp_path / "chain.wav"
+    assert main(["run", "chain", "--set", "linear=true", "--probe", "2,0", "--sound",
+                 str(path), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "--sound: 3 s of sound" in out and "running on to t = " in out
+    with wave.open(str(path)) as sound:
+        assert sound.getnframes() / sound.getframerate() == pytest.approx(3.0, abs=0.01)
+    assert main(["run", "chain", "--set", "linear=true", "--probe", "2,0", "--sound",
+                 str(tmp_path / "short.wav"), "--duration", "30", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "gives 0.15 s (give --duration 600 or more)" in out, out

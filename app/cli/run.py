@@ -132,7 +132,10 @@ def command_run(arguments: argparse.Namespace) -> int:
     with tqdm(total=steps, unit="step", disable=arguments.quiet, dynamic_ncols=True) as bar:
         done = 0
         try:
-            while done < steps:
+            while done < steps or (sound is not None and probes is not None
+                                   and (steps := steps + _sound_extension(
+                                       arguments, simulation, probes, fields, packet, bar,
+                                       talk)) > done):
                 n = min(chunk, steps - done, fields.next_step - done if fields else steps)
                 simulation.step(n)
                 done += n
@@ -309,17 +312,56 @@ def _check_sound(arguments: argparse.Namespace) -> Any:
         raise ValueError(f"--sound: {error}") from None
 
 
+def _sound_extension(arguments: argparse.Namespace, simulation: Any, probes: Any, fields: Any,
+                     packet: Any, bar: Any, talk: Any) -> int:
+    """Steps to run on so that the probes' sound lasts ``LEAST_SECONDS`` (0: it does); said in
+    one line.  A run whose length the user gave (--duration, --steps, --fields, --packet) is
+    not extended: a note says how long it would need, and its shorter sound is made."""
+    from sim.instruments.sound import LEAST_SECONDS, needed_simulated_seconds
+
+    times, values = _sound_series(probes)
+    try:
+        factor, frequency, needed = needed_simulated_seconds(times, values)
+    except ValueError:
+        return 0  # probe_sound says why there is nothing to hear
+    have = float(times[-1] - times[0])
+    if have >= needed * (1 - 1e-9):
+        return 0
+    start = simulation.time - have
+    if (arguments.duration is not None or arguments.steps is not None or fields is not None
+            or packet is not None):
+        print(f"note: --sound: {LEAST_SECONDS:g} s of sound of the probes' {frequency:.4g} Hz "
+              f"motion, played {factor:g} times faster, need {needed:.4g} s of simulated time; "
+              f"this run has {have:.4g} s, which gives {have / factor:.2g} s (give --duration "
+              f"{math.ceil(start + needed)} or more)", file=talk)
+        return 0
+    extra = max(1, math.ceil((needed - have) / simulation.dt - 1e-9))
+    planned_steps(simulation, steps=simulation.step_count + extra)  # the same work limit
+    probes.limit = max(probes.limit, simulation.step_count + extra + 1)
+    bar.total += extra
+    bar.refresh()
+    print(f"--sound: {LEAST_SECONDS:g} s of sound of the probes' {frequency:.4g} Hz motion at "
+          f"x{factor:g} need {needed:.4g} s of simulated time: running on to t = "
+          f"{simulation.time + extra * simulation.dt:.4g} s", file=talk)
+    return extra
+
+
+def _sound_series(probes: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(times, the strongest component of each probe's displacement): what is heard."""
+    displacements = probes.displacements
+    strongest = displacements.std(axis=0).argmax(axis=1)  # (probes,) component of each
+    return probes.times, displacements[:, np.arange(len(probes.particles)), strongest]
+
+
 def _write_sound(probes: Any, path: Any, force: bool) -> dict[str, Any]:
     """Write the probes' sound (each probe's strongest component) to ``path`` atomically; the
     summary's sound entries."""
     from sim.instruments.sound import probe_sound
     from sim.storage.files import write_bytes
 
-    displacements = probes.displacements
-    strongest = displacements.std(axis=0).argmax(axis=1)  # (probes,) component of each
-    values = displacements[:, np.arange(len(probes.particles)), strongest]
+    times, values = _sound_series(probes)
     try:
-        sound = probe_sound(probes.times, values)
+        sound = probe_sound(times, values)
         written = write_bytes(path, sound.wav, overwrite=force)
     except ValueError as error:
         raise ValueError(f"--sound: {error}") from None

@@ -50,6 +50,8 @@ LONGEST_SECONDS = 4.0
 """The most sound made: the last ``LONGEST_SECONDS * factor`` seconds of simulated time."""
 SHORTEST_SECONDS = 0.05
 """A sound shorter than this is a click: refused."""
+LEAST_SECONDS = 3.0
+"""The sound a run is made long enough to give (``needed_simulated_seconds``)."""
 FADE_SECONDS = 0.01
 """The raised-cosine fade at each end (at most a quarter of the sound)."""
 HEADROOM = 0.9
@@ -144,6 +146,21 @@ def probe_sound(times: np.ndarray, values: np.ndarray, rate: int = SAMPLE_RATE,
     samples = np.round(signal * (HEADROOM * 32767 / loudest)).astype("<i2")
     return Sound(wav=_wav(samples, rate), factor=float(factor), frequency=frequency,
                  seconds=seconds, simulated=simulated, channels=channels, rate=int(rate))
+
+
+def needed_simulated_seconds(times: np.ndarray, values: np.ndarray,
+                             seconds: float = LEAST_SECONDS) -> tuple[float, float, float]:
+    """(factor, dominant frequency (Hz), simulated seconds of probe series) that ``seconds`` of
+    sound need, from the series so far (``values`` as for ``probe_sound``)."""
+    times = np.asarray(times, dtype=float)
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1:
+        values = values[:, None]
+    if times.size < 8 or not np.isfinite(values).all():
+        raise ValueError("too few samples to hear: probe for longer")
+    frequency = _dominant(times, values)
+    factor = frequency_factor(frequency)
+    return factor, frequency, seconds * factor
 
 
 def _dominant(times: np.ndarray, values: np.ndarray) -> float:
