@@ -109,11 +109,18 @@ def test_launch_puts_the_chosen_packet_in_the_lattice_and_refuses_what_it_cannot
     _, qx, qy = folder.structure.point(0.6)
     expected, _ = packet_state(model, PacketSpec(qx, qy, "y"), None)
     assert np.allclose(web_app.runner.simulation.positions, expected)
+    assert "press Play" in folder.message.content
+    web_app.runner.play()  # the words follow the run
+    assert wait_for(lambda: "it moves as the run plays" in folder.message.content)
+    web_app.runner.pause()
+    assert not folder.launch_button.disabled and not folder.launch_reason.visible
     panel = web_app.panel
     send(panel.scene.preset, "ionic")
     press(panel.scene.build_button)
     settle(web_app)
     assert wait_for(lambda: "ionic lattice" in folder.summary.content)
+    assert folder.launch_button.disabled  # a button that cannot act says why
+    assert folder.launch_reason.visible and "equal masses" in folder.launch_reason.content
     send(folder.position, 0.3)
     press(folder.launch_button)
     assert "could not launch" in folder.message.content and "equal masses" in folder.message.content

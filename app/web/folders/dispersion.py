@@ -42,6 +42,7 @@ from app.web.inputs import (
 from app.web.plots import ENTERING, PADDING
 from sim.runtime.runner import Frame
 from sim.theory.bands import BandError, BandStructure, numerical_omegas
+from sim.theory.wave_packet import WaveError, branch, polarisation_names
 
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 """One colour per branch: its band, continuum and numerical lines share it."""
@@ -57,6 +58,19 @@ def speed_pair(measured: dict) -> tuple[float | None, float | None]:
     """(group, phase) speed (m/s) from ``PacketTracker.speeds()`` (None: not measured yet)."""
     group, phase = measured.get("group_speed"), measured.get("phase_speed")
     return (None if group is None else float(group), None if phase is None else float(phase))
+
+
+PRESS_PLAY = "press Play"
+PLAYING = "it moves as the run plays"
+
+
+def launch_refusal(model: sim.Model) -> str | None:
+    """Why no packet of one wave vector can be launched on ``model`` (None: it can)."""
+    try:
+        branch(model, polarisation_names(model)[0])
+    except WaveError as error:
+        return str(error)
+    return None
 
 
 class DispersionFolder(Folder):
@@ -95,6 +109,8 @@ class DispersionFolder(Folder):
                 "Launch this wave", icon=viser.Icon.WAVE_SINE,
                 hint="put a wave packet of this q and branch into the lattice and measure "
                 "its group and phase speed")
+            self.launch_reason = gui.add_html("", visible=False)
+            """Why the launch button is disabled (amber), when it is."""
             self.message = gui.add_html("")
 
         @self.position.on_update
@@ -177,8 +193,7 @@ class DispersionFolder(Folder):
         model = self.host.runner.simulation.model
         self._stop_tracking()
         said = ok_html(f"launched a packet on branch {branch} at q = ({qx:.4g}, {qy:.4g}) rad/m; "
-                       + ("it moves as the run plays" if self.host.runner.playing
-                          else "press Play"))
+                       + (PLAYING if self.host.runner.playing else PRESS_PLAY))
         try:
             from sim.instruments.packet_tracker import PacketTracker
         except ImportError:
@@ -240,6 +255,8 @@ class DispersionFolder(Folder):
             with self._lock:
                 self._show_point()
             return
+        if frame.playing and PRESS_PLAY in self.message.content:  # it plays now: say so
+            self.message.content = self.message.content.replace(PRESS_PLAY, PLAYING)
         if self._tracker is None or now - self._last_look < TRACK_SECONDS:
             return
         self._last_look = now
@@ -267,8 +284,14 @@ class DispersionFolder(Folder):
                 self.summary.content = as_html(f"no bands: {error}")
                 self.point_text.content = ""
                 self.launch_button.disabled = True
+                self.launch_reason.content = amber_html(f"Launch this wave: no bands: {error}")
+                self.launch_reason.visible = True
                 return
-            self.launch_button.disabled = False
+            reason = launch_refusal(model)
+            self.launch_button.disabled = reason is not None
+            self.launch_reason.content = amber_html(f"Launch this wave: {reason}") if reason \
+                else ""
+            self.launch_reason.visible = reason is not None
             names = list(self.structure.names)
             if list(self.branch.options) != names:
                 self.branch.options = names
