@@ -72,6 +72,21 @@ def _in_precision(field: KernelField, value: object, scalar: type) -> object:
     return scalar(value)
 
 
+def leapfrog_family(model: Model) -> str:
+    """"leapfrog" where the fused leapfrog sweeps carry every term of ``model`` (nonlinear
+    springs, no velocity-dependent force, no term the leapfrog lacks: ``sim.forces.registry``),
+    else "sweep"."""
+    plain = registry.leapfrog(model) and not (registry.velocity_dependent(model) or model.linear)
+    return "leapfrog" if plain else "sweep"
+
+
+def leapfrog_work(model: Model, blocks: int, dtype: type[np.floating]) -> LeapfrogWork:
+    """The fused leapfrog's scratch for ``blocks`` row blocks of ``model``."""
+    return LeapfrogWork(boundary=np.zeros((blocks + 1, 3, model.nx), dtype=dtype),
+                        below=np.zeros((blocks, 3, model.nx), dtype=dtype),
+                        horizontal=np.zeros((blocks, 3, model.nx + 1), dtype=dtype))
+
+
 class Integrator:
     """Base class of the compiled steppers: ``advance(state, n, dt)`` moves the state n steps.
 
@@ -164,9 +179,7 @@ class Verlet(Integrator):
         """Undamped nonlinear springs: the steps between the first and the last run as fused
         leapfrog sweeps over row blocks (one block per thread), the fastest loop shape; it has
         no diagonal springs, which the row sweeps carry."""
-        plain = registry.leapfrog(model) and not (registry.velocity_dependent(model)
-                                                   or model.linear)
-        return "leapfrog" if plain else "sweep"
+        return leapfrog_family(model)
 
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
@@ -175,11 +188,7 @@ class Verlet(Integrator):
 
         self._leapfrog = self.loop_family(model) == "leapfrog"
         blocks = self._block_starts.size - 1
-        self._leapfrog_work = LeapfrogWork(
-            boundary=np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype),
-            below=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
-            horizontal=np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype),
-        )
+        self._leapfrog_work = leapfrog_work(model, blocks, self.dtype)
         self._drive_power = 0.0
         self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
         self._block_totals = np.zeros((blocks, 2))
@@ -294,20 +303,14 @@ class Splitting(Integrator):
 
     @classmethod
     def loop_family(cls, model: Model) -> str:
-        plain = registry.leapfrog(model) and not (registry.velocity_dependent(model)
-                                                   or model.linear)
-        return "leapfrog" if plain else "sweep"
+        return leapfrog_family(model)
 
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
         self._cached_for: tuple[int, float] | None = None
         self._leapfrog = self.loop_family(model) == "leapfrog"
         blocks = self._block_starts.size - 1
-        self._leapfrog_work = LeapfrogWork(
-            boundary=np.zeros((blocks + 1, 3, model.nx), dtype=self.dtype),
-            below=np.zeros((blocks, 3, model.nx), dtype=self.dtype),
-            horizontal=np.zeros((blocks, 3, model.nx + 1), dtype=self.dtype),
-        )
+        self._leapfrog_work = leapfrog_work(model, blocks, self.dtype)
         self._totals = np.zeros((blocks, 2))
 
     def invalidate(self) -> None:
