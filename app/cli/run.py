@@ -132,10 +132,7 @@ def command_run(arguments: argparse.Namespace) -> int:
     with tqdm(total=steps, unit="step", disable=arguments.quiet, dynamic_ncols=True) as bar:
         done = 0
         try:
-            while done < steps or (sound is not None and probes is not None
-                                   and (steps := steps + _sound_extension(
-                                       arguments, simulation, probes, fields, packet, bar,
-                                       talk)) > done):
+            while done < steps:
                 n = min(chunk, steps - done, fields.next_step - done if fields else steps)
                 simulation.step(n)
                 done += n
@@ -148,6 +145,10 @@ def command_run(arguments: argparse.Namespace) -> int:
                     _sample_modes(modes, simulation)
                 if fields is not None and done == fields.next_step:
                     fields.add(simulation, done)
+                if done == steps and sound is not None and probes is not None:
+                    # the run goes on while the probes' sound is shorter than it should be
+                    steps += _sound_extension(arguments, simulation, probes, fields, packet,
+                                              bar, talk)
         except BlowUpError as error:
             bar.close()
             stopped = str(error)

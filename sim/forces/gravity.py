@@ -56,18 +56,14 @@ def _numpy_force(model: Any, positions: np.ndarray, velocities: np.ndarray) -> n
     return g * np.asarray(model.masses)[None]
 
 
-def _has_gravity(model: Any) -> bool:
-    return any(component != 0.0 for component in model.gravity[: model.dim])
-
-
 TERM = ForceTerm(
     "gravity",
     "a uniform acceleration on every particle",
     parameters=(Parameter("gravity", "g", "m/s²", "Gravity",
                           "acceleration of gravity (x, y, z)", -1e6, 1e6, (0.0, 0.0, 0.0)),),
     fields=(KernelField("gravity", "terms", "vector",
-                        lambda model: np.array(model.gravity) if _has_gravity(model) else None),),
-    present=_has_gravity,
+                        lambda model: np.array(model.gravity) if model.has_gravity else None),),
+    present=lambda model: model.has_gravity,
     describe=lambda model: "gravity (" + ", ".join(
         f"{g:g}" for g in model.gravity[: model.dim]) + ")",
     example={"gravity": 9.81},

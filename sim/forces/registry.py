@@ -24,14 +24,6 @@ TERMS: tuple[ForceTerm, ...] = (
 """Every force term, in the parameter table's order."""
 
 
-def get(name: str) -> ForceTerm:
-    """The term called ``name``; a clear error lists the known names."""
-    for term in TERMS:
-        if term.name == name:
-            return term
-    raise KeyError(f"no force term {name!r}; known: {', '.join(term.name for term in TERMS)}")
-
-
 def parameters() -> tuple[Parameter, ...]:
     """Every term's parameter rows, in order."""
     return tuple(row for term in TERMS for row in term.parameters)
@@ -72,17 +64,8 @@ def leapfrog(model: Any) -> bool:
 
 
 def conflicts(model: Any) -> list[str]:
-    """Why ``model``'s terms cannot run together (empty: they can): a term without a
-    linearised law on linear springs, one the absorbing layer does not take, or two terms that
-    exclude each other."""
-    reasons = []
-    terms = present(model)
-    names = {term.name for term in terms}
-    for term in terms:
-        if model.linear and not term.linearised:
-            reasons.append(f"the {term.name} have no linearised law; set linear false")
-        if model.walls.absorbing and not term.absorbing_layer:
-            reasons.append(f"the absorbing layer has no {term.name} yet; use fixed walls far "
-                           f"away (boundary fixed) or no {term.name}")
-        reasons.extend(reason for other, reason in term.excludes.items() if other in names)
-    return reasons
+    """Why ``model``'s terms cannot run together (empty: they can): a term the absorbing layer
+    does not take."""
+    return [f"the absorbing layer has no {term.name} yet; use fixed walls far away (boundary "
+            f"fixed) or no {term.name}"
+            for term in present(model) if model.walls.absorbing and not term.absorbing_layer]

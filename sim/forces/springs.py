@@ -50,6 +50,7 @@ from sim.forces.dashpot import dashpot_factor
 from sim.forces.diagonal import diagonal_net, diagonal_springs
 from sim.forces.drag import drag_force, drag_power
 from sim.forces.gravity import gravity_vector
+from sim.forces.term import in_precision
 from sim.forces.terms import inverse_mass_at
 
 __all__ = ["SpringParameters", "components", "drag_power", "gravity_vector", "horizontal_springs",
@@ -91,15 +92,8 @@ class SpringParameters(namedtuple("SpringParameters", [name for name, _ in _FIEL
     def as_type(self, dtype, inverse_sqrt_estimate: object = None) -> SpringParameters:
         """The same parameters as scalars of ``dtype`` (np.float64 or np.float32)."""
         scalar = np.dtype(dtype).type
-        values = {}
-        for name, value in self._asdict().items():
-            kind = _KINDS[name]
-            if value is None or kind == "flag":
-                values[name] = value
-            elif kind == "vector":
-                values[name] = np.asarray(value, dtype=scalar)
-            else:
-                values[name] = scalar(value)
+        values = {name: in_precision(_KINDS[name], value, scalar)
+                  for name, value in self._asdict().items()}
         values["inverse_sqrt_estimate"] = inverse_sqrt_estimate
         return SpringParameters(**values)
 

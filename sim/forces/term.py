@@ -1,10 +1,11 @@
 """What a force term is, as data: its parameters, what the kernels take of it, what it works with.
 
-A ``ForceTerm`` is declared once, in the module that holds the term's kernels (``springs``,
-``diagonal``, ``dashpot``, ``drag``, ``gravity``, ``fpu``, ``side_walls``), and registered in
-``sim.forces.registry``.  Everything that shows, checks, stores, compiles or explains a term reads
-that one object: the parameter table (``Parameter`` rows, ``sim.model.parameters``), the model's
-stored values and their checks, the kernels' records (``KernelField``: the fields a term adds to
+A ``ForceTerm`` is declared once, in the module that holds the term's kernels (``nearest`` for the
+nearest springs, whose kernels are ``springs`` and ``axial``; ``diagonal``, ``dashpot``, ``drag``,
+``gravity``, ``fpu``), and registered in ``sim.forces.registry``.  Everything that shows,
+checks, stores, compiles or explains a term reads that one object: the parameter table
+(``Parameter`` rows, ``sim.model.parameters``), the model's stored values and their checks, the
+kernels' records (``KernelField``: the fields a term adds to
 ``sim.forces.springs.SpringParameters`` or ``sim.forces.terms.Terms``), the kernel key
 (``sim.runtime.warming``), the loops' choice of shape (``velocity_dependent``, ``leapfrog``),
 the model's one-line description, scene files and the page's Physics folder.
@@ -15,6 +16,8 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
+
+import numpy as np
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,6 +73,16 @@ class KernelField:
     value: Callable[[Any], Any]
 
 
+def in_precision(kind: str, value: Any, scalar: type) -> Any:
+    """A kernel record's value of ``kind`` ("number", "flag", "vector") in the kernels'
+    precision ``scalar``; None stays None (the term is absent) and a flag stays as it is."""
+    if value is None or kind == "flag":
+        return value
+    if kind == "vector":
+        return np.asarray(value, dtype=scalar)
+    return scalar(value)
+
+
 @dataclasses.dataclass(frozen=True)
 class ForceTerm:
     """One force term of the lattice.
@@ -82,9 +95,8 @@ class ForceTerm:
     whether the model has the term.  ``describe(model)``: a few words for ``Model.describe``
     when present.  ``example``: parameter values that make the term present (the tests set
     them).  What it works with: ``velocity_dependent`` (the force depends on velocities: Verlet
-    then predicts them), ``leapfrog`` (the fused leapfrog loop carries it), ``linearised`` (it has
-    a linearised law; False: a model with linear springs refuses it), ``absorbing_layer``.
-    ``excludes``: a sentence per other term it cannot be combined with.
+    then predicts them), ``leapfrog`` (the fused leapfrog loop carries it), ``absorbing_layer``
+    (False: a model with absorbing walls refuses it).
 
     Its numpy twins, written from the physics apart from the kernels (the reference integrators
     and the tests use them): ``numpy_force(model, positions, velocities)`` its force (N) on
@@ -104,9 +116,7 @@ class ForceTerm:
     check: Callable[[str, Any], Any] | None = None
     velocity_dependent: bool = False
     leapfrog: bool = True
-    linearised: bool = True
     absorbing_layer: bool = True
-    excludes: Mapping[str, str] = dataclasses.field(default_factory=dict)
     numpy_force: Callable[..., Any] | None = None
     numpy_energy: Callable[..., Any] | None = None
     numpy_axial: Callable[..., Any] | None = None

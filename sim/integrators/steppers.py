@@ -19,10 +19,10 @@ import numpy as np
 from sim.forces import drive_table as instruments
 from sim.forces import registry
 from sim.forces.springs import SpringParameters
-from sim.forces.term import KernelField
+from sim.forces.term import in_precision
 from sim.forces.terms import Terms
 from sim.integrators.butcher import ButcherTable
-from sim.integrators.splitting import SplittingTable
+from sim.integrators.splitting import VELOCITY_VERLET, SplittingTable
 from sim.loops import host_tuning, leapfrog, row_blocks, wavefront
 from sim.loops import row_sweep as stepping
 from sim.loops.leapfrog import LeapfrogWork
@@ -54,22 +54,13 @@ class KernelArguments(NamedTuple):
                 scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),
             damped=True if registry.velocity_dependent(model) else None,
-            **{field.name: _in_precision(field, field.value(model), scalar)
+            **{field.name: in_precision(field.kind, field.value(model), scalar)
                for field in registry.fields("terms")},
         )
         parameters = model.kernel_parameters.as_type(
             dtype, host_tuning.inverse_sqrt_estimate(loop) if scalar is np.float64 else None
         )
         return cls(terms, parameters)
-
-
-def _in_precision(field: KernelField, value: object, scalar: type) -> object:
-    """A term's kernel value in the kernels' precision (None stays None: the term is absent)."""
-    if value is None or field.kind == "flag":
-        return value
-    if field.kind == "vector":
-        return np.array(value, dtype=scalar)
-    return scalar(value)
 
 
 def leapfrog_family(model: Model) -> str:
@@ -114,6 +105,7 @@ class Integrator:
         blocks = min(self.threads, model.ny)
         self._block_starts = np.linspace(0, model.ny, blocks + 1).round().astype(np.int64)
         self._full_work: list[np.ndarray] = []
+        self._sweeps_for: tuple[tuple, np.ndarray] | None = None
 
     @property
     def parallel(self) -> bool:
@@ -150,6 +142,15 @@ class Integrator:
 
     def _dt(self, dt: float) -> np.floating:
         return self.dtype(dt)
+
+    def _sweeps(self, table: SplittingTable, n: int, dt: float) -> np.ndarray:
+        """The (kick, drift) weights of ``n`` steps of ``table`` (``SplittingTable.sweeps``) in
+        the state's precision, kept for the next call with the same n and dt (a run calls
+        with the same chunk again and again)."""
+        key = (table, n, dt)
+        if self._sweeps_for is None or self._sweeps_for[0] != key:
+            self._sweeps_for = (key, table.sweeps(n, dt).astype(self.dtype))
+        return self._sweeps_for[1]
 
     def advance(self, state: State, n: int, dt: float) -> None:
         raise NotImplementedError
@@ -249,12 +250,13 @@ class Verlet(Integrator):
             acceleration = self.work[0]
             half = 0.5 * dt
             state.driven += half * self._drive_power
-            stepping.kick_drift_all(self.dtype(half), step, state.positions, state.velocities,
-                                    acceleration)
+            sweeps = self._sweeps(VELOCITY_VERLET, n, dt)  # (dt/2, dt), then (dt, dt)s
+            stepping.kick_drift_all(sweeps[0, 0], sweeps[0, 1], state.positions,
+                                    state.velocities, acceleration)
             steps = leapfrog.leapfrog_steps_parallel if self.parallel else leapfrog.leapfrog_steps
             self._block_totals[:] = 0.0
             steps(
-                np.full((n - 1, 2), step), *self._common(state), self._block_starts,
+                sweeps[1:], *self._common(state), self._block_starts,
                 self._leapfrog_work, start + dt, drive, self._saved, sponge, self._block_totals,
             )
             state.driven += float(self._block_totals[:, 0].sum())
@@ -329,7 +331,7 @@ class Splitting(Integrator):
         if self._cached_for != (state.revision, state.time):
             self._accelerations(state)
         acceleration = self.work[0]
-        sweeps = self.table.sweeps(n, dt).astype(self.dtype)
+        sweeps = self._sweeps(self.table, n, dt)
         stepping.kick_drift_all(sweeps[0, 0], sweeps[0, 1], state.positions, state.velocities,
                                 acceleration)
         if self._leapfrog:

@@ -442,10 +442,11 @@ def _mass_array(mass: float | np.ndarray, nx: int, ny: int) -> np.ndarray:
 
 _MISSING = object()
 _TERM_DEFAULTS: dict[str, Any] = {
-    row.name: row.default for term in registry.TERMS for row in term.parameters
-    if row.name not in ("stiffness", "rest_length")
+    row.name: row.default for row in registry.parameters()
+    if row.name not in {field.name for field in dataclasses.fields(Model)}
 }
-"""The force terms' parameters a model stores in ``term_values``, with their defaults."""
+"""The force terms' parameters a model stores in ``term_values`` (those that are not fields of
+its own, as k and L are), with their defaults."""
 
 
 def _term_values(given: dict[str, Any]) -> dict[str, Any]:
@@ -457,19 +458,16 @@ def _term_values(given: dict[str, Any]) -> dict[str, Any]:
         if term is None or name not in _TERM_DEFAULTS:
             raise ModelError(f"unknown lattice parameter {name!r}; the force terms' are "
                              f"{', '.join(_TERM_DEFAULTS)}")
-        default = _TERM_DEFAULTS[name]
-        if isinstance(default, bool):
-            value = schema.flag(value, name, error=ModelError)
-        elif term.check is not None:
+        if term.check is not None:
             try:
                 value = term.check(name, value)
             except ValueError as error:
                 raise ModelError(str(error)) from None
         if isinstance(value, tuple):
             value = tuple(schema.parameter(c, name, error=ModelError) for c in value)
-        elif not isinstance(value, bool):
+        else:
             value = (_finite_positive(name, value, allow_zero=True) if schema.BOUNDS[name][0] >= 0
                      else schema.parameter(value, name, error=ModelError))
-        if value != default:
+        if value != _TERM_DEFAULTS[name]:
             values[name] = value
     return values
