@@ -221,3 +221,25 @@ def test_measured_branches_along_an_axis_follow_the_dispersion_relation():
     for name in ("p", "s"):
         error = branches[f"{name}_measured"][resolved] / branches[f"{name}_theory"][resolved] - 1
         assert np.abs(error).max() < 0.005
+
+
+@pytest.mark.parametrize("linear", [False, True])
+def test_the_drivers_energy_around_a_particle_changes_as_the_lattices_does(linear):
+    """A prescribed move of one particle (the displacement driver) changes the energy around it
+    by what it changes the whole lattice's elastic energy (numpy's sum over every spring),
+    diagonal springs included."""
+    from sim.forces.driver import local_energy
+
+    model = Model.create(5, 4, stiffness=30.0, rest_length=0.8, diagonal_stiffness=12.0,
+                         linear=linear)
+    rest = model.rest_positions.T.reshape(2, 4, 5)
+    before = rest + 0.05 * np.random.default_rng(3).standard_normal(rest.shape)
+    after = before.copy()
+    after[:, 2, 3] += (0.04, -0.03)
+    still = np.zeros_like(before)
+
+    def around(positions):
+        return local_energy(positions, still, 2, 3, 1.0, linear, model.kernel_parameters)
+
+    assert around(after) - around(before) == pytest.approx(
+        spring_energy(model, after) - spring_energy(model, before), rel=1e-10)

@@ -15,6 +15,7 @@ from sim.integrators.steppers import KernelArguments
 from sim.loops import row_sweep
 from sim.model.lattice import Model, ModelError
 from sim.model.state import State
+from sim.theory.modes import ModalBasis
 from sim.theory.observables import energy, spring_energy
 
 
@@ -57,24 +58,77 @@ def test_kernel_forces_are_minus_the_gradient_of_the_energy(linear):
     assert abs(_compiled_energy(hooke, positions) - _compiled_energy(model, positions)) > 1e-3
 
 
-def test_a_chain_moving_along_itself_is_the_fpu_chain():
-    """F_n = k [(s_n + alpha s_n^2 + beta s_n^3) - (s_(n-1) + ...)], s_n = u_(n+1) - u_n, fixed
-    ends u_0 = u_(N+1) = 0: the textbook equations, written here apart from the product."""
-    n, alpha, beta = 8, 0.25, 1.5
-    model = Model.create(n, 1, stiffness=2.0, linear=True, spring_alpha=alpha,
-                         spring_beta=beta)
+@pytest.mark.parametrize("linear, rest_length", [(True, 1.0), (True, 0.8), (False, 0.8)])
+def test_a_chain_moving_along_itself_is_the_fpu_chain(linear, rest_length):
+    """F_n = F(s0 + s_n) - F(s0 + s_(n-1)), F(s) = k (s + alpha s^2 + beta s^3), s_n = u_(n+1) -
+    u_n, fixed ends u_0 = u_(N+1) = 0, s0 = a - L the rest extension: the textbook equations
+    (s0 = 0), written here apart from the product.  Along the chain both laws are this one; the
+    energy from the rest lattice is sum W(s0 + s_n) - W(s0) with W' = F (the rest tension's
+    work sums to zero between the walls).  Each particle's two springs to the walls above and
+    below add their pull: F(|d| - L) u / |d|, |d| = sqrt(a^2 + u^2) (linearised: F(s0) u / a)."""
+    n, alpha, beta, k = 8, 0.25, 1.5, 2.0
+    model = Model.create(n, 1, stiffness=k, rest_length=rest_length, linear=linear,
+                         spring_alpha=alpha, spring_beta=beta)
     u = 0.3 * np.random.default_rng(5).standard_normal(n)
     positions = model.rest_positions.T.reshape(2, 1, n).copy()
     positions[0, 0] += u
-    padded = np.concatenate([[0.0], u, [0.0]])
-    s = np.diff(padded)
-    law = 2.0 * (s + alpha * s**2 + beta * s**3)
-    expected = law[1:] - law[:-1]
+    s0 = 1.0 - rest_length
+    s = np.diff(np.concatenate([[0.0], u, [0.0]])) + s0
+
+    def law(s):
+        return k * (s + alpha * s**2 + beta * s**3)
+
+    def stored(s):
+        return k * (s**2 / 2 + alpha * s**3 / 3 + beta * s**4 / 4)
+
+    expected = law(s)[1:] - law(s)[:-1]
+    walls = 2 * stored(np.sqrt(1 + u**2) - rest_length) - 2 * stored(s0)
+    if linear:
+        expected -= 2 * law(s0) * u
+        walls = law(s0) * u**2
+    else:
+        expected -= 2 * law(np.sqrt(1 + u**2) - rest_length) * u / np.sqrt(1 + u**2)
     forces = _kernel_forces(model, positions)
     assert np.abs(forces[0, 0] - expected).max() < 1e-12
     assert np.abs(forces[1]).max() == 0.0  # nothing pulls across the chain
     assert _compiled_energy(model, positions) == pytest.approx(
-        float(np.sum(2.0 * (s**2 / 2 + alpha * s**3 / 3 + beta * s**4 / 4))), rel=1e-12)
+        float(np.sum(stored(s) - stored(s0)) + np.sum(walls)), rel=1e-12)
+
+
+def test_the_modes_of_a_pre_tensioned_fpu_chain_feel_the_law_at_its_rest_extension():
+    """Small waves on springs stretched by s0 = a - L feel F'(s0) = k (1 + 2 alpha s0 +
+    3 beta s0^2) along a spring and F(s0) / a across it.  A chain between walls on all four
+    sides: x feels the first along the chain and the second from the springs to the walls above
+    and below, omega_p^2 = (4 F'(s0) sin^2(p pi / (2 (N + 1))) + 2 F(s0) / a) / m; y the other
+    way round.  A run of the lowest longitudinal mode at small amplitude swings with its
+    period."""
+    n, alpha, beta, k, m, s0 = 12, 0.5, 2.0, 3.0, 0.7, 0.4
+    model = Model.create(n, 1, stiffness=k, rest_length=1.0 - s0, mass=m, spring_alpha=alpha,
+                         spring_beta=beta)
+    along = k * (1 + 2 * alpha * s0 + 3 * beta * s0**2)
+    across = k * (s0 + alpha * s0**2 + beta * s0**3)
+    sines = 4 * np.sin(np.arange(1, n + 1) * np.pi / (2 * (n + 1))) ** 2
+    basis = ModalBasis.of(model)
+    longitudinal = (sines * along + 2 * across) / m
+    assert np.sort(basis.omega_squared[0].ravel()) == pytest.approx(longitudinal, rel=1e-12)
+    assert np.sort(basis.omega_squared[1].ravel()) == pytest.approx(
+        (sines * across + 2 * along) / m, rel=1e-12)
+
+    period = 2 * np.pi / np.sqrt(longitudinal[0])
+    shape = 1e-4 * np.sin(np.arange(1, n + 1) * np.pi / (n + 1))
+    positions = model.rest_positions.copy()
+    positions[:, 0] += shape
+    scene = sim.Scene("stretched FPU chain", model, initial_positions=positions)
+    simulation = sim.Simulation(scene, integrator="rk4", dt=period / 400)
+    middle = n // 2
+    swing = []
+    for _ in range(401):
+        swing.append(simulation.state.particle_positions()[middle, 0]
+                     - model.rest_positions[middle, 0])
+        simulation.step(1)
+    swing = np.array(swing)
+    assert swing[200] == pytest.approx(-swing[0], rel=1e-3)  # half a period: the other way
+    assert swing[400] == pytest.approx(swing[0], rel=1e-3)  # a whole one: back
 
 
 def _energy_drift(dt: float) -> float:

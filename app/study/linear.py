@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from sim.forces import registry
 from sim.model.lattice import Model
 
 MAX_DEGREES_OF_FREEDOM = 3000
@@ -52,7 +53,8 @@ def _scalar_matrix(nx: int, ny: int, across_columns: float, across_rows: float) 
 def stiffness_and_damping(model: Model) -> tuple[np.ndarray, np.ndarray]:
     """(K, C): (N, N) stiffness (N/m) and damping (N s/m) matrices of the linearised lattice,
     N = dim * ny * nx, in the component-major order of ``sim.State`` arrays."""
-    k, across, c = model.stiffness, model.tension_stiffness, model.damping
+    at_rest = registry.linear_stiffness(model)
+    k, across, c = at_rest.along, at_rest.tension / model.spacing, model.damping
     couplings = [((k, across), (c, 0.0)), ((across, k), (0.0, c))]
     if model.dim == 3:
         couplings.append(((across, across), (0.0, 0.0)))

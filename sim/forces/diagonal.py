@@ -32,7 +32,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sim.forces.term import ForceTerm, KernelField, Parameter
+from sim.forces.term import ForceTerm, KernelField, LinearStiffness, Parameter
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -166,6 +166,22 @@ def diagonal_energy(k2, x, y, z, linear, parameters):
     return energy
 
 
+@njit(**_JIT)
+def diagonal_energy_around(k2, j, x, y, z, linear, parameters):
+    """Energy (J) of the diagonal springs between rows j - 1 and j + 1 (those of row j's
+    particles, and others of those rows that they do not move): the diagonal springs' part of
+    the energy around one particle of row j, for the difference a move of it makes (the
+    driver's prescribed displacements).  0 without them (``k2`` None)."""
+    if k2 is None:
+        return 0.0
+    ny = x.shape[0]
+    if linear:
+        return (_springs_between(j, ny, x, y, z, True, k2, parameters, None)
+                + _springs_between(j + 1, ny, x, y, z, True, k2, parameters, None))
+    return (_springs_between(j, ny, x, y, z, None, k2, parameters, None)
+            + _springs_between(j + 1, ny, x, y, z, None, k2, parameters, None))
+
+
 # --- the same physics in numpy, for the tests and the reference integrators -------------------
 
 
@@ -269,4 +285,5 @@ TERM = ForceTerm(
     numpy_energy=lambda model, positions: numpy_energy(
         positions, model.diagonal_stiffness, model.spacing, model.origin, model.row_ends,
         model.linear),
+    linear_stiffness=lambda model: LinearStiffness(diagonal=model.diagonal_stiffness),
 )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from numba import njit
 
+from sim.forces.diagonal import diagonal_energy_around
 from sim.forces.energy import spring_energy
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
@@ -33,7 +34,9 @@ def kick_particle(velocity, j, i, dvx, dvy, dvz, mass):
 @njit(**_JIT)
 def local_energy(position, velocity, j, i, mass, linear, parameters):
     """Kinetic energy of particle (i, j) plus the energy of its four nearest springs (J),
-    measured from the rest lattice, as ``sim.forces.energy.energy_terms`` counts them;
+    measured from the rest lattice, as ``sim.forces.energy.energy_terms`` counts them, and of
+    the diagonal springs around its row (``sim.forces.diagonal.diagonal_energy_around``: a move
+    of the particle changes this sum by what it changes the lattice's energy);
     ``parameters`` the model's ``SpringParameters`` (float64), ``linear`` true for the linearised
     law.  The rows end in walls one spacing outside the lattice, rings (``periodic``) or free
     ends (``free_ends``)."""
@@ -48,6 +51,13 @@ def local_energy(position, velocity, j, i, mass, linear, parameters):
     if dim == 3:
         speed_squared += float(velocity[2, j, i]) ** 2
     energy = 0.5 * mass * speed_squared
+    k2 = parameters.diagonal_stiffness
+    if dim == 3:
+        energy += diagonal_energy_around(k2, j, position[0], position[1], position[2], linear,
+                                         parameters)
+    else:
+        energy += diagonal_energy_around(k2, j, position[0], position[1], None, linear,
+                                         parameters)
     for side in range(4):
         # neighbour offsets: left, right, below, above
         di = -1 if side == 0 else (1 if side == 1 else 0)

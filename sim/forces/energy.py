@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from sim.forces.axial import axial_energy
+from sim.forces.axial import along_energy, axial_energy
 from sim.forces.diagonal import diagonal_energy
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -27,7 +27,7 @@ def spring_energy(dx, dy, dz, axis, linear, parameters):
         else:
             stretch = dy - spacing
             across = dx * dx + dz * dz
-        return axial_energy(stretch, parameters) + 0.5 * parameters.tension_stiffness * across
+        return along_energy(stretch, parameters) + 0.5 * parameters.tension_stiffness * across
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     rest_length = parameters.rest_length
     return (axial_energy(length - rest_length, parameters)

@@ -1,8 +1,9 @@
 """The Fermi-Pasta-Ulam-Tsingou spring law: a nearest spring stretched by s pulls with
 k (s + alpha s^2 + beta s^3) and stores k (s^2/2 + alpha s^3/3 + beta s^4/4).
 
-s is the extension |d| - L of the nonlinear law, or the stretch along the rest direction of the
-linearised law (which, in a chain moving along itself, is the FPU chain of 1955).  The kernels
+s is the extension |d| - L of the nonlinear law; the linearised law keeps this law along the
+springs' rest direction, about their rest extension a - L (with L = a, a chain moving along
+itself is the FPU chain of 1955).  The kernels
 are the law's part in ``sim.forces.axial`` (``alpha``, ``beta`` None: Hooke's law, compiled out);
 this module declares the term and its numpy twin.
 """
@@ -13,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.forces.term import ForceTerm, KernelField, Parameter
+from sim.forces.term import ForceTerm, KernelField, LinearStiffness, Parameter
 
 
 def _numpy_axial(model: Any, stretch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -22,6 +23,15 @@ def _numpy_axial(model: Any, stretch: np.ndarray) -> tuple[np.ndarray, np.ndarra
     s = np.asarray(stretch, dtype=float)
     return (k * (alpha * s**2 + beta * s**3),
             k * (alpha * s**3 / 3.0 + beta * s**4 / 4.0))
+
+
+def _linear_stiffness(model: Any) -> LinearStiffness:
+    """What alpha and beta add at the rest extension s0 = a - L: k (2 alpha s0 + 3 beta s0^2)
+    along the springs, k (alpha s0^2 + beta s0^3) to their rest tension."""
+    k, alpha, beta = model.stiffness, model.spring_alpha, model.spring_beta
+    s0 = model.spacing - model.rest_length
+    return LinearStiffness(k * (2 * alpha * s0 + 3 * beta * s0**2),
+                           k * (alpha * s0**2 + beta * s0**3))
 
 
 def _describe(model: Any) -> str:
@@ -48,4 +58,5 @@ TERM = ForceTerm(
     describe=_describe,
     example={"spring_alpha": 0.25, "spring_beta": 1.0},
     numpy_axial=_numpy_axial,
+    linear_stiffness=_linear_stiffness,
 )

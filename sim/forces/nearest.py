@@ -7,7 +7,7 @@ has them.
 
 from __future__ import annotations
 
-from sim.forces.term import ForceTerm, Parameter
+from sim.forces.term import ForceTerm, LinearStiffness, Parameter
 
 TERM = ForceTerm(
     "nearest springs",
@@ -19,4 +19,6 @@ TERM = ForceTerm(
                   "spring rest length; L < a pre-tensions the lattice with T = k (a - L)",
                   1e-6, 1e6),
     ),
+    linear_stiffness=lambda model: LinearStiffness(
+        model.stiffness, model.stiffness * (model.spacing - model.rest_length)),
 )

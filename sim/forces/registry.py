@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from sim.forces import dashpot, diagonal, drag, fpu, gravity, nearest
-from sim.forces.term import ForceTerm, KernelField, Parameter
+from sim.forces.term import ForceTerm, KernelField, LinearStiffness, Parameter
 
 TERMS: tuple[ForceTerm, ...] = (
     nearest.TERM,
@@ -51,6 +51,15 @@ def kernel_flags(model: Any) -> tuple:
     """What of every term changes the compiled kernels' types (``ForceTerm.flag``), in order: the
     force terms' part of the kernel key."""
     return tuple(term.flag(model) for term in TERMS)
+
+
+def linear_stiffness(model: Any) -> LinearStiffness:
+    """The lattice's stiffness at rest, summed over the terms ``model`` has: what the normal
+    modes, the bands and the exact solver read."""
+    parts = [term.linear_stiffness(model) for term in present(model)
+             if term.linear_stiffness is not None]
+    return LinearStiffness(*(float(sum(values)) for values in zip(*parts, strict=True))) \
+        if parts else LinearStiffness()
 
 
 def velocity_dependent(model: Any) -> bool:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -83,6 +83,18 @@ def in_precision(kind: str, value: Any, scalar: type) -> Any:
     return scalar(value)
 
 
+class LinearStiffness(NamedTuple):
+    """A term's part of the lattice's stiffness at rest, what the linear theory reads (the
+    normal modes, the bands, the exact solver; ``sim.forces.registry.linear_stiffness`` sums the
+    terms): ``along`` (N/m) the stiffness of a nearest spring along its rest direction, d F / d s
+    at the rest extension; ``tension`` (N) the nearest springs' force at rest, which stiffens
+    them across by tension / a; ``diagonal`` (N/m) a diagonal spring's stiffness along itself."""
+
+    along: float = 0.0
+    tension: float = 0.0
+    diagonal: float = 0.0
+
+
 @dataclasses.dataclass(frozen=True)
 class ForceTerm:
     """One force term of the lattice.
@@ -104,6 +116,9 @@ class ForceTerm:
     it stores, from the rest lattice; ``numpy_axial(model, stretch)`` for a term of the nearest springs' law
     along their length (``sim.forces.axial``): (its force (N) along each spring of extension
     ``stretch`` (m), its energy (J)) on top of Hooke's k s and k s^2 / 2.
+
+    ``linear_stiffness(model)``: its ``LinearStiffness`` at rest (None: the term adds no
+    stiffness, as gravity or a dashpot).
     """
 
     name: str
@@ -120,6 +135,7 @@ class ForceTerm:
     numpy_force: Callable[..., Any] | None = None
     numpy_energy: Callable[..., Any] | None = None
     numpy_axial: Callable[..., Any] | None = None
+    linear_stiffness: Callable[[Any], LinearStiffness] | None = None
 
     def flag(self, model: Any) -> tuple:
         """What of this term changes the compiled kernels' types: which fields are present."""

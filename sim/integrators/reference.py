@@ -57,8 +57,10 @@ def accelerations(model: Model, positions: np.ndarray, velocities: np.ndarray) -
             displacement[axis] -= model.spacing
             result = tension_stiffness * displacement
             result[axis] = k * displacement[axis]
-            for term in axial_terms:
-                result[axis] += term.numpy_axial(model, displacement[axis])[0]
+            rest = model.spacing - model.rest_length
+            for term in axial_terms:  # about the rest extension, less the rest tension
+                result[axis] += (term.numpy_axial(model, rest + displacement[axis])[0]
+                                 - term.numpy_axial(model, np.array(rest))[0])
             if c > 0:
                 result[axis] += c * relative_velocity[axis]
             return result

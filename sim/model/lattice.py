@@ -288,8 +288,10 @@ class Model:
 
     @property
     def tension(self) -> float:
-        """Spring tension T = k (a - L) in the rest lattice (N); negative means compression."""
-        return self.stiffness * (self.spacing - self.rest_length)
+        """Spring tension T in the rest lattice (N), k (a - L) and what the law's other terms add
+        at that extension (``sim.forces.registry.linear_stiffness``); negative means
+        compression."""
+        return registry.linear_stiffness(self).tension
 
     @property
     def tension_stiffness(self) -> float:

@@ -45,6 +45,7 @@ import math
 
 import numpy as np
 
+from sim.forces import registry
 from sim.integrators.registry import describe
 from sim.model.lattice import Model, ModelError
 from sim.theory.lattice_waves import COMPONENTS, dynamical_matrix, polarisation
@@ -101,10 +102,11 @@ class BandStructure:
         self.chain = model.ny == 1
         self.pair = ionic_pair(model)
         components = COMPONENTS[: model.dim]
-        if model.diagonal_stiffness and self.chain:
+        diagonal = registry.linear_stiffness(model).diagonal
+        if diagonal and self.chain:
             raise BandError("a single row with diagonal springs to its walls is not a piece of "
                             "the infinite lattice: no bands drawn")
-        if model.diagonal_stiffness and not model.uniform_mass:
+        if diagonal and not model.uniform_mass:
             raise BandError("diagonal springs with unequal masses: no bands drawn (equal masses "
                             "or the nearest-spring ionic checkerboard only)")
         if not model.uniform_mass and self.pair is None:
@@ -113,7 +115,7 @@ class BandStructure:
         if self.pair is not None:
             self.kind = "ionic"
             self.names = tuple(f"{c} {b}" for c in components for b in ("acoustic", "optical"))
-        elif model.diagonal_stiffness:
+        elif diagonal:
             self.kind = "diagonal"
             self.names = ("S", "P") + (("z",) if model.dim == 3 else ())
         else:

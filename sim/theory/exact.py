@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from sim.forces import registry
 from sim.integrators.registry import IntegratorDescription, register
 from sim.model.lattice import Model
 from sim.model.state import State
@@ -29,7 +30,7 @@ from sim.theory.prediction import exact_modes
 
 def reason_not_applicable(model: Model) -> str | None:
     """Why the exact solver cannot run ``model`` (None: it can)."""
-    if model.diagonal_stiffness:
+    if registry.linear_stiffness(model).diagonal:
         return "the exact solver follows one polarisation at a time; diagonal springs couple x and y"
     if model.has_forcing:
         return ("the exact solver follows the free normal modes; a driver or an absorbing "

@@ -28,7 +28,7 @@ def hanging_problem(model: Model) -> str | None:
     is no gravity across walls)."""
     if not model.has_gravity or model.linear:
         return None
-    tension = model.stiffness * (model.spacing - model.rest_length)
+    tension = model.tension
     for axis, line in ((1, "column"), (0, "row")):
         if axis == 0 and model.row_ends != "walls":
             continue  # rings and free ends: no walls to hang from along the rows

@@ -27,6 +27,7 @@ import math
 
 import numpy as np
 
+from sim.forces import registry
 from sim.model.lattice import Model
 from sim.theory.modes import polarisations
 
@@ -235,8 +236,8 @@ def dynamical_matrix(model: Model, qx, qy, mass: float | None = None) -> np.ndar
     Its eigenvalues are omega^2 of the two in-plane branches (``in_plane_omegas``).  ``mass``
     (kg) defaults to the lattice's (equal) mass."""
     qx, qy = np.broadcast_arrays(np.asarray(qx, dtype=float), np.asarray(qy, dtype=float))
-    a, k, tension, k2 = model.spacing, model.stiffness, model.tension_stiffness, \
-        model.diagonal_stiffness
+    a, stiffness = model.spacing, registry.linear_stiffness(model)
+    k, tension, k2 = stiffness.along, stiffness.tension / a, stiffness.diagonal
     cx, cy, sx, sy = np.cos(qx * a), np.cos(qy * a), np.sin(qx * a), np.sin(qy * a)
     both = 2 * k2 * (1 - cx * cy)
     matrix = np.empty(qx.shape + (2, 2))
@@ -261,12 +262,13 @@ def elastic_constants(model: Model) -> dict[str, float]:
     C11 - C12 = 2 C44, k2 = k / 2), the sheet's density rho = m / a^2 (kg/m^2),
     P speed sqrt(C11 / rho), S speed sqrt((C44 + T/a) / rho) (the rest tension T of the nearest
     springs stiffens shear like a string's)."""
-    k, k2, a = model.stiffness, model.diagonal_stiffness, model.spacing
+    a, stiffness = model.spacing, registry.linear_stiffness(model)
+    k, k2, prestress = stiffness.along, stiffness.diagonal, stiffness.tension / a
     rho = float(np.asarray(model.masses).flat[0]) / a**2
     constants = dict(C11=k + k2, C12=k2, C44=k2, lame_lambda=k2, lame_mu=k2, density=rho,
-                     prestress=model.tension_stiffness)
+                     prestress=prestress)
     constants["p_speed"] = math.sqrt(constants["C11"] / rho)
-    constants["s_speed"] = math.sqrt(max(k2 + model.tension_stiffness, 0.0) / rho)
+    constants["s_speed"] = math.sqrt(max(k2 + prestress, 0.0) / rho)
     return constants
 
 
@@ -291,7 +293,7 @@ def diagonal_mode_sample(model: Model, sample: int = 144) -> tuple[np.ndarray, n
     rates = np.einsum("...im,...ij,...jm->...m", vectors, damping, vectors) / mass
     omega_squared, rate = [values.ravel()], [rates.ravel()]
     if model.dim == 3:
-        tension = model.tension_stiffness
+        tension = model.tension / a
         omega_squared.append((2 * tension * (2 - cx - cy) / mass).ravel())
         rate.append(np.full(qx.size, model.drag / mass))
     exact = model.uniform_mass and not model.is_damped

@@ -28,6 +28,7 @@ import dataclasses
 
 import numpy as np
 
+from sim.forces import registry
 from sim.model.lattice import Model, ModelError
 
 DENSE_PARTICLE_LIMIT = 2_000
@@ -64,7 +65,8 @@ def polarisations(model: Model) -> list[tuple[float, float, float, float]]:
     """(stiffness across columns, across rows, dashpot across columns, across rows) per
     displacement component (N/m, N s/m): x along the horizontal springs, y along the vertical
     ones, z across all (linearised springs; dashpots act along springs only)."""
-    k, tension, c = model.stiffness, model.tension_stiffness, model.damping
+    stiffness = registry.linear_stiffness(model)
+    k, tension, c = stiffness.along, stiffness.tension / model.spacing, model.damping
     result = [(k, tension, c, 0.0), (tension, k, 0.0, c)]
     if model.dim == 3:
         result.append((tension, tension, 0.0, 0.0))
@@ -164,7 +166,7 @@ class ModalBasis:
     def of(cls, model: Model) -> ModalBasis:
         """The modes of ``model``; unequal masses above ``DENSE_PARTICLE_LIMIT`` raise ModelError."""
         nx, ny = model.nx, model.ny
-        if model.diagonal_stiffness:
+        if registry.linear_stiffness(model).diagonal:
             raise ModelError("diagonal springs couple x and y, so the modes are not one "
                              "polarisation at a time; the normal-mode solution (exact "
                              "integrator, predicted errors) has no diagonal springs yet")

@@ -123,9 +123,12 @@ def _nearest_spring_energy(model: Model, positions: np.ndarray) -> float:
         if model.dim == 3:
             across += (vertical[2] ** 2).sum()
         energy = 0.5 * k * along + 0.5 * model.tension_stiffness * across
-        for term in registry.present(model):  # terms of the law along the springs
-            if term.numpy_axial is not None:
-                energy += sum(term.numpy_axial(model, stretch)[1].sum()
+        rest = np.array(model.spacing - model.rest_length)
+        for term in registry.present(model):  # terms of the law along the springs, about the
+            if term.numpy_axial is not None:  # rest extension, less the rest tension's work
+                rest_force, rest_energy = term.numpy_axial(model, rest)
+                energy += sum((term.numpy_axial(model, rest + stretch)[1] - rest_energy
+                               - rest_force * stretch).sum()
                               for stretch in (horizontal[0], vertical[1]))
         return float(energy)
     stretch = spring_lengths(model, positions) - model.rest_length
@@ -278,7 +281,7 @@ def modes(model: Model, sample: int = 48) -> ModeSet:
     ``_DENSE_LIMIT`` particles, else the top mode by Lanczos; damping rates are then estimated by
     the Rayleigh quotient of the damping matrix on each mode.
     """
-    if model.diagonal_stiffness:  # x and y coupled: plane waves bound the modes
+    if registry.linear_stiffness(model).diagonal:  # x and y coupled: plane waves bound the modes
         return ModeSet(*diagonal_mode_sample(model))
     omega_squared: list[np.ndarray] = []
     damping_rate: list[np.ndarray] = []

@@ -41,6 +41,7 @@ import numbers
 
 import numpy as np
 
+from sim.forces import registry
 from sim.model.lattice import Model
 from sim.theory.lattice_waves import WaveError, dynamical_matrix, polarisation
 from sim.theory.modes import static_offset
@@ -74,7 +75,7 @@ class PacketSpec:
 def polarisation_names(model: Model) -> tuple[str, ...]:
     """The polarisations a packet on ``model`` may have: ("x", "y"[, "z"]) with nearest springs
     only, ("S", "P"[, "z"]) with diagonal springs ("z" in 3-D)."""
-    names = ("S", "P") if model.diagonal_stiffness > 0 else ("x", "y")
+    names = ("S", "P") if registry.linear_stiffness(model).diagonal > 0 else ("x", "y")
     return names + (("z",) if model.dim == 3 else ())
 
 
