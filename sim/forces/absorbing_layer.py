@@ -60,7 +60,8 @@ from sim.forces.absorbing_kicks import (
     relax,
     rest_tension,
 )
-from sim.forces.springs import components, gravity_vector, site, spring_force
+from sim.forces.gravity import gravity_vector
+from sim.forces.springs import components, site, spring_force
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 

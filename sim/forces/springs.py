@@ -47,17 +47,21 @@ from numba import njit
 from sim.forces import registry
 from sim.forces.axial import along_force, tension_factor
 from sim.forces.dashpot import dashpot_factor
-from sim.forces.diagonal import diagonal_net, diagonal_springs
+from sim.forces.diagonal import ROWS, diagonal_net, diagonal_springs
 from sim.forces.drag import drag_force, drag_power
 from sim.forces.gravity import gravity_vector
 from sim.forces.term import in_precision
 from sim.forces.terms import inverse_mass_at
 
-__all__ = ["SpringParameters", "components", "drag_power", "gravity_vector", "horizontal_springs",
-           "particle_acceleration", "row_accelerations", "site", "spring_force",
-           "vertical_springs"]
+__all__ = ["BUFFER_ROWS", "SpringParameters", "components", "drag_power", "horizontal_springs",
+           "particle_acceleration", "row_accelerations", "site", "spring_between",
+           "spring_force", "uniform_acceleration", "vertical_springs"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
+
+BUFFER_ROWS = ROWS
+"""Rows of a buffer of the springs between two rows of particles (``vertical_springs``): their
+forces (3) and what the terms of those springs add (the diagonal springs' net forces)."""
 
 _BASE_FIELDS = (
     ("stiffness", "number"), ("rest_length", "number"), ("tension_stiffness", "number"),
@@ -201,17 +205,23 @@ def spring_force(first, second, axis, linearised, parameters, dashpot):
 
 
 @njit(**_JIT)
-def particle_acceleration(left, right, below, above, velocity, inverse_mass, drag, gravity,
-                          diagonal=None):
-    """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs (``left``,
-    ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends of its four
-    springs) and of drag on its ``velocity`` (vx, vy, vz), times ``inverse_mass``, plus
-    ``gravity`` (gx, gy, gz) (``gravity_vector``), ``diagonal`` the net force of the diagonal
-    springs (``sim.forces.diagonal.diagonal_net``).  ``drag``, ``diagonal`` None: none.  This is
-    the one place where the forces on a particle are summed."""
-    fx = right[0] - left[0] + above[0] - below[0]
-    fy = right[1] - left[1] + above[1] - below[1]
-    fz = right[2] - left[2] + above[2] - below[2]
+def spring_between(first, second, axis, terms, parameters):
+    """``spring_force`` of a nearest spring with the law and dashpot of the scene's ``terms``
+    (``sim.forces.terms.Terms``): what a loop calls for one spring."""
+    return spring_force(first, second, axis, terms.linear, parameters, terms.dashpot)
+
+
+@njit(**_JIT)
+def uniform_acceleration(terms, zero):
+    """The acceleration (ax, ay, az) every particle has whatever its springs (gravity's; zeros
+    when the scene has none), computed once per row for ``particle_acceleration``."""
+    return gravity_vector(terms.gravity, zero)
+
+
+@njit(**_JIT)
+def _other_forces(fx, fy, fz, velocity, drag, diagonal):
+    """The net spring force (fx, fy, fz) plus the diagonal springs' (None: none) and drag on
+    ``velocity`` (``drag`` None: none)."""
     if diagonal is not None:
         fx += diagonal[0]
         fy += diagonal[1]
@@ -221,8 +231,25 @@ def particle_acceleration(left, right, below, above, velocity, inverse_mass, dra
         fx += drag_x
         fy += drag_y
         fz += drag_z
-    return (fx * inverse_mass + gravity[0], fy * inverse_mass + gravity[1],
-            fz * inverse_mass + gravity[2])
+    return fx, fy, fz
+
+
+@njit(**_JIT)
+def particle_acceleration(left, right, below, above, velocity, terms, pull, j, i,
+                          diagonal=None):
+    """Acceleration (ax, ay, az) in m/s^2 of particle (i, j): the net force of its springs
+    (``left``, ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends
+    of its four springs) and of the scene's ``terms`` (``sim.forces.terms.Terms``: drag on its
+    ``velocity`` (vx, vy, vz)) over its mass, plus ``pull`` (``uniform_acceleration``);
+    ``diagonal`` the net force of the diagonal springs (``sim.forces.diagonal.diagonal_net``,
+    None: none).  This is the one place where the forces on a particle are summed."""
+    fx, fy, fz = _other_forces(right[0] - left[0] + above[0] - below[0],
+                               right[1] - left[1] + above[1] - below[1],
+                               right[2] - left[2] + above[2] - below[2], velocity, terms.drag,
+                               diagonal)
+    inverse_mass = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
+    return (fx * inverse_mass + pull[0], fy * inverse_mass + pull[1],
+            fz * inverse_mass + pull[2])
 
 
 # --- the springs of one row ---------------------------------------------------------------------
@@ -282,19 +309,20 @@ def as_row(j):
 
 
 @njit(**_JIT)
-def vertical_springs(j, ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, out):
+def vertical_springs(j, ny, x, y, z, vx, vy, vz, terms, parameters, out):
     """Forces (3, nx) on the lower ends of the springs between row j-1 and row j (j = 0: from
     the bottom wall anchors; j = ny: from row ny-1 to the top anchors), written into ``out``
     (``sim.forces.diagonal.ROWS``, nx), the diagonal springs' net forces in its rows 3 .. 8.
 
-    ``parameters`` is a ``SpringParameters`` record in the precision of the arrays; ``linear``
-    None for the nonlinear law, True for the linearised one (a compile-time choice, as
-    ``out_of_plane``: a kernel carries one law, never False for the nonlinear one).
+    ``parameters`` is a ``SpringParameters`` record in the precision of the arrays; ``terms``
+    the scene's ``sim.forces.terms.Terms`` (its ``linear``: None for the nonlinear law, True for
+    the linearised one, a compile-time choice as ``out_of_plane``; its dashpots).
     ``ny`` is the number of rows of the lattice; the arrays may hold fewer rows, as a ring buffer
     in which row j is stored at index j % rows (a full array is the case rows == ny).
     Returns the power dissipated by the dashpots of those springs (W).
     """
-    return _vertical_springs(as_row(j), ny, x, y, z, vx, vy, vz, linear, parameters, dashpot, out)
+    return _vertical_springs(as_row(j), ny, x, y, z, vx, vy, vz, terms.linear, parameters,
+                             terms.dashpot, out)
 
 
 @njit(**_JIT)
@@ -307,7 +335,18 @@ def _store(out, i, force, z):
 
 
 @njit(**_JIT)
-def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
+def horizontal_springs(j, x, y, z, vx, vy, vz, terms, parameters, out):
+    """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
+    joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
+    goes to the right one (on a ring both are the closing spring; at free ends both are zero).
+    The law and dashpots are the scene's ``terms`` (``sim.forces.terms.Terms``); arrays as for
+    ``vertical_springs``; returns the power dissipated by their dashpots (W)."""
+    return _horizontal_springs(j, x, y, z, vx, vy, vz, terms.linear, parameters, terms.dashpot,
+                               out)
+
+
+@njit(**_JIT)
+def _horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
     """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
     joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
     goes to the right one (on a ring both are the closing spring; at free ends both are zero).
@@ -377,27 +416,27 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, abov
     linearised, dashpot, drag = terms.linear, terms.dashpot, terms.drag
     power = _vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                               above)
-    power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
-                                horizontal)
+    power += _horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
+                                 horizontal)
     zero = type(parameters.spacing)(0.0)
-    pull = gravity_vector(terms.gravity, zero)
+    pull = uniform_acceleration(terms, zero)
     k2 = parameters.diagonal_stiffness
     r = j % x.shape[0]
     for i in range(x.shape[1]):
-        w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
         if z is None:
             ax, ay, _ = particle_acceleration(
                 (horizontal[0, i], horizontal[1, i], zero),
                 (horizontal[0, i + 1], horizontal[1, i + 1], zero),
                 (below[0, i], below[1, i], zero), (above[0, i], above[1, i], zero),
-                (vx[r, i], vy[r, i], zero), w, drag, pull, diagonal_net(k2, below, above, i),
+                (vx[r, i], vy[r, i], zero), terms, pull, j, i, diagonal_net(k2, below, above, i),
             )
         else:
             ax, ay, out[2, i] = particle_acceleration(
                 (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
                 (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
                 (below[0, i], below[1, i], below[2, i]), (above[0, i], above[1, i], above[2, i]),
-                (vx[r, i], vy[r, i], vz[r, i]), w, drag, pull, diagonal_net(k2, below, above, i),
+                (vx[r, i], vy[r, i], vz[r, i]), terms, pull, j, i,
+                diagonal_net(k2, below, above, i),
             )
         out[0, i] = ax
         out[1, i] = ay

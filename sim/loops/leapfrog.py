@@ -23,13 +23,12 @@ from sim.forces.absorbing_layer import act_with, block_act
 from sim.forces.drive_table import leapfrog_drive, save_driven
 from sim.forces.springs import (
     components,
-    gravity_vector,
     horizontal_springs,
     particle_acceleration,
-    spring_force,
+    spring_between,
+    uniform_acceleration,
     vertical_springs,
 )
-from sim.forces.terms import inverse_mass_at
 from sim.loops.stage_updates import kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -48,14 +47,16 @@ class LeapfrogWork(NamedTuple):
 def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, position,
                   velocity, work, b, time, drive, saved, totals):
     """One leapfrog kick and drift (v += kick a(x); x += drift v) of rows j0 .. j1-1 (block b),
-    undamped nonlinear springs, with each row's forces and update fused into one pass over it.
+    with each row's forces and update fused into one pass over it: the springs and the sum of
+    the forces on a particle are ``sim.forces.springs``' (the terms the registry lets ride this
+    loop: none that depends on the velocities, ``sim.forces.registry.leapfrog``).
 
     Of the ``LeapfrogWork`` ``work``: ``below[b]`` holds the forces of the springs below row j0
     on entry (it is reused as the running buffer); ``boundary[b + 1]`` those of the springs above
     row j1 - 1, computed before the sweep moved anything (the top wall springs, or a block
     boundary when the lattice is swept as several row blocks in parallel); ``horizontal[b]`` is
     scratch.  Every other spring is computed here from positions that have not moved yet.
-    ``terms`` (``sim.forces.terms.Terms``): its masses and gravity; ``x`` .. ``vz`` the state's
+    ``terms``: the scene's ``sim.forces.terms.Terms``; ``x`` .. ``vz`` the state's
     components (``z``, ``vz`` None in a planar scene).  The one kernel with more than 14
     arguments: numba compiles out the third component only when ``z`` is an argument of the
     function that tests it, and the row's pass must stay in this function (as a function of its
@@ -68,39 +69,40 @@ def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, p
     """
     below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
     zero = type(kick)(0.0)
-    pull = gravity_vector(terms.gravity, zero)
+    pull = uniform_acceleration(terms, zero)
     nx = x.shape[1]
     for j in range(j0, j1):
         if drive is not None:
             save_driven(j, drive, velocity, saved)
-        horizontal_springs(j, x, y, z, vx, vy, vz, None, parameters, None, horizontal)
+        horizontal_springs(j, x, y, z, vx, vy, vz, terms, parameters, horizontal)
         given = j + 1 == j1
         for i in range(nx):
-            w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
             if z is None:
                 if given:
                     above = (above_last[0, i], above_last[1, i], zero, 0.0)
-                else:  # no dashpot: the velocities do not enter the force
-                    above = spring_force((x[j, i], y[j, i], zero, zero, zero, zero),
-                                         (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
-                                         None, parameters, None)
+                else:
+                    above = spring_between((x[j, i], y[j, i], zero, vx[j, i], vy[j, i], zero),
+                                           (x[j + 1, i], y[j + 1, i], zero, vx[j + 1, i],
+                                            vy[j + 1, i], zero), 1, terms, parameters)
                 ax, ay, _ = particle_acceleration(
                     (horizontal[0, i], horizontal[1, i], zero),
                     (horizontal[0, i + 1], horizontal[1, i + 1], zero),
-                    (below[0, i], below[1, i], zero), above, (zero, zero, zero), w, None, pull,
+                    (below[0, i], below[1, i], zero), above, (vx[j, i], vy[j, i], zero), terms,
+                    pull, j, i,
                 )
             else:
                 if given:
                     above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
                 else:
-                    above = spring_force((x[j, i], y[j, i], z[j, i], zero, zero, zero),
-                                         (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
-                                          zero), 1, None, parameters, None)
+                    above = spring_between(
+                        (x[j, i], y[j, i], z[j, i], vx[j, i], vy[j, i], vz[j, i]),
+                        (x[j + 1, i], y[j + 1, i], z[j + 1, i], vx[j + 1, i], vy[j + 1, i],
+                         vz[j + 1, i]), 1, terms, parameters)
                 ax, ay, az = particle_acceleration(
                     (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
                     (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
-                    (below[0, i], below[1, i], below[2, i]), above, (zero, zero, zero), w, None,
-                    pull,
+                    (below[0, i], below[1, i], below[2, i]), above, (vx[j, i], vy[j, i], vz[j, i]),
+                    terms, pull, j, i,
                 )
                 z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, kick, drift)
                 below[2, i] = above[2]
@@ -129,8 +131,6 @@ def leapfrog_steps(sweeps, terms, parameters, position, velocity, block_starts, 
     carries it.  ``totals`` (blocks, 2) receives the drive's work (per block) and the layer's
     take (J, in ``totals[0, 1]``).
     """
-    if parameters.diagonal_stiffness is not None:
-        raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
     for step in range(sweeps.shape[0]):
         kick, drift = sweeps[step, 0], sweeps[step, 1]
@@ -138,7 +138,7 @@ def leapfrog_steps(sweeps, terms, parameters, position, velocity, block_starts, 
             totals[0, 1] += act_with(0.5 * float(drift), 0.5 * float(drift), True, position,
                                      velocity, sponge, parameters)
         for b in range(blocks + 1):
-            _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
+            _boundary_springs(b, terms, position, velocity, parameters, block_starts,
                               work.boundary)
         for b in range(blocks):
             _leapfrog_block(b, kick, drift, terms, parameters, position, velocity, block_starts,
@@ -157,8 +157,6 @@ def leapfrog_steps_parallel(sweeps, terms, parameters, position, velocity, block
     the same).  The loop bodies are functions of their own: numba's parallel transformation of
     the inlined 3-D body read stale out-of-plane components (runs differed from one thread and
     blew up)."""
-    if parameters.diagonal_stiffness is not None:
-        raise ValueError("the fused leapfrog has no diagonal springs (Verlet sweeps rows for them)")
     blocks = block_starts.size - 1
     for step in range(sweeps.shape[0]):
         kick, drift = sweeps[step, 0], sweeps[step, 1]
@@ -168,7 +166,7 @@ def leapfrog_steps_parallel(sweeps, terms, parameters, position, velocity, block
             if sponge is not None and b < blocks:
                 taken += block_act(b, block_starts, half, half, True, position, velocity, sponge,
                                    parameters)
-            _boundary_springs(b, terms.out_of_plane, position, velocity, parameters, block_starts,
+            _boundary_springs(b, terms, position, velocity, parameters, block_starts,
                               work.boundary)
         if sponge is not None:
             totals[0, 1] += taken
@@ -178,13 +176,13 @@ def leapfrog_steps_parallel(sweeps, terms, parameters, position, velocity, block
 
 
 @njit(**_JIT)
-def _boundary_springs(b, out_of_plane, position, velocity, parameters, block_starts, boundary):
+def _boundary_springs(b, terms, position, velocity, parameters, block_starts, boundary):
     """The springs below row block_starts[b] into boundary[b] (a function of its own, so that
     numba's parallel transformation leaves its body alone)."""
-    x, y, z = components(out_of_plane, position)
-    vx, vy, vz = components(out_of_plane, velocity)
-    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, None, parameters,
-                     None, boundary[b])
+    x, y, z = components(terms.out_of_plane, position)
+    vx, vy, vz = components(terms.out_of_plane, velocity)
+    vertical_springs(block_starts[b], position.shape[1], x, y, z, vx, vy, vz, terms, parameters,
+                     boundary[b])
 
 
 @njit(**_JIT)

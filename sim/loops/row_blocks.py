@@ -23,9 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row
-from sim.forces.springs import row_accelerations, vertical_springs
+from sim.forces.springs import BUFFER_ROWS, row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
     Fields,
     components,
@@ -123,8 +122,8 @@ def _stage_rows(table, stage, j0, j1, dt, terms, parameters, state, source, targ
     vxs, vys, vzs = components(terms.out_of_plane, source.velocity)
     ny = state.position.shape[1]
     below, above, horizontal, row = sweep_buffers(state.position)
-    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, terms.linear, parameters,
-                             terms.dashpot, below)
+    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, terms, parameters,
+                             below)
     if j0 > 0:
         power = 0.0
     for j in range(j0, j1):
@@ -191,7 +190,7 @@ def runge_kutta_blocks(table, n, dt, terms, parameters, position, velocity, stag
     blocks = block_starts.size - 1
     count = stages(table)
     nx = position.shape[2]
-    vertical = np.empty((blocks, count, 2, ROWS, nx), position.dtype)
+    vertical = np.empty((blocks, count, 2, BUFFER_ROWS, nx), position.dtype)
     horizontal = np.empty((blocks, 3, nx + 1), position.dtype)
     row = np.empty((blocks, 3, nx), position.dtype)
     powers = np.zeros((blocks, count))

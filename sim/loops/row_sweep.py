@@ -29,9 +29,8 @@ import numpy as np
 from numba import njit
 
 from sim.forces.absorbing_layer import act_on
-from sim.forces.diagonal import ROWS
 from sim.forces.drive_table import drive_row, drive_rows
-from sim.forces.springs import row_accelerations, vertical_springs
+from sim.forces.springs import BUFFER_ROWS, row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
     Fields,
     components,
@@ -67,8 +66,8 @@ def euler_steps(n, dt, terms, parameters, position, velocity):
     row_as_array = row.reshape((3, 1, nx))
     dissipated = 0.0
     for _ in range(n):
-        power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms.linear, parameters,
-                                 terms.dashpot, below)
+        power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms, parameters,
+                                 below)
         for j in range(ny):
             power += row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below,
                                        above, horizontal, row)
@@ -95,7 +94,7 @@ def runge_kutta_steps(table, n, dt, terms, parameters, position, velocity, stage
     nx = position.shape[2]
     count = stages(table)
     work = BlockWork(stage, sums, Fields(position, velocity),
-                     np.empty((count, 2, ROWS, nx), position.dtype),  # (stage, below/above, ...)
+                     np.empty((count, 2, BUFFER_ROWS, nx), position.dtype),  # (stage, below/above, ...)
                      np.empty((3, nx + 1), position.dtype), np.empty((3, nx), position.dtype))
     powers = np.zeros(count)
     drive_powers = np.zeros(count)
@@ -160,8 +159,8 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
         if first:
             verlet_drift(np.intp(0), dt, position, velocity, acceleration, predicted_velocity,
                          damped)
-        new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms.linear, parameters,
-                                     terms.dashpot, below)
+        new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms, parameters,
+                                     below)
         drive_power = 0.0
         for j in range(ny):
             if first and j + 1 < ny:

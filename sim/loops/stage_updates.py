@@ -18,8 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from sim.forces.diagonal import ROWS
-from sim.forces.springs import components, row_accelerations, vertical_springs
+from sim.forces.springs import BUFFER_ROWS, components, row_accelerations, vertical_springs
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 _ROW_UPDATE = dict(_JIT, inline="always")
@@ -37,10 +36,10 @@ class Fields(NamedTuple):
 @njit(**_JIT)
 def sweep_buffers(position):
     """Scratch of one force sweep over the rows of ``position`` (dim, ny, nx): the forces of the
-    vertical (and diagonal) springs below and above the current row (``ROWS``, nx) each, of its
+    vertical (and diagonal) springs below and above the current row (``BUFFER_ROWS``, nx) each, of its
     horizontal springs (3, nx + 1), and its accelerations (3, nx)."""
     nx = position.shape[2]
-    return (np.empty((ROWS, nx), position.dtype), np.empty((ROWS, nx), position.dtype),
+    return (np.empty((BUFFER_ROWS, nx), position.dtype), np.empty((BUFFER_ROWS, nx), position.dtype),
             np.empty((3, nx + 1), position.dtype), np.empty((3, nx), position.dtype))
 
 
@@ -68,7 +67,7 @@ def force_rows(j0, j1, terms, parameters, position, force_velocity, acceleration
     vx, vy, vz = components(terms.out_of_plane, force_velocity)
     dim, ny, nx = acceleration.shape
     below, above, horizontal, row = sweep_buffers(position)
-    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, terms.linear, parameters, terms.dashpot,
+    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, terms, parameters,
                              below)
     if j0 > 0:
         power = 0.0

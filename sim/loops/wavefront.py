@@ -48,7 +48,7 @@ class BlockWork(NamedTuple):
     ``stage`` (``Fields``, each (dim, ring, nx)) the stage inputs as ring buffers; ``sums``
     (``Fields``, likewise) the method's running sums; ``deferred`` (``Fields``, each
     (dim, 2 halo + 2, nx)) the deferred rows (unused when the block is the whole lattice);
-    scratch: ``vertical`` (stages, 2, ``ROWS``, nx) the springs below and above each stage's row,
+    scratch: ``vertical`` (stages, 2, ``BUFFER_ROWS``, nx) the springs below and above each stage's row,
     ``horizontal`` (3, nx + 1), ``row`` (3, nx) accelerations.
     """
 
@@ -116,7 +116,7 @@ def _stage_forces(j, first, ny, ends, terms, parameters, below, above, horizonta
     and drag (W)."""
     x, y, z, vx, vy, vz = ends
     if j == first:
-        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, terms.linear, parameters, terms.dashpot,
+        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, terms, parameters,
                              below)
         if j == 0:
             powers[stage] += p
