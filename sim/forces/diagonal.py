@@ -271,7 +271,7 @@ TERM = ForceTerm(
     "next-nearest springs from each particle to the diagonal neighbours above it",
     parameters=(Parameter("diagonal_stiffness", "k₂", "N/m", "Diagonal springs",
                           "spring constant of the diagonal springs (0: none); k₂ = k/2 makes an "
-                          "isotropic elastic solid", 0.0, 1e9, 0.0),),
+                          "isotropic elastic solid", 0.0, 1e9, 0.0, page=(0.0, 100.0, 0.5)),),
     fields=(KernelField("diagonal_stiffness", "springs", "number",
                         lambda model: model.diagonal_stiffness or None),),
     present=lambda model: model.diagonal_stiffness > 0,

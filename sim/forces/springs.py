@@ -54,8 +54,8 @@ from sim.forces.term import in_precision
 from sim.forces.terms import inverse_mass_at
 
 __all__ = ["BUFFER_ROWS", "SpringParameters", "components", "drag_power", "horizontal_springs",
-           "particle_acceleration", "row_accelerations", "site", "spring_between",
-           "spring_force", "uniform_acceleration", "vertical_springs"]
+           "particle_acceleration", "row_accelerations",
+           "scalar_terms", "site", "spring_between", "spring_force", "vertical_springs"]
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
@@ -205,17 +205,20 @@ def spring_force(first, second, axis, linearised, parameters, dashpot):
 
 
 @njit(**_JIT)
-def spring_between(first, second, axis, terms, parameters):
-    """``spring_force`` of a nearest spring with the law and dashpot of the scene's ``terms``
-    (``sim.forces.terms.Terms``): what a loop calls for one spring."""
-    return spring_force(first, second, axis, terms.linear, parameters, terms.dashpot)
+def scalar_terms(terms, zero):
+    """The scene's terms (``sim.forces.terms.Terms``) as the per-spring and per-particle
+    functions take them, made once per row: scalars, tuples and None only, no arrays, so that
+    those functions inline into the row loops without reference counting (a record that holds
+    arrays, passed per particle, cost the fused leapfrog 15-25 %).  (spring law, dashpot, drag,
+    gravity's pull (ax, ay, az))."""
+    return (terms.linear, terms.dashpot, terms.drag, gravity_vector(terms.gravity, zero))
 
 
 @njit(**_JIT)
-def uniform_acceleration(terms, zero):
-    """The acceleration (ax, ay, az) every particle has whatever its springs (gravity's; zeros
-    when the scene has none), computed once per row for ``particle_acceleration``."""
-    return gravity_vector(terms.gravity, zero)
+def spring_between(first, second, axis, scalars, parameters):
+    """``spring_force`` of a nearest spring with the law and dashpot of the scene
+    (``scalars``: ``scalar_terms``): what a loop calls for one spring."""
+    return spring_force(first, second, axis, scalars[0], parameters, scalars[1])
 
 
 @njit(**_JIT)
@@ -235,21 +238,23 @@ def _other_forces(fx, fy, fz, velocity, drag, diagonal):
 
 
 @njit(**_JIT)
-def particle_acceleration(left, right, below, above, velocity, terms, pull, j, i,
+def particle_acceleration(left, right, below, above, velocity, scalars, inverse_mass,
                           diagonal=None):
-    """Acceleration (ax, ay, az) in m/s^2 of particle (i, j): the net force of its springs
+    """Acceleration (ax, ay, az) in m/s^2 of one particle: the net force of its springs
     (``left``, ``right``, ``below``, ``above``: the forces (fx, fy, fz) on the left or lower ends
-    of its four springs) and of the scene's ``terms`` (``sim.forces.terms.Terms``: drag on its
-    ``velocity`` (vx, vy, vz)) over its mass, plus ``pull`` (``uniform_acceleration``);
-    ``diagonal`` the net force of the diagonal springs (``sim.forces.diagonal.diagonal_net``,
-    None: none).  This is the one place where the forces on a particle are summed."""
+    of its four springs) and of the scene's terms (``scalars``: ``scalar_terms``; drag on its
+    ``velocity`` (vx, vy, vz)) times its ``inverse_mass`` (``sim.forces.terms.inverse_mass_at``), plus
+    gravity's pull; ``diagonal`` the net force of the diagonal springs
+    (``sim.forces.diagonal.diagonal_net``, None: none).  This is the one place where the forces
+    on a particle are summed."""
     fx, fy, fz = _other_forces(right[0] - left[0] + above[0] - below[0],
                                right[1] - left[1] + above[1] - below[1],
-                               right[2] - left[2] + above[2] - below[2], velocity, terms.drag,
+                               right[2] - left[2] + above[2] - below[2], velocity, scalars[2],
                                diagonal)
-    inverse_mass = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
+    pull = scalars[3]
     return (fx * inverse_mass + pull[0], fy * inverse_mass + pull[1],
             fz * inverse_mass + pull[2])
+
 
 
 # --- the springs of one row ---------------------------------------------------------------------
@@ -419,24 +424,24 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, abov
     power += _horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                                  horizontal)
     zero = type(parameters.spacing)(0.0)
-    pull = uniform_acceleration(terms, zero)
+    scalars = scalar_terms(terms, zero)
     k2 = parameters.diagonal_stiffness
     r = j % x.shape[0]
     for i in range(x.shape[1]):
+        w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
         if z is None:
             ax, ay, _ = particle_acceleration(
                 (horizontal[0, i], horizontal[1, i], zero),
                 (horizontal[0, i + 1], horizontal[1, i + 1], zero),
                 (below[0, i], below[1, i], zero), (above[0, i], above[1, i], zero),
-                (vx[r, i], vy[r, i], zero), terms, pull, j, i, diagonal_net(k2, below, above, i),
+                (vx[r, i], vy[r, i], zero), scalars, w, diagonal_net(k2, below, above, i),
             )
         else:
             ax, ay, out[2, i] = particle_acceleration(
                 (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
                 (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
                 (below[0, i], below[1, i], below[2, i]), (above[0, i], above[1, i], above[2, i]),
-                (vx[r, i], vy[r, i], vz[r, i]), terms, pull, j, i,
-                diagonal_net(k2, below, above, i),
+                (vx[r, i], vy[r, i], vz[r, i]), scalars, w, diagonal_net(k2, below, above, i),
             )
         out[0, i] = ax
         out[1, i] = ay

@@ -25,10 +25,11 @@ from sim.forces.springs import (
     components,
     horizontal_springs,
     particle_acceleration,
+    scalar_terms,
     spring_between,
-    uniform_acceleration,
     vertical_springs,
 )
+from sim.forces.terms import inverse_mass_at
 from sim.loops.stage_updates import kick_drift
 
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
@@ -69,7 +70,8 @@ def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, p
     """
     below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
     zero = type(kick)(0.0)
-    pull = uniform_acceleration(terms, zero)
+    scalars = scalar_terms(terms, zero)
+    still = (zero, zero, zero)  # no term that reads the velocities rides this loop
     nx = x.shape[1]
     for j in range(j0, j1):
         if drive is not None:
@@ -77,32 +79,30 @@ def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, p
         horizontal_springs(j, x, y, z, vx, vy, vz, terms, parameters, horizontal)
         given = j + 1 == j1
         for i in range(nx):
+            w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
             if z is None:
                 if given:
                     above = (above_last[0, i], above_last[1, i], zero, 0.0)
                 else:
-                    above = spring_between((x[j, i], y[j, i], zero, vx[j, i], vy[j, i], zero),
-                                           (x[j + 1, i], y[j + 1, i], zero, vx[j + 1, i],
-                                            vy[j + 1, i], zero), 1, terms, parameters)
+                    above = spring_between((x[j, i], y[j, i], zero, zero, zero, zero),
+                                           (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
+                                           scalars, parameters)
                 ax, ay, _ = particle_acceleration(
                     (horizontal[0, i], horizontal[1, i], zero),
                     (horizontal[0, i + 1], horizontal[1, i + 1], zero),
-                    (below[0, i], below[1, i], zero), above, (vx[j, i], vy[j, i], zero), terms,
-                    pull, j, i,
+                    (below[0, i], below[1, i], zero), above, still, scalars, w,
                 )
             else:
                 if given:
                     above = (above_last[0, i], above_last[1, i], above_last[2, i], 0.0)
                 else:
-                    above = spring_between(
-                        (x[j, i], y[j, i], z[j, i], vx[j, i], vy[j, i], vz[j, i]),
-                        (x[j + 1, i], y[j + 1, i], z[j + 1, i], vx[j + 1, i], vy[j + 1, i],
-                         vz[j + 1, i]), 1, terms, parameters)
+                    above = spring_between((x[j, i], y[j, i], z[j, i], zero, zero, zero),
+                                           (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
+                                            zero), 1, scalars, parameters)
                 ax, ay, az = particle_acceleration(
                     (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
                     (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
-                    (below[0, i], below[1, i], below[2, i]), above, (vx[j, i], vy[j, i], vz[j, i]),
-                    terms, pull, j, i,
+                    (below[0, i], below[1, i], below[2, i]), above, still, scalars, w,
                 )
                 z[j, i], vz[j, i] = kick_drift(z[j, i], vz[j, i], az, kick, drift)
                 below[2, i] = above[2]

@@ -1,5 +1,6 @@
-"""The page's "Physics" folder: stiffness, diagonal springs, rest length, damping, gravity,
-linearity and masses.
+"""The page's "Physics" folder: stiffness, rest length, damping, gravity, linearity, masses, and
+a slider for every force term's parameter that its registration gives a page range
+(``Parameter.page``: the diagonal springs, drag, the FPU law's alpha and beta).
 
 Each slider's value from the page is checked against the server's own limits (``Limits``), which
 widen when a loaded scene's value lies outside them, so that every value shown can be sent back.
@@ -60,10 +61,6 @@ class PhysicsFolder(Folder):
                 parameters.get("stiffness").caption(), 1.0, MAX_STIFFNESS, 1.0, 35.0,
                 hint="35 N/m is the paper's 35 % of maximum",
             )
-            self.diagonal = gui.add_slider(
-                parameters.get("diagonal_stiffness").caption(), 0.0, MAX_STIFFNESS, 0.5, 0.0,
-                hint="springs to the diagonal neighbours: an elastic solid (isotropic at k2 = k/2)",
-            )
             self.rest_ratio = gui.add_slider(
                 "Rest length L/a", 0.5, 1.2, 0.01, 1.0,
                 hint="below 1 the springs are pre-tensioned (transverse waves spread)",
@@ -89,12 +86,12 @@ class PhysicsFolder(Folder):
             """Amber: why the lattice cannot hang under this gravity (``sim.theory.hanging``)."""
         # The server's own limits; show_scene widens them to show a scene's larger values.
         self.limits = Limits(
-            {"stiffness": (1.0, MAX_STIFFNESS), "diagonal": (0.0, MAX_STIFFNESS),
+            {"stiffness": (1.0, MAX_STIFFNESS),
              "rest_ratio": (0.5, 1.2), "damping": (0.0, 10.0),
              "gravity": (0.0, 30.0), "heavy_mass": (0.1, 20.0),
              **{row.name: row.page[:2] for row in TERM_ROWS}},
             low_open=("stiffness", "heavy_mass"),
-            sliders={"stiffness": self.stiffness, "diagonal": self.diagonal,
+            sliders={"stiffness": self.stiffness,
                      "rest_ratio": self.rest_ratio,
                      "damping": self.damping, "gravity": self.gravity,
                      "heavy_mass": self.heavy_mass, **self.term_sliders},
@@ -128,8 +125,6 @@ class PhysicsFolder(Folder):
 
         self.stiffness.on_update(physics_callback(lambda: control.set_stiffness(
             check("stiffness", self.stiffness, "stiffness (N/m)"))))
-        self.diagonal.on_update(physics_callback(lambda: control.set_parameters(
-            diagonal_stiffness=check("diagonal", self.diagonal, "diagonal k2 (N/m)"))))
         self.rest_ratio.on_update(physics_callback(lambda: control.set_rest_length_ratio(
             check("rest_ratio", self.rest_ratio, "L/a"))))
         damping = physics_callback(lambda: control.set_damping(
@@ -167,7 +162,6 @@ class PhysicsFolder(Folder):
         model = simulation.model
         show = self.limits.show
         show("stiffness", self.stiffness, float(model.stiffness))
-        show("diagonal", self.diagonal, float(model.diagonal_stiffness))
         show("rest_ratio", self.rest_ratio, float(model.rest_length / model.spacing))
         self.damping_on.value = model.damping > 0
         if model.damping > 0:
