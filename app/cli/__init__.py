@@ -36,6 +36,7 @@ from app.cli import (
     choose,
     continuum,
     dispersion,
+    lessons,
     movie,
     record,
     reflection,
@@ -49,7 +50,7 @@ from app.cli import (
 )
 from app.cli.arguments import EPILOG, OneLineErrorParser
 
-COMMANDS = (scenes, run, bench, serve, record, choose, accuracy, stability, dispersion,
+COMMANDS = (scenes, lessons, run, bench, serve, record, choose, accuracy, stability, dispersion,
             continuum, response, reflection, slits, movie, warm)
 """The command modules, in the order ``oscillators --help`` lists them."""
 

@@ -35,6 +35,7 @@ from app.web.folders.dispersion import DispersionFolder
 from app.web.folders.drive import DriveFolder
 from app.web.folders.energy import EnergyFolder
 from app.web.folders.integrator import IntegratorFolder
+from app.web.folders.lessons import LessonsFolder
 from app.web.folders.measure import MeasureFolder
 from app.web.folders.physics import PhysicsFolder
 from app.web.folders.probes import ProbesFolder
@@ -53,6 +54,7 @@ from sim.runtime.runner import Frame
 
 FOLDERS: tuple[type[Folder], ...] = (
     RunFolder,
+    LessonsFolder,
     SourcesFolder,
     BarrierFolder,
     ScreenFolder,
