@@ -93,16 +93,16 @@ LESSONS: tuple[Lesson, ...] = (
         ("How does the difference between the lattice and the wave equation fall as the string "
          "is made of more particles?",
          "How fast do long waves travel on a chain of springs k = 35 N/m, masses 1 kg, 1 m "
-         "apart, and how does that compare with a sqrt(k/m)?",
+         "apart, and how does that compare with a √(k/m)?",
          "Do short waves travel as fast as long ones?"),
-        (Answer("As a^2, a the spacing: the error is 0.98 with 4 particles, 0.34 with 16, 0.034 "
+        (Answer("As a², a the spacing: the error is 0.98 with 4 particles, 0.34 with 16, 0.034 "
                 "with 64, 0.0022 with 256 and 0.00014 with 1024 (measured order 2.00).",
                 "oscillators continuum string"),
-         Answer("5.9144 m/s, measured by following a pulse; a sqrt(k/m) = 5.9161 m/s "
+         Answer("5.9144 m/s, measured by following a pulse; a √(k/m) = 5.9161 m/s "
                 "(-0.028 %).", "oscillators dispersion"),
          Answer("No: at q a / pi = 0.75 the lattice's waves have omega = 10.936 rad/s where the "
                 "continuum would have 13.951 rad/s. The lattice's dispersion relation "
-                "omega = 2 sqrt(k/m) |sin(q a / 2)| bends below the straight line, so short "
+                "ω = 2 √(k/m) |sin(q a / 2)| bends below the straight line, so short "
                 "waves lag.", "oscillators dispersion"))),
     Lesson(
         "interference-and-slits", "Interference and slits", "double-slit",
@@ -140,8 +140,8 @@ LESSONS: tuple[Lesson, ...] = (
          Answer("Group speed 5.7315 m/s against 5.7322 m/s from theory (-0.011 %); phase speed "
                 "5.8546 m/s, equal to theory to the digits printed.",
                 "oscillators run grid --set nx=160 --set ny=160 --set linear=true --packet 0.5,0"),
-         Answer("Between 4.184 and 8.367 rad/s measured, the band gap sqrt(2k/M) = 4.183 to "
-                "sqrt(2k/m) = 8.367 rad/s of theory.", "oscillators dispersion")),
+         Answer("Between 4.184 and 8.367 rad/s measured, the band gap √(2k/M) = 4.183 to "
+                "√(2k/m) = 8.367 rad/s of theory.", "oscillators dispersion")),
         settings={"nx": 160, "ny": 160, "linear": True}),
     Lesson(
         "resonance-and-band-gap", "Resonance and the band gap", "resonance",
@@ -186,7 +186,7 @@ LESSONS: tuple[Lesson, ...] = (
     Lesson(
         "fpu-recurrence", "The Fermi-Pasta-Ulam-Tsingou recurrence", "fput",
         "oscillators run fput --modes 4",
-        "A chain of 32 particles whose springs pull with k (s + 0.25 s^2), with all the energy "
+        "A chain of 32 particles whose springs pull with k (s + 0.25 s²), with all the energy "
         "in its lowest mode. The Modes folder plots the shares of modes 1 to 4 over time: "
         "mode 1 gives its energy to the others and, unlike what Fermi expected, takes it back. "
         "The page starts at a speed that shows the first return within about a minute.",
