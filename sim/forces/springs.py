@@ -209,16 +209,17 @@ def scalar_terms(terms, zero):
     """The scene's terms (``sim.forces.terms.Terms``) as the per-spring and per-particle
     functions take them, made once per row: scalars, tuples and None only, no arrays, so that
     those functions inline into the row loops without reference counting (a record that holds
-    arrays, passed per particle, cost the fused leapfrog 15-25 %).  (spring law, dashpot, drag,
-    gravity's pull (ax, ay, az))."""
-    return (terms.linear, terms.dashpot, terms.drag, gravity_vector(terms.gravity, zero))
+    arrays, passed per particle, cost the fused leapfrog 15-25 %).  (``law``, drag, gravity's
+    pull (ax, ay, az)); ``law`` = (spring law, dashpot) is what the functions of the springs
+    take (``spring_between``, ``horizontal_springs``)."""
+    return ((terms.linear, terms.dashpot), terms.drag, gravity_vector(terms.gravity, zero))
 
 
 @njit(**_JIT)
-def spring_between(first, second, axis, scalars, parameters):
-    """``spring_force`` of a nearest spring with the law and dashpot of the scene
-    (``scalars``: ``scalar_terms``): what a loop calls for one spring."""
-    return spring_force(first, second, axis, scalars[0], parameters, scalars[1])
+def spring_between(first, second, axis, law, parameters):
+    """``spring_force`` of a nearest spring with the scene's ``law`` (``scalar_terms``: its
+    spring law and dashpot): what a loop calls for one spring."""
+    return spring_force(first, second, axis, law[0], parameters, law[1])
 
 
 @njit(**_JIT)
@@ -249,9 +250,9 @@ def particle_acceleration(left, right, below, above, velocity, scalars, inverse_
     on a particle are summed."""
     fx, fy, fz = _other_forces(right[0] - left[0] + above[0] - below[0],
                                right[1] - left[1] + above[1] - below[1],
-                               right[2] - left[2] + above[2] - below[2], velocity, scalars[2],
+                               right[2] - left[2] + above[2] - below[2], velocity, scalars[1],
                                diagonal)
-    pull = scalars[3]
+    pull = scalars[2]
     return (fx * inverse_mass + pull[0], fy * inverse_mass + pull[1],
             fz * inverse_mass + pull[2])
 
@@ -340,22 +341,14 @@ def _store(out, i, force, z):
 
 
 @njit(**_JIT)
-def horizontal_springs(j, x, y, z, vx, vy, vz, terms, parameters, out):
+def horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
     """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
     joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
     goes to the right one (on a ring both are the closing spring; at free ends both are zero).
-    The law and dashpots are the scene's ``terms`` (``sim.forces.terms.Terms``); arrays as for
-    ``vertical_springs``; returns the power dissipated by their dashpots (W)."""
-    return _horizontal_springs(j, x, y, z, vx, vy, vz, terms.linear, parameters, terms.dashpot,
-                               out)
-
-
-@njit(**_JIT)
-def _horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot, out):
-    """Forces (3, nx + 1) on the left ends of the springs of row j, written into ``out``: spring i
-    joins particle i - 1 to particle i, spring 0 comes from the left wall anchor and spring nx
-    goes to the right one (on a ring both are the closing spring; at free ends both are zero).
-    ``linearised`` None: the nonlinear law, True: the linearised one.  Arrays as for
+    ``linearised`` None: the nonlinear law, True: the linearised one; ``dashpot`` None: none (a
+    loop passes its scene's ``law`` of ``scalar_terms`` as these two, calling this function
+    directly: a function between a row loop and this one left the leapfrog 10-18 % slower in
+    the kernels read from the cache, ``docs/web.md``, "Compiled apart").  Arrays as for
     ``vertical_springs``; returns the power dissipated by their dashpots (W)."""
     T = type(parameters.spacing)
     zero = T(0.0)
@@ -421,8 +414,8 @@ def row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, abov
     linearised, dashpot, drag = terms.linear, terms.dashpot, terms.drag
     power = _vertical_springs(j + 1, ny, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
                               above)
-    power += _horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
-                                 horizontal)
+    power += horizontal_springs(j, x, y, z, vx, vy, vz, linearised, parameters, dashpot,
+                                horizontal)
     zero = type(parameters.spacing)(0.0)
     scalars = scalar_terms(terms, zero)
     k2 = parameters.diagonal_stiffness

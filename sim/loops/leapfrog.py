@@ -71,12 +71,13 @@ def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, p
     below, above_last, horizontal = work.below[b], work.boundary[b + 1], work.horizontal[b]
     zero = type(kick)(0.0)
     scalars = scalar_terms(terms, zero)
+    law = scalars[0]  # the springs' law and dashpot, as the spring functions take them
     still = (zero, zero, zero)  # no term that reads the velocities rides this loop
     nx = x.shape[1]
     for j in range(j0, j1):
         if drive is not None:
             save_driven(j, drive, velocity, saved)
-        horizontal_springs(j, x, y, z, vx, vy, vz, terms, parameters, horizontal)
+        horizontal_springs(j, x, y, z, vx, vy, vz, law[0], parameters, law[1], horizontal)
         given = j + 1 == j1
         for i in range(nx):
             w = inverse_mass_at(terms.uniform_inverse_mass, terms.inverse_mass, j, i)
@@ -86,7 +87,7 @@ def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, p
                 else:
                     above = spring_between((x[j, i], y[j, i], zero, zero, zero, zero),
                                            (x[j + 1, i], y[j + 1, i], zero, zero, zero, zero), 1,
-                                           scalars, parameters)
+                                           law, parameters)
                 ax, ay, _ = particle_acceleration(
                     (horizontal[0, i], horizontal[1, i], zero),
                     (horizontal[0, i + 1], horizontal[1, i + 1], zero),
@@ -98,7 +99,7 @@ def leapfrog_rows(j0, j1, kick, drift, x, y, z, vx, vy, vz, terms, parameters, p
                 else:
                     above = spring_between((x[j, i], y[j, i], z[j, i], zero, zero, zero),
                                            (x[j + 1, i], y[j + 1, i], z[j + 1, i], zero, zero,
-                                            zero), 1, scalars, parameters)
+                                            zero), 1, law, parameters)
                 ax, ay, az = particle_acceleration(
                     (horizontal[0, i], horizontal[1, i], horizontal[2, i]),
                     (horizontal[0, i + 1], horizontal[1, i + 1], horizontal[2, i + 1]),
