@@ -23,8 +23,8 @@ run: install  ## install, then serve the web app on the default scene
 
 # --dist loadfile: a test module's tests run in one worker, so the kernels a module compiles on a
 # cold cache are compiled once, not by both workers at the same time.  NUMBA_OPT=1: the default
-# suite's time is mostly compiling kernels, which LLVM's level 1 does faster (README,
-# "Developing"); its kernels are cached apart (sim/runtime/kernel_cache.py).  test-all runs at the
+# suite's time is mostly compiling kernels, which LLVM's level 1 does faster
+# (docs/developing.md); its kernels are cached apart (sim/runtime/kernel_cache.py).  test-all runs at the
 # level users get.
 test: install  ## install, then run the test suite (includes one real-browser test)
 	bash scripts/ensure-chromium.sh

@@ -200,7 +200,9 @@ def format_choice(choice: Any) -> str:
         lines.append(choice.note)
     answer = choice.answer
     if answer is not None:
-        lines.append(f"choose: --integrator {answer.integrator} --dt {answer.dt!r}")
+        # six significant figures: the dt lands the run on its duration (1/48 s, ...), and a
+        # command with 0.0208333 runs the same setting to 1e-6 of the step (--json has it exact)
+        lines.append(f"choose: --integrator {answer.integrator} --dt {answer.dt:.6g}")
         lines.append(f"  verified: {answer.describe()}")
     else:
         best = choice.best_reached

@@ -5,7 +5,7 @@ the loop shapes (``sim.loops``: row sweep, row blocks, wavefront, leapfrog) fuse
 updates into sweeps over these row functions, and the Python layer (``sim.integrators.steppers``,
 ``sim.runtime.simulation``) orchestrates.
 
-Layout (chosen for speed, see the README's benchmark section):
+Layout (chosen for speed, see ``docs/speed.md``):
 
 * a field over the lattice is a C-contiguous ``(ny, nx)`` float64 array per component:
   ``x, y`` (and ``z`` for out-of-plane motion) in m, ``vx, vy, vz`` in m/s;

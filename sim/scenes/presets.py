@@ -202,7 +202,7 @@ PRESETS: dict[str, Preset] = {
             "opposite directions; pre-tension (L = 0.8 a) lets the disturbance spread in 2-D.",
             # velocity Verlet at dt = 0.02 s keeps the energy balance within 1 % over 150 s at
             # less cost than RK4 at 0.05 s, which loses 60 % of the energy by numerical damping
-            # of the short waves (README, "Speed against accuracy")
+            # of the short waves (docs/accuracy.md, "Live accuracy")
             dict(nx=682, ny=383, stiffness=PAPER_STIFFNESS, rest_length=0.8), "verlet", 0.02,
             _displace(_two_sources),
             duration=150.0,  # longitudinal fronts meet near t = 58 s, transverse ones near 130 s
