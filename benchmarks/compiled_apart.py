@@ -1,14 +1,18 @@
 """How fast a process steps with kernels it compiled itself, against kernels a child process
-compiled and it read from numba's cache (``sim.runtime.warming``, "Compiled apart").
+compiled and it read from numba's cache (``sim.runtime.warming``, ``sim.runtime.optimisation``,
+``docs/web.md``, "Compiled apart").
 
     .venv/bin/python benchmarks/compiled_apart.py                   # interference, Verlet
+    .venv/bin/python benchmarks/compiled_apart.py --integrator rk4 --precision float32
     .venv/bin/python benchmarks/compiled_apart.py --scene grid --steps 5000 --fresh-host
 
 Each case runs in a process of its own with an empty numba cache (a new temporary folder): it
 builds the scene, has a ``KernelPreparer`` make its kernels ready, either rehearsing in its own
-thread as before ("here") or as the page's preparer does ("apart"), then times ``--steps``
-steps.  A third case reads the cache "apart" left.  ``--fresh-host`` also empties the per-host
-1/sqrt choice (``sim.loops.host_tuning``), which is measured at the first use on a machine.
+thread ("here": compiled in the process that steps, as a script or a notebook does) or as the
+page's preparer does ("apart"), then times ``--steps`` steps; the cases "here" at numba's
+default level and at ``max`` (what ``import sim`` sets), "apart" at the default level (the
+command line and the page), and a process that reads the cache each "here" or "apart" case left.
+``--fresh-host`` also empties the per-host 1/sqrt choice (``sim.loops.host_tuning``).
 """
 
 from __future__ import annotations
@@ -25,9 +29,10 @@ CASE = """
 import json, sys, time
 import sim
 from sim.runtime.warming import KernelPreparer, compiles_started, kernel_key, rehearse_simulation
-mode, scene, steps = sys.argv[1], sys.argv[2], int(sys.argv[3])
+mode, scene, steps, integrator, precision = sys.argv[1:6]
+steps = int(steps)
 started = time.perf_counter()
-simulation = sim.Simulation(sim.scenes.build(scene), integrator="verlet")
+simulation = sim.Simulation(sim.scenes.build(scene), integrator=integrator, precision=precision)
 built = time.perf_counter() - started
 preparer = KernelPreparer(rehearse_simulation if mode == "here" else None)
 key = kernel_key(simulation, 64)
@@ -44,8 +49,9 @@ print(json.dumps({"built": built, "ready": ready, "steps_per_second": rate,
 """
 
 
-def run(mode: str, scene: str, steps: int, environment: dict) -> dict:
-    result = subprocess.run([sys.executable, "-c", CASE, mode, scene, str(steps)],
+def run(mode: str, arguments: argparse.Namespace, environment: dict) -> dict:
+    result = subprocess.run([sys.executable, "-c", CASE, mode, arguments.scene,
+                             str(arguments.steps), arguments.integrator, arguments.precision],
                             capture_output=True, text=True, env=environment, check=True,
                             cwd=Path(__file__).resolve().parent.parent)
     return json.loads(result.stdout.strip().splitlines()[-1])
@@ -56,23 +62,26 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scene", default="interference")
     parser.add_argument("--steps", type=int, default=3000)
+    parser.add_argument("--integrator", default="verlet")
+    parser.add_argument("--precision", default="float64")
     parser.add_argument("--fresh-host", action="store_true",
                         help="also measure the 1/sqrt choice anew (an empty user cache)")
     arguments = parser.parse_args()
-    for mode in ("here", "apart"):
+    default = {"OSCILLATORS_NUMBA_OPT": "0"}  # numba's default level, as the command line
+    for name, mode, level in (("here, default level", "here", default), ("here, max", "here", {}),
+                              ("apart, default level", "apart", default)):
         with tempfile.TemporaryDirectory() as folder:
-            environment = dict(os.environ, NUMBA_CACHE_DIR=str(Path(folder) / "numba"))
+            environment = {key: value for key, value in os.environ.items()
+                           if key not in ("NUMBA_OPT", "OSCILLATORS_NUMBA_OPT")}
+            environment.update(level, NUMBA_CACHE_DIR=str(Path(folder) / "numba"))
             if arguments.fresh_host:
                 environment["XDG_CACHE_HOME"] = str(Path(folder) / "user")
-            cases = [(mode, run(mode, arguments.scene, arguments.steps, environment))]
-            if mode == "apart":
-                cases.append(("read from the cache", run("apart", arguments.scene,
-                                                         arguments.steps, environment)))
-            for name, figures in cases:
-                print(f"{name:20s} built {figures['built']:5.1f} s, ready {figures['ready']:5.1f} s, "
+            cases = [(name, run(mode, arguments, environment)),
+                     ("  its cache, read", run("apart", arguments, environment))]
+            for case, figures in cases:
+                print(f"{case:22s} built {figures['built']:5.1f} s, ready {figures['ready']:5.1f} s, "
                       f"{figures['steps_per_second']:7.0f} steps/s, "
-                      f"{figures['compiles_while_stepping']} compiles while stepping")
-
+                      f"{figures['compiles_while_stepping']} compiles while stepping", flush=True)
 
 if __name__ == "__main__":
     main()

@@ -31,8 +31,10 @@ Rooms (subpackages), each named after what it holds; a room uses only the rooms 
                  layer
 """
 
-# first: the kernels' cache key and numba's target, before any kernel is defined
-from sim.runtime import kernel_cache as _kernel_cache  # noqa: I001, F401
+# first: numba's optimisation level, the kernels' cache key and numba's target, before any
+# kernel is defined
+from sim.runtime import optimisation as _optimisation  # noqa: I001, F401
+from sim.runtime import kernel_cache as _kernel_cache  # noqa: F401
 from sim.runtime.vector_width import WIDE_VECTORS
 from sim import model, scenes, integrators  # the rooms whose main names are used as sim.ROOM.name
 from sim.integrators.registry import INTEGRATORS, ORDERS, IntegratorError

@@ -78,7 +78,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     from sim import ModelError, SceneError
     from sim.model.schema import printable
+    from sim.runtime.optimisation import use_numba_default
 
+    if getattr(arguments, "reads_cached_kernels", False):
+        # its kernels are compiled in a child process (or by `warm`) and read from numba's
+        # cache, at numba's default level (sim.runtime.optimisation)
+        use_numba_default()
     try:
         return int(arguments.handler(arguments) or 0)
     except (ModelError, SceneError, ValueError) as error:

@@ -102,7 +102,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_output_arguments(parser, picture="SCENE-work-precision.png")
     add_cluster_arguments(parser)
-    parser.set_defaults(handler=command_accuracy)
+    parser.set_defaults(handler=command_accuracy, reads_cached_kernels=True)
 
 
 def _fraction(text: str) -> float:

@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--only", type=_parts, default=tuple(PARTS), metavar="PART,...",
                         help="run only these parts: " + ", ".join(PARTS) + " (default: all)")
     parser.add_argument("--json", action="store_true")
-    parser.set_defaults(handler=command_bench)
+    parser.set_defaults(handler=command_bench, reads_cached_kernels=True)
 
 
 def _parts(text: str) -> tuple[str, ...]:

@@ -86,7 +86,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="also save the picture of every run (error against wall time)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_cluster_arguments(parser)
-    parser.set_defaults(handler=command_choose)
+    parser.set_defaults(handler=command_choose, reads_cached_kernels=True)
 
 
 def _names(text: str) -> list[str]:

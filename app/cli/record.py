@@ -177,7 +177,7 @@ def register(subparsers: Any) -> None:
         "refused for unequal-mass lattices too large for their modes to be computed",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.set_defaults(handler=command_record, command_parser=parser)
+    parser.set_defaults(handler=command_record, command_parser=parser, reads_cached_kernels=True)
 
 
 class _StopRequest:

@@ -65,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(the fput scene), 0 for none")
     parser.add_argument("--force", action="store_true", help="replace an existing --sound file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.set_defaults(handler=command_run)
+    parser.set_defaults(handler=command_run, reads_cached_kernels=True)
 
 
 SOUND_EXAMPLE = """

@@ -25,7 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "`oscillators choose` does (a minute or two for the 682x383 lattice)")
     parser.add_argument("--tolerance", type=positive_float, default=0.01, metavar="TOL",
                         help="tolerance of the choice with --measure (default 0.01)")
-    parser.set_defaults(handler=command_scenes)
+    parser.set_defaults(handler=command_scenes, reads_cached_kernels=True)
 
 
 def command_scenes(arguments: argparse.Namespace) -> int:

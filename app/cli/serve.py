@@ -81,7 +81,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="do not compile the other presets' kernels in the background "
                         "(by default a low-priority process does, this scene's Physics "
                         "toggles first, so the page seldom waits for a compile)")
-    parser.set_defaults(handler=command_serve)
+    parser.set_defaults(handler=command_serve, reads_cached_kernels=True)
 
 
 def _port(text: str) -> int:

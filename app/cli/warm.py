@@ -52,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--background", action="store_true",
                         help="lowest CPU priority, no progress bar, stop when the process that "
                         "started this one ends (how `serve` runs it)")
-    parser.set_defaults(handler=command_warm)
+    parser.set_defaults(handler=command_warm, reads_cached_kernels=True)
 
 
 @dataclass(frozen=True)

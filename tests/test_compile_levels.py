@@ -1,0 +1,71 @@
+"""numba's optimisation level (``sim.runtime.optimisation``): ``import sim`` asks for ``max`` (the
+cheap pass at level 3, so a kernel compiled in the running process vectorises), a level the user
+set is kept, and the commands that read their kernels from the cache go back to numba's default
+before compiling anything.  Each case is a fresh process (the level is read as numba starts);
+the code generator's internals this module switches are checked to be where it expects them."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from app.cli import build_parser
+
+PROBE = """
+import json, os, sys
+{before}
+import sim
+from numba import njit
+from numba.core import config
+from numba.core.registry import cpu_target
+{after}
+njit(lambda x: x + 1)(1)  # numba makes its code generator
+codegen = cpu_target.target_context.codegen()
+print(json.dumps({{"max": bool(config.OPT.is_opt_max), "env": os.environ.get("NUMBA_OPT"),
+                  "cheap_pass": codegen._opt_level, "vectorise": codegen._loopvect}}))
+"""
+
+
+def _probe(environment: dict, before: str = "", after: str = "") -> dict:
+    env = {key: value for key, value in os.environ.items()
+           if key not in ("NUMBA_OPT", "OSCILLATORS_NUMBA_OPT", "_OSCILLATORS_SET_NUMBA_OPT")}
+    env.update(environment)
+    result = subprocess.run([sys.executable, "-c", PROBE.format(before=before, after=after)],
+                            capture_output=True, text=True, env=env, check=True, timeout=120)
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def test_import_sim_asks_for_max_and_numbas_code_generator_follows():
+    assert _probe({}) == {"max": True, "env": "max", "cheap_pass": 3, "vectorise": True}
+
+
+def test_a_level_the_user_set_is_kept():
+    assert _probe({"NUMBA_OPT": "1"}) == {"max": False, "env": "1", "cheap_pass": 0,
+                                          "vectorise": False}
+    assert _probe({"OSCILLATORS_NUMBA_OPT": "0"})["max"] is False
+
+
+def test_a_code_generator_made_before_import_sim_is_switched_too():
+    made_first = "from numba import njit as _n; _n(lambda x: x)(1)"
+    assert _probe({}, before=made_first)["cheap_pass"] == 3
+
+
+def test_going_back_to_numbas_default_before_compiling():
+    back = "from sim.runtime.optimisation import use_numba_default; use_numba_default()"
+    assert _probe({}, after=back) == {"max": False, "env": None, "cheap_pass": 0,
+                                      "vectorise": False}
+    assert _probe({"NUMBA_OPT": "1"}, after=back)["env"] == "1"  # the user's level stays
+
+
+@pytest.mark.parametrize("command, reads", [
+    (["run", "grid"], True), (["record", "grid"], True), (["serve"], True), (["bench"], True),
+    (["warm"], True), (["choose", "grid", "--tolerance", "0.01"], True), (["accuracy", "grid"], True),
+    (["stability"], False), (["dispersion"], False), (["movie", "grid", "-o", "x.mp4"], False),
+])
+def test_the_commands_that_read_cached_kernels_say_so(command, reads):
+    arguments = build_parser().parse_args(command)
+    assert getattr(arguments, "reads_cached_kernels", False) is reads
