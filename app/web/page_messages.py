@@ -21,6 +21,7 @@ PAGE_MESSAGES = frozenset({
     "TransformControlsUpdateMessage", "TransformControlsDragStartMessage",
     "TransformControlsDragEndMessage",  # a drag of the gizmo
     "LocalStorageGetItemResponseMessage",  # a page's reply: it has drawn its picture
+    "CommandTriggerMessage",  # a keyboard command the server registered (viser checks its id)
 })
 """The viser message types the app handles; every other type a page sends is dropped unread."""
 MESSAGE_RATE = 200.0

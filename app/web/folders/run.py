@@ -1,4 +1,8 @@
-"""The page's "Run" folder: Play/Pause, Single step, Reset, and the status line.
+"""The page's "Run" folder: Play/Pause, Single step, Reset, the speed, and the status line.
+
+Each button and each speed step is a keyboard command too (``KEYS``: Space, N, Shift+R,
+Shift+Up/Down; in viser's command palette as well), listed in the folder, for a teacher at a
+projector and for people who do not use a mouse.
 
 The status line shows the time, the step, whether the run goes on, the steps per second and the
 rate (simulated seconds per second of wall time); a red line says why the run stopped (a
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import viser
 
@@ -40,6 +45,10 @@ MAX_FPS = 60.0
 """Frames a second at most when a speed is asked for."""
 LARGE = 50_000
 """From this many particles on, a scene plays as fast as it can by default."""
+KEYS = (("Play or pause", "space", None), ("Single step", "N", None), ("Reset", "R", "shift"),
+        ("Faster", "arrowup", "shift"), ("Slower", "arrowdown", "shift"))
+"""The Run folder's keyboard commands: (label, key, modifier), in viser's command palette too."""
+KEYS_TEXT = "Keys: Space play/pause · N single step · Shift+R reset · Shift+↑/↓ faster/slower"
 
 
 def default_speed(simulation) -> str:
@@ -78,33 +87,20 @@ class RunFolder(Folder):
             self.speed = gui.add_dropdown(
                 "Speed", list(SPEEDS), initial_value="as fast as it can" if large else "x1",
                 hint="simulated seconds per second: real time (x1) or slow motion")
+            self.keys = gui.add_html(as_html(KEYS_TEXT, color="#555"))
             self.status = gui.add_html("")
             self.error_html = gui.add_html("", visible=False)
             self.end_html = gui.add_html("", visible=False)
             self.part_html = gui.add_html("", visible=False)
 
-        @self.play_button.on_click
-        @from_user
-        async def _(_: viser.GuiEvent) -> None:
-            if host.runner.playing:
-                host.control.pause()
-            else:
-                if self._reached_end:
-                    self.go_on = True  # asked to go on past the scene's duration
-                host.control.play()
-            self._show_playing()
-
-        @self.step_button.on_click
-        @from_user
-        async def _(_: viser.GuiEvent) -> None:
-            host.control.single_step()
-            self._show_playing()
-
-        @self.reset_button.on_click
-        @from_user
-        async def _(_: viser.GuiEvent) -> None:
-            self.go_on = False
-            host.control.reset()
+        actions = (self._play_or_pause, self._single_step, self._reset, self._faster,
+                   self._slower)
+        for button, action in zip((self.play_button, self.step_button, self.reset_button),
+                                  actions, strict=False):
+            button.on_click(from_user(action))
+        for (label, key, modifier), action in zip(KEYS, actions, strict=True):
+            command = gui.add_command(label, hotkey=key, modifier=modifier)
+            command.on_trigger(from_user(action))
 
         self._fastest_fps = host.runner.max_fps
         self._base_steps = max(1, int(host.runner.steps_per_frame))
@@ -118,6 +114,38 @@ class RunFolder(Folder):
             if self.speed.value not in SPEEDS:
                 self.speed.value = "x1"
             self._pace()
+
+    # --- what the buttons and the keys do -----------------------------------------------------
+
+    async def _play_or_pause(self, _: Any) -> None:
+        if self.host.runner.playing:
+            self.host.control.pause()
+        else:
+            if self._reached_end:
+                self.go_on = True  # asked to go on past the scene's duration
+            self.host.control.play()
+        self._show_playing()
+
+    async def _single_step(self, _: Any) -> None:
+        self.host.control.single_step()
+        self._show_playing()
+
+    async def _reset(self, _: Any) -> None:
+        self.go_on = False
+        self.host.control.reset()
+
+    async def _faster(self, _: Any) -> None:
+        self._change_speed(+1)
+
+    async def _slower(self, _: Any) -> None:
+        self._change_speed(-1)
+
+    def _change_speed(self, way: int) -> None:
+        """The next speed of ``SPEEDS`` up (+1) or down (-1), shown and applied."""
+        names = list(SPEEDS)
+        at = names.index(self.speed.value) if self.speed.value in names else names.index("x1")
+        self.speed.value = names[min(max(at + way, 0), len(names) - 1)]
+        self._pace()
 
     def show_scene(self, simulation) -> None:
         """Real time for small scenes, as fast as it can for large lattices."""
