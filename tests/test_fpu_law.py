@@ -90,7 +90,7 @@ def test_a_chain_moving_along_itself_is_the_fpu_chain(linear, rest_length):
         expected -= 2 * law(np.sqrt(1 + u**2) - rest_length) * u / np.sqrt(1 + u**2)
     forces = _kernel_forces(model, positions)
     assert np.abs(forces[0, 0] - expected).max() < 1e-12
-    assert np.abs(forces[1]).max() == 0.0  # nothing pulls across the chain
+    assert np.abs(forces[1]).max() < 1e-12  # nothing pulls across the chain (round-off)
     assert _compiled_energy(model, positions) == pytest.approx(
         float(np.sum(stored(s) - stored(s0)) + np.sum(walls)), rel=1e-12)
 

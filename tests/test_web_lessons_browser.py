@@ -1,6 +1,7 @@
 """The Lessons folder in a real (headless) Chromium: a teacher opens the folder, picks the FPU
 lesson in its menu and presses Open lesson; the page runs the fput chain and shows the lesson's
-questions, at a laptop's size and at a phone's."""
+questions, at a laptop's size and at a phone's; and the "In words" folder describes the new
+lattice in a live region (aria-live) that screen readers read."""
 
 from __future__ import annotations
 
@@ -29,4 +30,8 @@ def test_a_lesson_opens_from_the_lessons_folder(web_app, browser, size):
     shots = os.environ.get("OSCILLATORS_SCREENSHOTS")
     if shots:  # for a person to look at: OSCILLATORS_SCREENSHOTS=/tmp/shots pytest ...
         page.screenshot(path=os.path.join(shots, f"lessons-{size[0]}x{size[1]}.png"))
+    # the lattice in words, in a live region a screen reader reads out (the "In words" folder)
+    region = page.locator('[aria-live="polite"]', has_text="particles")
+    region.first.wait_for(timeout=20_000)
+    assert "32 × 1 particles" in region.first.inner_text()
     assert web_app.gate.refused == 0

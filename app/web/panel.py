@@ -31,6 +31,7 @@ import numpy as np
 import sim
 from app.web.folders.accuracy import AccuracyFolder
 from app.web.folders.barrier import BarrierFolder
+from app.web.folders.description import DescriptionFolder
 from app.web.folders.dispersion import DispersionFolder
 from app.web.folders.drive import DriveFolder
 from app.web.folders.energy import EnergyFolder
@@ -54,6 +55,7 @@ from sim.runtime.runner import Frame
 
 FOLDERS: tuple[type[Folder], ...] = (
     RunFolder,
+    DescriptionFolder,
     LessonsFolder,
     SourcesFolder,
     BarrierFolder,
