@@ -38,3 +38,4 @@ def test_the_words_are_a_live_region_shown_as_text():
     region = live_html("<b>t = 1 s</b>")
     assert 'aria-live="polite"' in region and 'role="status"' in region
     assert "&lt;b&gt;" in region and "<b>" not in region
+

@@ -28,6 +28,7 @@ from app.cli.arguments import (
 )
 from app.cli.limits import planned_steps
 from app.cli.packets import PacketRun, add_packet_argument, print_packet
+from app.cli.run_table import RunTable
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -63,7 +64,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "first mode's energy comes back (the FPU recurrence, docs/fput.md); a one-row chain of "
         "equal masses between walls only; default 8 on such a chain with the FPU spring law "
         "(the fput scene), 0 for none")
-    parser.add_argument("--force", action="store_true", help="replace an existing --sound file")
+    parser.add_argument(
+        "--csv", metavar="PATH.csv",
+        help="write the energy account (J), the energy-balance error and the probes' "
+        "displacements (m) at every sample time as a CSV table, each column's quantity and "
+        "unit in its header")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an existing --sound or --csv file")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=command_run, reads_cached_kernels=True)
 
@@ -104,6 +111,8 @@ def command_run(arguments: argparse.Namespace) -> int:
     start_energy = simulation.energy()
     chunk = max(1, steps // CHECKS_PER_RUN)
     probes = None
+    table = RunTable(arguments.csv, arguments.force, simulation) \
+        if arguments.csv and not arguments.probe else None
     if arguments.probe:
         from app.recording.instruments import check_probes, parse_probe
         from sim.instruments.probes import ProbeSeries
@@ -116,6 +125,8 @@ def command_run(arguments: argparse.Namespace) -> int:
             raise ValueError(f"--probe: {error}") from None
         particles = [row * model.nx + column for column, row in pairs]
         probes = ProbeSeries(model, particles, limit=steps + 1)
+        if arguments.csv:
+            table = RunTable(arguments.csv, arguments.force, simulation, particles)
         probes.add(simulation.time, simulation.state.particle_positions())
         # sample four times per period of the fastest mode (twice the Nyquist rate)
         chunk = max(1, int(math.pi / (2 * highest_frequency(model) * simulation.dt)))
@@ -139,6 +150,8 @@ def command_run(arguments: argparse.Namespace) -> int:
                 bar.update(n)
                 if probes is not None:
                     probes.add(simulation.time, simulation.state.particle_positions())
+                if table is not None:
+                    table.add(simulation)
                 if packet is not None:
                     packet.add(simulation)
                 if modes is not None:
@@ -174,6 +187,8 @@ def command_run(arguments: argparse.Namespace) -> int:
             refused = summary["sound_error"] = str(error)
     if fields is not None:
         summary["fields"] = fields.save()
+    if table is not None:
+        summary["csv"] = table.write()
     if packet is not None:
         summary.update(packet.report())
     if modes is not None:
@@ -222,6 +237,9 @@ def _print_summary(simulation: Any, summary: dict[str, Any], start_energy: Any, 
         _print_modes(summary["modes"])
     if "sound_file" in summary:
         print(f"sound: {summary['sound_file']}: {summary['sound_description']}")
+    if "csv" in summary:
+        print(f"table: {summary['csv']} ({len(summary.get('probes', []))} probe(s); the energy "
+              "account and its balance error at every sample time)")
 
 
 def _mode_shares(asked: int | None, simulation: Any) -> Any:

@@ -6,16 +6,23 @@ from the rest positions, in a scene with gravity), the total, the energy the dam
 and the driver's work (in a scene with a driver, or one that had one).  When the time goes back
 (a reset, a new scene) the plot is emptied at once.  Its axes say their quantity and unit, the
 energy in J with the SI prefix that keeps its ticks readable (``app.web.plots.LivePlot``).
+*Download CSV* sends the page that pressed it the plotted series as a table (``app.csv_table``:
+each column's quantity and unit in the header).
 """
 
 from __future__ import annotations
 
+import viser
+
 import sim
 from app.colours import ENERGY_COLOURS, hex_colour
+from app.csv_table import ENERGY_COLUMNS, csv_text
 from app.web.host import Folder, PanelHost
+from app.web.inputs import from_user
 from app.web.plots import LivePlot
 from app.web.widgets import History, PlotAxis
 from sim.runtime.runner import Frame
+from sim.storage.files import safe_name
 
 ENERGY_HISTORY = 600
 """Points kept in the energy plot."""
@@ -56,9 +63,27 @@ class EnergyFolder(Folder):
         self._last_plot = 0.0
         self.terms = terms(gravity=False, driver=False)
         """The terms the plot shows."""
+        self.scene = host.runner.simulation.scene.name
         with gui.add_folder("Energy") as self.folder:
             self.live = LivePlot(gui, self.folder, self._series(),
                                  PlotAxis("energy", "J", "simulated time t (s)"), aspect=1.6)
+            self.download = gui.add_button("Download CSV", icon=viser.Icon.TABLE_EXPORT,
+                                           hint="the plotted energies as a table (t in s, J)")
+
+        @self.download.on_click
+        @from_user
+        def _(event: viser.GuiEvent) -> None:
+            name = f"{safe_name(self.scene)}-energy.csv"
+            event.client.send_file_download(name, self.csv().encode(), save_immediately=True)
+
+    def csv(self) -> str:
+        """The plotted series as CSV: simulated time (s) and each term shown (J)."""
+        headings = [("simulated time t", "s")] + [(ENERGY_COLUMNS[term], "J") for term in self.terms]
+        if not len(self.history):
+            return csv_text(headings, [])
+        times, columns = self.history.columns()
+        shown = [columns[index] for index, term in enumerate(LINES) if term in self.terms]
+        return csv_text(headings, zip(times, *shown, strict=True))
 
     @property
     def plot(self):
@@ -73,6 +98,7 @@ class EnergyFolder(Folder):
         return (TIME_SERIES, *(LINES[term] for term in self.terms))
 
     def show_scene(self, simulation: sim.Simulation) -> None:
+        self.scene = simulation.scene.name
         self.history.clear()
         self.live.clear()
         self._last_plot = 0.0
