@@ -25,8 +25,11 @@ kernel calls its callees' own compiled code.  The leapfrog's row pass (``sim.loo
 compiled that way ran its scalar loop, not its 512-bit one; in the kernel numba's cache stores,
 the pass is inlined and runs vectorised.  So a process that compiled its kernels ran them about
 three times slower for as long as it lived, while a process that read the same kernels from the
-cache ran them at full speed (figures in ``docs/web.md``, "Compiled apart"; ``NUMBA_OPT=max``
-avoids it too, at more compile time).  ``call_reading`` therefore makes a call (a rehearsal,
+cache ran them at full speed (figures in ``docs/web.md``, "Compiled apart, or optimised before
+inlining").  ``import sim`` asks numba for ``NUMBA_OPT=max``, which avoids it at more compile
+time (``sim.runtime.optimisation``), but the cached kernels of numba's default level run the
+leapfrog about a tenth faster, so the processes that use this module go back to that level
+(``app.cli``: the commands that read cached kernels).  ``call_reading`` therefore makes a call (a rehearsal,
 ``rehearse_reading``; a command's run) with compiles refused (``refusing_compiles``); if a
 kernel is missing from the cache, a child process (``python -m sim.runtime.warming``) makes the
 same call and writes the cache, and the call is made again here, reading it.  If the child
