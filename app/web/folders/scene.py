@@ -18,6 +18,7 @@ import viser
 
 import sim
 from app.web.folders.files import SceneFileControls
+from app.web.folders.share_controls import ShareControls
 from app.web.folders.walls import WallsControls
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, whole_number
@@ -56,6 +57,7 @@ class SceneFolder(Folder):
             )
             self.walls = WallsControls(host, lambda: self.message, self.show_info, MAX_SIDE)
             self.files = SceneFileControls(host, lambda: self.message)
+            self.share = ShareControls(host, lambda: self.message)
             self.message = gui.add_html("")
         self._sized_for = current
 
