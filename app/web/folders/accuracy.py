@@ -27,7 +27,9 @@ import numpy as np
 import viser
 
 import sim
+from app.csv_table import csv_text
 from app.web.choosing import ChoiceCancelled, apply_choice, cancel_choice, choose_on_page
+from app.web.downloads import add_csv_button
 from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
@@ -107,6 +109,9 @@ class AccuracyFolder(Folder):
                  {"label": "energy-balance error", "stroke": "#c0392b", "width": 1.5}),
                 PlotAxis("error", "", "simulated time t (s)", RATIO_UNITS),
                 aspect=2.2)
+            self.download = add_csv_button(
+                gui, "Download CSV", "the plotted energy-balance error",
+                lambda: host.runner.simulation.scene.name, self.csv, "energy-balance-error")
             self.predicted = gui.add_html("")
             self.tolerance = gui.add_number(
                 "Tolerance (%)", DEFAULT_TOLERANCE * 100, step=0.1,
@@ -217,6 +222,14 @@ class AccuracyFolder(Folder):
     def plot(self) -> Any:
         """The viser plot of the error shown now."""
         return self.error_plot.handle
+
+    def csv(self) -> str:
+        """The plotted series: simulated time (s), the energy-balance error (relative)."""
+        headings = [("simulated time t", "s"), ("energy-balance error", "")]
+        if not len(self.history):
+            return csv_text(headings, [])
+        times, errors = self.history.columns()
+        return csv_text(headings, zip(times, errors[0], strict=True))
 
     def clear(self) -> None:
         self.history.clear()

@@ -12,17 +12,14 @@ each column's quantity and unit in the header).
 
 from __future__ import annotations
 
-import viser
-
 import sim
 from app.colours import ENERGY_COLOURS, hex_colour
 from app.csv_table import ENERGY_COLUMNS, csv_text
+from app.web.downloads import add_csv_button
 from app.web.host import Folder, PanelHost
-from app.web.inputs import from_user
 from app.web.plots import LivePlot
 from app.web.widgets import History, PlotAxis
 from sim.runtime.runner import Frame
-from sim.storage.files import safe_name
 
 ENERGY_HISTORY = 600
 """Points kept in the energy plot."""
@@ -67,14 +64,8 @@ class EnergyFolder(Folder):
         with gui.add_folder("Energy") as self.folder:
             self.live = LivePlot(gui, self.folder, self._series(),
                                  PlotAxis("energy", "J", "simulated time t (s)"), aspect=1.6)
-            self.download = gui.add_button("Download CSV", icon=viser.Icon.TABLE_EXPORT,
-                                           hint="the plotted energies as a table (t in s, J)")
-
-        @self.download.on_click
-        @from_user
-        def _(event: viser.GuiEvent) -> None:
-            name = f"{safe_name(self.scene)}-energy.csv"
-            event.client.send_file_download(name, self.csv().encode(), save_immediately=True)
+            self.download = add_csv_button(gui, "Download CSV", "the plotted energies",
+                                           lambda: self.scene, self.csv, "energy")
 
     def csv(self) -> str:
         """The plotted series as CSV: simulated time (s) and each term shown (J)."""

@@ -26,6 +26,8 @@ import numpy as np
 import viser
 
 import sim
+from app.csv_table import csv_text
+from app.web.downloads import add_csv_button
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, warning_html
 from app.web.plots import LivePlot
@@ -82,6 +84,13 @@ class ProbesFolder(Folder):
                 hint="the last seconds of the probes' motion as sound, sped up into hearing "
                 "(the first two probes: left and right)")
             self.player = gui.add_html("")
+            scene = lambda: host.runner.simulation.scene.name  # noqa: E731
+            self.series_download = add_csv_button(
+                gui, "Download series CSV", "every probe's displacement against time", scene,
+                self.series_csv, "probes")
+            self.spectrum_download = add_csv_button(
+                gui, "Download spectrum CSV", "the plotted spectrum of the chosen component",
+                scene, self.spectrum_csv, "probe-spectra")
             self._heard_until: float | None = None
             """The series' last time when the player was made (None: no player)."""
             self.time_plot: LivePlot | None = None
@@ -185,6 +194,47 @@ class ProbesFolder(Folder):
         self._heard_until = None
         if self.player.content:
             self.player.content = ""
+
+    def _probes(self) -> tuple[Any, list[str]]:
+        """The probed series (None: none) and each probe's name."""
+        with self._lock:
+            series = self.series
+        if series is None:
+            return None, []
+        nx = series.model.nx
+        return series, [f"probe {k + 1} (column {p % nx}, row {p // nx})"
+                        for k, p in enumerate(series.particles)]
+
+    def series_csv(self) -> str:
+        """Every probe's displacement (m) of each component against simulated time (s)."""
+        series, names = self._probes()
+        if series is None:
+            return csv_text([("simulated time t", "s")], [])
+        times, displacements = series.samples()
+        dim = series.model.dim
+        columns = [("simulated time t", "s")] + [
+            (f"{name} displacement {POLARISATION_NAMES[c]}", "m") for name in names
+            for c in range(dim)]
+        return csv_text(columns, (
+            (time, *row.ravel()) for time, row in zip(times, displacements, strict=True)))
+
+    def spectrum_csv(self) -> str:
+        """The spectrum of the chosen component: frequency (Hz), each probe's amplitude (m)."""
+        series, names = self._probes()
+        if series is None or len(series.times) < 8:
+            return csv_text([("frequency f", "Hz")], [])
+        component = POLARISATION_NAMES.index(
+            choice(self.component.value, "component",
+                   list(POLARISATION_NAMES[: series.model.dim])))
+        times, displacements = series.samples()
+        amplitudes, frequencies = [], np.zeros(0)
+        for k in range(len(names)):
+            even, interval = uniform_series(times, displacements[:, k, component])
+            frequencies, amplitude = spectrum(even, interval)
+            amplitudes.append(amplitude)
+        columns = [("frequency f", "Hz")] + [
+            (f"{name} amplitude {POLARISATION_NAMES[component]}", "m") for name in names]
+        return csv_text(columns, zip(frequencies, *amplitudes, strict=True))
 
     def _build_plots(self, count: int) -> None:
         for plot in (self.time_plot, self.spectrum_plot):

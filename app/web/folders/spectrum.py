@@ -27,6 +27,8 @@ import numpy as np
 import viser
 
 import sim
+from app.csv_table import csv_text
+from app.web.downloads import add_csv_button
 from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
@@ -114,6 +116,8 @@ class SpectrumFolder(Folder):
         self._working = threading.Lock()
         self._last = 0.0
         self.last_energies: list[np.ndarray] | None = None
+        self._table: tuple | None = None
+        """(model, basis, energies) of the latest picture, for ``csv``."""
         model = host.runner.simulation.model
         with gui.add_folder("Modes", expand_by_default=False) as self._folder:
             self.mode_shares = ModeSharesView(gui, self._folder, host.runner)
@@ -137,6 +141,9 @@ class SpectrumFolder(Folder):
                 "Excite mode", icon=viser.Icon.WAVE_SINE,
                 hint="the lattice at rest in its equilibrium with this mode alone displaced")
             self.message = gui.add_html("")
+            self.download = add_csv_button(
+                gui, "Download CSV", "the energy in every normal mode of every polarisation",
+                lambda: host.runner.simulation.scene.name, self.csv, "mode-energies")
 
         def show_frequency(_: viser.GuiEvent) -> None:
             self._show_frequency()
@@ -248,6 +255,24 @@ class SpectrumFolder(Folder):
     def _interval(self, model: sim.Model) -> float:
         return REFRESH_SECONDS * max(1.0, model.n_particles / 50_000)
 
+    def csv(self) -> str:
+        """The latest picture's numbers: each mode of each polarisation (its numbers m, n of
+        half waves along x and y, or its index with unequal masses), its frequency (Hz) and
+        energy (J)."""
+        if self._table is None:
+            return csv_text([("polarisation", ""), ("mode m", ""), ("mode n", ""),
+                             ("frequency f", "Hz"), ("energy", "J")], [])
+        model, basis, energies = self._table
+        rows = []
+        for component, energy in enumerate(energies):
+            frequency = np.sqrt(np.maximum(
+                np.broadcast_to(basis.omega_squared[component], energy.shape), 0.0)) / (2 * np.pi)
+            for index in np.ndindex(energy.shape):
+                m, n = (index[-1] + 1, index[0] + 1) if energy.ndim == 2 else (index[0] + 1, 0)
+                rows.append((component, m, n, frequency[index], energy[index]))
+        return csv_text([("polarisation (0 x, 1 y, 2 z)", ""), ("mode m", ""), ("mode n", ""),
+                         ("frequency f", "Hz"), ("energy", "J")], rows)
+
     def update(self, frame: Frame, now: float) -> None:
         self.mode_shares.update(now)
         if now - self._last < self._interval(frame.model) or self._working.locked():
@@ -278,6 +303,7 @@ class SpectrumFolder(Folder):
                     return
                 energies = mode_energies(model, positions, velocities, basis)
                 self.last_energies = energies
+                self._table = (model, basis, energies)
                 polarisation = POLARISATION_NAMES.index(self.polarisation.value) \
                     if self.polarisation.value in POLARISATION_NAMES[: model.dim] else 0
                 frequencies = None
