@@ -106,3 +106,19 @@ def test_the_mode_energies_download_as_csv(web_app):
     expected = np.sqrt(4 * 35.0 * np.sin(along_x[:, 1] * np.pi / (2 * (model.nx + 1))) ** 2)
     assert along_x[:, 3] == pytest.approx(expected / (2 * np.pi), rel=1e-8)  # 9 figures
     assert np.all(table[:, 4] >= 0) and table[:, 4].sum() > 0
+
+
+def test_the_dispersion_plot_downloads_as_csv(web_app):
+    folder = web_app.panel.folders["dispersion"]
+    assert folder.plot is not None
+    client = PageClient()
+    press(folder.download, client)
+    (name, content), = client.downloads
+    lines = content.decode().splitlines()
+    header = next(csv.reader(lines[:1]))
+    assert name == "grid-dispersion.csv" and header[0].endswith("(π/a)")
+    assert "x ω (rad/s)" in header and "y ω (rad/s)" in header
+    table = np.loadtxt(lines[1:], delimiter=",")
+    labels = [series["label"] for series in folder.plot.series]
+    plotted = np.asarray(folder.plot.data[labels.index("x")])
+    assert table[:, header.index("x ω (rad/s)")] == pytest.approx(plotted, rel=1e-8, abs=1e-12)

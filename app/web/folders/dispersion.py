@@ -28,6 +28,8 @@ import numpy as np
 import viser
 
 import sim
+from app.csv_table import csv_text
+from app.web.downloads import add_csv_button
 from app.web.host import Folder, PanelHost
 from app.web.inputs import (
     InputRefused,
@@ -84,6 +86,8 @@ class DispersionFolder(Folder):
         """(id of the model, integrator, dt) the plot shows."""
         self.structure: BandStructure | None = None
         self._data: list[np.ndarray] = []
+        self._table: list[tuple[tuple[str, str], np.ndarray]] = []
+        """The plotted lines as columns of ``csv`` ((name, unit), values)."""
         self._marker_index = -1
         self._measured: tuple[float | None, float | None] = (None, None)
         self._tracker: Any = None
@@ -112,6 +116,9 @@ class DispersionFolder(Folder):
             self.launch_reason = gui.add_html("", visible=False)
             """Why the launch button is disabled (amber), when it is."""
             self.message = gui.add_html("")
+            self.download = add_csv_button(
+                gui, "Download CSV", "the plotted bands, continuum lines and numerical "
+                "dispersion", lambda: host.runner.simulation.scene.name, self.csv, "dispersion")
 
         @self.position.on_update
         @from_user
@@ -304,6 +311,13 @@ class DispersionFolder(Folder):
             self.plot.remove()
             self.plot = None
 
+    def csv(self) -> str:
+        """The plot's lines: the position along the path (π/a) and each line's ω (rad/s)."""
+        if not self._table:
+            return csv_text([("wave vector q along the path Γ-X-M-Γ", "π/a")], [])
+        headings = [heading for heading, _ in self._table]
+        return csv_text(headings, zip(*(values for _, values in self._table), strict=True))
+
     def _draw(self, integrator: str, dt: float) -> None:
         """Build the plot for the current bands (a new uPlot in the plot's place)."""
         structure = self.structure
@@ -313,6 +327,7 @@ class DispersionFolder(Folder):
         x = bands.distance * scale
         series: list[dict] = [{"label": "q along path (π/a)"}]
         data = [x]
+        table = [(("wave vector q along the path Γ-X-M-Γ", "π/a"), x)]
         top = float(np.max(bands.omega))
         numerical = [numerical_omegas(integrator, row, dt) for row in bands.omega]
         for found in numerical:
@@ -323,15 +338,20 @@ class DispersionFolder(Folder):
             colour = COLOURS[row % len(COLOURS)]
             series.append({"label": name, "stroke": colour, "width": 2})
             data.append(bands.omega[row])
+            table.append(((f"{name} ω", "rad/s"), bands.omega[row]))
             if np.isfinite(bands.continuum[row]).all():
                 series.append({"label": f"{name} continuum", "stroke": colour, "width": 1,
                                "dash": (6.0, 4.0)})
                 data.append(np.minimum(bands.continuum[row], OFF_PLOT * top))
+                table.append(((f"{name} continuum ω", "rad/s"), bands.continuum[row]))
             found = numerical[row]
             if found is not None and not found.exact:
                 series.append({"label": f"{name} by {integrator}", "stroke": colour,
                                "width": 1.5, "dash": (2.0, 3.0)})
                 data.append(np.where(found.stable, found.omega_numerical, OFF_PLOT * top))
+                table.append(((f"{name} ω by {integrator} at dt = {dt:g} s (nan: unstable)",
+                               "rad/s"), np.where(found.stable, found.omega_numerical, np.nan)))
+        self._table = table
         self._marker_index = len(data)
         series.append({"label": "chosen wave", "stroke": "#000000", "width": 0,
                        "points": {"show": True, "size": 10, "fill": "#000000"}})

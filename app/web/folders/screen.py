@@ -31,7 +31,9 @@ import numpy as np
 import viser
 
 import sim
+from app.csv_table import csv_text
 from app.study.slits import compare
+from app.web.downloads import add_csv_button
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, from_user, ok_html, whole_number
 from app.web.widgets import MATPLOTLIB_LOCK, say
@@ -141,8 +143,13 @@ class ScreenFolder(Folder):
                 "Clear the screen", icon=viser.Icon.ERASER,
                 hint="start the average again (it also starts again when the sources or the "
                 "barrier change)")
+            self.download = add_csv_button(
+                gui, "Download CSV", "the screen's intensity along its column",
+                lambda: host.runner.simulation.scene.name, self.csv, "screen")
             self.about = gui.add_html("")
             self.message = gui.add_html("")
+        self._shown: tuple[np.ndarray, np.ndarray | None] | None = None
+        """(y (m), intensity (m^2, NaN where no whole period is counted yet)) last drawn."""
 
         @self.column.on_update
         @from_user
@@ -284,9 +291,18 @@ class ScreenFolder(Folder):
         counted, waiting = self.counted_rows(frame.time, screen)
         if intensity is not None:
             intensity = np.where(counted, intensity, np.nan)
+        self._shown = (y, intensity)
         threading.Thread(target=self._draw,
                          args=(model, y, intensity, screen.whole_periods, waiting),
                          name="web-screen", daemon=True).start()
+
+    def csv(self) -> str:
+        """The screen as last drawn: each row's rest height y (m) and its time-averaged <u²>
+        (m², nan until a whole period has been counted there)."""
+        headings = [("y", "m"), ("time-averaged <u²>", "m²")]
+        if self._shown is None or self._shown[1] is None:
+            return csv_text(headings, [])
+        return csv_text(headings, zip(*self._shown, strict=True))
 
     def counted_rows(self, time: float, screen: IntensityScreen) -> tuple[np.ndarray, str]:
         """(rows whose average is counted, what the picture says while none is): a row counts
