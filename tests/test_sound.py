@@ -181,6 +181,8 @@ def test_run_refuses_a_sound_it_cannot_make(arguments, message, tmp_path, monkey
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow  # 50 s: the page runs 50 s of simulated time for its sound (the tests above
+# cover the sound itself in the default suite)
 def test_the_page_plays_the_probes_and_forgets_them_on_reset(tmp_path):
     import base64
     import re

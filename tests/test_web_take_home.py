@@ -146,7 +146,8 @@ def test_the_pages_movie_as_one_html_file_starts_at_the_runs_time(web_app):
     client = PageClient()
     press(folder.movie_button, client)
     assert wait_for(lambda: client.downloads, timeout=300)
-    assert not jobs.running and jobs.outcome != "cancelled"
+    assert wait_for(lambda: not jobs.running, timeout=30)  # the job ends just after sending
+    assert jobs.outcome != "cancelled"
     (name, content), = client.downloads
     assert name.endswith(".html")
     page = content.decode()
