@@ -69,3 +69,35 @@ def test_going_back_to_numbas_default_before_compiling():
 def test_the_commands_that_read_cached_kernels_say_so(command, reads):
     arguments = build_parser().parse_args(command)
     assert getattr(arguments, "reads_cached_kernels", False) is reads
+
+
+RUN = """
+import json, sys
+import sim
+simulation = sim.Simulation(sim.scenes.build("grid"), integrator=sys.argv[1], dt=0.02)
+simulation.step(300)
+print(json.dumps(simulation.positions.ravel().tolist()))
+"""
+
+
+@pytest.mark.slow  # compiles the grid's kernels at each level in children: about a minute
+@pytest.mark.parametrize("integrator", ["verlet", "rk4", "yoshida4"])
+def test_every_level_steps_to_the_same_positions(integrator):
+    """The suite runs at LLVM's level 1 (``make test``), users at numba's default level (the
+    command line) or ``max`` (``import sim``): the grid after 300 steps is the same to round-off
+    at all three."""
+    import numpy as np
+
+    runs = {}
+    for name, level in (("suite", {"NUMBA_OPT": "1"}), ("command line",
+                                                          {"OSCILLATORS_NUMBA_OPT": "0"}),
+                        ("import sim", {})):
+        env = {key: value for key, value in os.environ.items()
+               if key not in ("NUMBA_OPT", "OSCILLATORS_NUMBA_OPT", "_OSCILLATORS_SET_NUMBA_OPT")}
+        env.update(level)
+        result = subprocess.run([sys.executable, "-c", RUN, integrator], capture_output=True,
+                                text=True, env=env, check=True, timeout=600)
+        runs[name] = np.array(json.loads(result.stdout.strip().splitlines()[-1]))
+    reference = runs["command line"]
+    for name, positions in runs.items():
+        assert np.allclose(positions, reference, rtol=1e-12, atol=1e-13), name

@@ -196,10 +196,16 @@ def command_serve(arguments: argparse.Namespace) -> int:
             print("others open http://<this machine's address>:"
                   f"{app.server.get_port()}", flush=True)
         if app.roles is not None:
+            from app.web.join import join_url, qr_text
+
             print(f"class: pages on this machine drive the run, and so does the teacher link "
                   f"{app.roles.teacher_link(app.url)}  (keep it to yourself); every other page "
                   f"only watches (see it as a student: {app.roles.student_link(app.url)})",
                   flush=True)
+            address = None if not _loopback(arguments.host) else "127.0.0.1"
+            app.roles.join_url = join_url(app.server.get_port(), address)
+            print(f"students join at {app.roles.join_url} (on the teacher's page too, with this "
+                  f"code):\n{qr_text(app.roles.join_url)}", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:

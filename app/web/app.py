@@ -133,7 +133,7 @@ class WebApp:
         self.control = SimulationControl(self.runner)
         self.scene_files = SceneDirectory(scenes_dir)
         self.recordings = WebRecordings(self.runner, recordings_dir)
-        self.access = AccessPolicy(allowed_origins=tuple(allow_origins))
+        self.access = AccessPolicy(allowed_origins=tuple(allow_origins), join=class_mode)
         self.server = checked_server(self.access, host=host, port=port, verbose=verbose)
         self.gate = PageGate(self.server).install()
         self.server.gui.configure_theme(control_width="large", dark_mode=False)

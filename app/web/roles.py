@@ -46,6 +46,7 @@ import viser
 
 from app.web import viser_adapter
 from app.web.inputs import as_html
+from app.web.join import join_html
 from sim.runtime.runner import Frame
 
 TEACHER_PATH = "/teacher/"
@@ -102,6 +103,9 @@ class ClassRoles:
         self._disabled: dict[int, dict[str, object]] = {}
         """student client id -> {control uuid: its shared ``disabled`` when sent disabled}."""
         self._last_controls_check = 0.0
+        self.join_url: str | None = None
+        """The class's join address (``app.web.join``), shown with its QR code on teachers'
+        pages once set."""
 
     # --- roles -----------------------------------------------------------------------------------
 
@@ -135,6 +139,8 @@ class ClassRoles:
         if client.client_id in self.students:
             client.gui.add_html(as_html(STUDENT_NOTE, color="#1f5eea", bold=True), order=-2.0)
             self.disable_controls(client)
+        elif self.join_url is not None:
+            client.gui.add_html(join_html(self.join_url), order=-2.0)
 
     def disable_controls(self, client: viser.ClientHandle) -> int:
         """Show every shared control disabled on a student's page (that page alone): each one

@@ -53,6 +53,7 @@ import viser
 import websockets.asyncio.server
 
 from app.web import viser_adapter
+from app.web.join import JOIN_PATH
 from app.web.page_messages import (
     FLOOD_SECONDS,
     MESSAGE_RATE,
@@ -61,6 +62,7 @@ from app.web.page_messages import (
     MessageBudget,
     message_type,
 )
+from app.web.roles import STUDENT_PATH
 from sim.scenes.scene_files import MAX_UPLOAD_BYTES as MAX_SCENE_UPLOAD_BYTES
 
 _SERVE_PATCH_LOCK = threading.Lock()
@@ -94,6 +96,8 @@ class AccessPolicy:
 
     allowed_origins: Sequence[str] = ()
     local_names: set[str] = field(default_factory=set)
+    join: bool = False
+    """A class: ``JOIN_PATH`` answers with the student page (``redirect``)."""
     refused: int = 0
     """How many requests were refused (for tests and the log)."""
 
@@ -122,6 +126,13 @@ class AccessPolicy:
         own = {f"http://{(host_header or '').lower()}", f"https://{(host_header or '').lower()}"}
         return origin in own
 
+    def redirect(self, path: str, host_header: str | None) -> str | None:
+        """Where a request for ``path`` is sent instead: a class's short join address
+        (``http://host:port/join``) to the student page, on the address the student used."""
+        if not self.join or path.split("?")[0].rstrip("/") != JOIN_PATH or not host_header:
+            return None
+        return f"/?websocket=ws://{host_header}{STUDENT_PATH}"
+
     def refusal(self, headers: Any) -> str | None:
         """Why a request with these headers is refused, or None if it may pass."""
         host = headers.get("Host")
@@ -146,6 +157,11 @@ def _checked_serve(policy: AccessPolicy) -> Iterator[None]:
             if reason is not None:
                 policy.refused += 1
                 return connection.respond(http.HTTPStatus.FORBIDDEN, reason + "\n")
+            target = policy.redirect(request.path, request.headers.get("Host"))
+            if target is not None:
+                response = connection.respond(http.HTTPStatus.FOUND, f"see {target}\n")
+                response.headers["Location"] = target
+                return response
             return process_request(connection, request) if process_request else None
 
         return original(handler, *args, process_request=checked, **kwargs)
