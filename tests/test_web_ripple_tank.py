@@ -16,6 +16,7 @@ import pytest
 import sim
 from app.web.folders.measure import Stopwatch
 from sim.runtime.runner import Frame
+from tests.helpers import wait_for
 from tests.test_web_safety import press, send, settle
 
 
@@ -157,6 +158,7 @@ def test_the_screen_averages_the_frames_and_draws_the_slit_theory(web_app):
     assert folder.screen.whole_periods == 4
     assert np.allclose(folder.screen.intensity, 0.5 * g * g, rtol=0.02, atol=1e-9)
     later = 4.01 / setup.frequency
+    assert wait_for(lambda: not folder._working.locked(), timeout=60)  # the first picture drawn
     folder.update(Frame(401, later, "verlet", 0.01, model, positions, energy), now=100.0)
     # a picture is due: its table is the intensity it shows (nan where no wave has arrived)
     lines = folder.csv().splitlines()
