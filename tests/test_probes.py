@@ -115,3 +115,38 @@ def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
         assert wait_for(lambda: "mode (2, 1) x" in probes.text.content)
     finally:
         app.stop()
+
+
+def test_probing_keeps_the_page_running_past_the_duration_until_the_sound_lasts(tmp_path):
+    """The grid stops at its duration, but not while its probes' sound is shorter than 3 s
+    (the chain's mode 1 at 0.487 Hz sounds x500: 1,500 s of simulated time); the run says why
+    it goes on, and stops at the duration once the probing stops."""
+    from app.web.app import WebApp
+    from tests.helpers import free_port, wait_for
+    from tests.test_web_safety import press, settle
+
+    model = sim.scenes.build("chain", linear=True).model
+    positions, velocities = excited_state(model, 1, 1, 0, 0.05)
+    scene = sim.Scene(name="chain", model=model, initial_positions=positions,
+                      initial_velocities=velocities, integrator="exact", dt=0.1, duration=10.0)
+    app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path,
+                 recordings_dir=tmp_path)
+    app.start()
+    try:
+        assert wait_for(lambda: app.view.last_positions is not None)
+        probes, run = app.panel.probes, app.panel.run
+        app.set_selection(np.array([2]))
+        press(probes.probe_button)
+        probes.component.value = "x"
+        run.speed.value = "as fast as it can"
+        app.runner.play()
+        assert wait_for(lambda: app.runner.simulation.time > 30, timeout=60)
+        assert app.runner.playing  # past the duration (10 s): the probes need 1,500 s
+        assert "for the probes" in run.end_html.content and "goes on past" in run.end_html.content
+        assert "1500 s of simulated time" in run.end_html.content
+        press(probes.clear_button)  # no probes: the run stops at once, at the duration's note
+        assert wait_for(lambda: not app.runner.playing, timeout=30)
+        settle(app)
+        assert "Paused at the scene" in run.end_html.content
+    finally:
+        app.stop()

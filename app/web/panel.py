@@ -92,6 +92,8 @@ class ControlPanel:
                 self.folders[kind.name] = kind(host)
             except Exception as error:  # the page goes on without this folder
                 self._failed(kind.name, "could not be built", error)
+        if "run" in self.folders and "probes" in self.folders:  # probing keeps the run going
+            self.folders["run"].keep_going = self.folders["probes"].time_still_needed
         self.show_scene(host.runner.simulation)
 
     def __getattr__(self, name: str) -> Any:

@@ -33,7 +33,12 @@ from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, wa
 from app.web.plots import LivePlot
 from app.web.widgets import PlotAxis
 from sim.instruments.probes import ProbeSeries, nearest_modes, spectrum, uniform_series
-from sim.instruments.sound import MAX_CHANNELS, probe_sound
+from sim.instruments.sound import (
+    LEAST_SECONDS,
+    MAX_CHANNELS,
+    needed_simulated_seconds,
+    probe_sound,
+)
 from sim.runtime.runner import Frame
 from sim.theory.modes import POLARISATION_NAMES
 
@@ -158,6 +163,29 @@ class ProbesFolder(Folder):
         self.clear_player()
 
     # --- hearing ---------------------------------------------------------------------------------
+
+    def time_still_needed(self) -> str | None:
+        """Why the run should go on past the scene's duration: the probes' series is shorter
+        than ``LEAST_SECONDS`` of their sound need (``sim.instruments.sound``), or None."""
+        with self._lock:
+            series = self.series
+        if series is None:
+            return None
+        try:
+            component = POLARISATION_NAMES.index(
+                choice(self.component.value, "component",
+                       list(POLARISATION_NAMES[: series.model.dim])))
+            times, displacements = series.samples()
+            factor, frequency, needed = needed_simulated_seconds(
+                times, displacements[:, :MAX_CHANNELS, component])
+        except ValueError:  # too few samples, or no motion: nothing to wait for
+            return None
+        if times[-1] - times[0] >= needed:
+            return None
+        return (f"the run goes on past the scene's duration for the probes: {LEAST_SECONDS:g} "
+                f"s of their sound (x{factor:g}: {frequency:.3g} Hz sounds as "
+                f"{factor * frequency:.0f} Hz) need {needed:.4g} s of simulated time, "
+                f"{times[-1] - times[0]:.4g} s so far; a faster Speed gets there sooner")
 
     def hear(self) -> None:
         """Put the sound of the first one or two probes' chosen component in the player."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import viser
@@ -106,6 +107,9 @@ class RunFolder(Folder):
         self._base_steps = max(1, int(host.runner.steps_per_frame))
         self.go_on = False
         """Whether the user asked to run past the scene's duration."""
+        self.keep_going: Callable[[], str | None] = lambda: None
+        """Why the run should go on past the scene's duration (None: it need not), asked at
+        the duration (the panel sets it: the Probes folder's ``time_still_needed``)."""
         self._reached_end = False
 
         @self.speed.on_update
@@ -190,6 +194,10 @@ class RunFolder(Folder):
             self._say_end(None)
             return
         if frame.playing and not self.go_on and not self._reached_end:
+            reason = self.keep_going()
+            if reason is not None:  # a folder needs the run to go on (the probes' sound)
+                self._say_end(reason)
+                return
             self._reached_end = True
             self.host.control.pause()
             self._say_end(f"Paused at the scene's duration ({duration:g} s); press Play to go on.")
