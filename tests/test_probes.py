@@ -81,18 +81,28 @@ def test_a_bad_probe_is_refused_with_one_line(probe, capsys):
     assert error.startswith("error: --probe") and "Traceback" not in error
 
 
-def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
+def _chain_page(folder, mode: int, duration: float):
+    """A page of the linearised chain in its normal mode ``mode`` (x), solved exactly (dt 0.1 s),
+    whose scene lasts ``duration`` (s); started (call ``.stop()``)."""
     from app.web.app import WebApp
-    from tests.helpers import free_port, wait_for
-    from tests.test_web_safety import press, settle
+    from tests.helpers import free_port
 
     model = sim.scenes.build("chain", linear=True).model
-    positions, velocities = excited_state(model, 2, 1, 0, 0.05)
+    positions, velocities = excited_state(model, mode, 1, 0, 0.05)
     scene = sim.Scene(name="chain", model=model, initial_positions=positions,
-                      initial_velocities=velocities, integrator="exact", dt=0.1, duration=120.0)
-    app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path,
-                 recordings_dir=tmp_path)
+                      initial_velocities=velocities, integrator="exact", dt=0.1,
+                      duration=duration)
+    app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=folder,
+                 recordings_dir=folder)
     app.start()
+    return app, model
+
+
+def test_the_page_probes_the_selection_and_finds_the_mode(tmp_path):
+    from tests.helpers import wait_for
+    from tests.test_web_safety import press, settle
+
+    app, model = _chain_page(tmp_path, 2, 120.0)
     try:
         # the first frame drawn clears the selection: select after it
         assert wait_for(lambda: app.view.last_positions is not None)
@@ -121,17 +131,10 @@ def test_probing_keeps_the_page_running_past_the_duration_until_the_sound_lasts(
     """The grid stops at its duration, but not while its probes' sound is shorter than 3 s
     (the chain's mode 1 at 0.487 Hz sounds x500: 1,500 s of simulated time); the run says why
     it goes on, and stops at the duration once the probing stops."""
-    from app.web.app import WebApp
-    from tests.helpers import free_port, wait_for
+    from tests.helpers import wait_for
     from tests.test_web_safety import press, settle
 
-    model = sim.scenes.build("chain", linear=True).model
-    positions, velocities = excited_state(model, 1, 1, 0, 0.05)
-    scene = sim.Scene(name="chain", model=model, initial_positions=positions,
-                      initial_velocities=velocities, integrator="exact", dt=0.1, duration=10.0)
-    app = WebApp(sim.Simulation(scene), port=free_port(), scenes_dir=tmp_path,
-                 recordings_dir=tmp_path)
-    app.start()
+    app, _ = _chain_page(tmp_path, 1, 10.0)
     try:
         assert wait_for(lambda: app.view.last_positions is not None)
         probes, run = app.panel.probes, app.panel.run
