@@ -13,6 +13,7 @@ from collections.abc import Callable
 import viser
 
 import sim
+from app.web import projector, viser_adapter
 from app.web.frames import MAX_FPS, PICTURE_RATES
 from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, choice, from_user, number
@@ -52,7 +53,16 @@ class ViewSettingsFolder(Folder):
                 initial_value=rate_label(settings.picture_rate),
                 hint="large lattices are sent as pictures: each page gets the next one when it "
                 "has drawn the last; a lower limit here holds every page to it")
+            self.projector = gui.add_button(
+                "Projector view (this page)", icon=viser.Icon.PRESENTATION,
+                hint="large black text, a larger colour bar and stronger colours on this page "
+                "alone; press again to go back")
             self.message = gui.add_html("")
+
+        @self.projector.on_click
+        @from_user
+        def _(event: viser.GuiEvent) -> None:
+            viser_adapter.run_javascript(event.client, projector.TOGGLE)
 
         def setting(handle: viser.GuiInputHandle, apply: Callable[[object], None]) -> None:
             """Apply ``handle``'s value from the page to the settings and redraw (or say why
