@@ -36,6 +36,12 @@ def test_a_link_opens_the_same_setup():
     for name in ("nx", "ny", "stiffness", "damping", "linear", "rest_length"):
         assert getattr(again.model, name) == getattr(simulation.model, name), name
     assert tuple(again.model.gravity) == tuple(simulation.model.gravity)
+    from app.web.view import ViewSettings
+
+    view = ViewSettings(color_by="speed", show_springs=False, particle_scale=1.5)
+    shown = ViewSettings()
+    setup_from_path(_path(setup_query(simulation, view))).show(shown)
+    assert (shown.color_by, shown.show_springs, shown.particle_scale) == ("speed", False, 1.5)
     link = share_link("http://192.168.1.20:8080", simulation)
     socket = unquote(parse_qs(urlsplit(link).query)["websocket"][0])
     assert socket == "ws://192.168.1.20:8080" + _path(query)
@@ -55,6 +61,8 @@ def test_a_link_opens_the_same_setup():
     ("scene=grid&nx=2.5", "whole"),
     ("scene=grid&nx=2000&ny=2000", "particles"),
     ("scene=grid&stiffness=1e12", "stiffness"),
+    ("scene=grid&view_colour=<script>", "view_colour"),
+    ("scene=grid&view_size=10", "view_size"),
 ])
 def test_a_link_the_page_would_refuse_is_refused(query, reason):
     with pytest.raises((LinkRefused, sim.ModelError, sim.SceneError), match=reason):
@@ -75,6 +83,7 @@ def test_a_shared_link_opened_in_a_second_page_runs_that_setup(web_app, browser)
     control.set_stiffness(48.0).result(timeout=30)
     control.set_integrator("verlet").result(timeout=30)
     control.set_dt(0.0125).result(timeout=30)
+    web_app.view.settings.color_by = "speed"  # as the View folder sets it
     first = browser.new_page(viewport={"width": 1366, "height": 768})
     open_page(first, web_app.url)
     first.get_by_text("Scene", exact=True).first.click()  # open the folder
@@ -94,3 +103,5 @@ def test_a_shared_link_opened_in_a_second_page_runs_that_setup(web_app, browser)
     assert (simulation.scene.name, simulation.integrator, simulation.dt) == (
         "grid", "verlet", 0.0125)
     assert (simulation.model.nx, simulation.model.ny) == (11, 7)
+    assert web_app.view.settings.color_by == "speed"  # the view came with the link
+    assert web_app.panel.folders["view"].color_by.value == "speed"  # and the folder shows it

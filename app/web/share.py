@@ -1,5 +1,6 @@
-"""A setup as a link: the page's preset, the parameters it changed, the integrator and dt, in the
-address a teacher pastes into a worksheet; opening it runs that setup.
+"""A setup as a link: the page's preset, the parameters it changed, the integrator and dt, and
+the view's settings the page chose (colour, springs, particle size), in the address a teacher
+pastes into a worksheet; opening it runs that setup and shows it so.
 
 The link is the page's own address whose ``websocket`` query (viser's) names the path
 ``/setup/`` and the query ``scene=grid&stiffness=50&integrator=verlet&dt=0.02`` in URL-safe
@@ -23,6 +24,7 @@ import numpy as np
 
 import sim
 from app.web.scene_files import MAX_PAGE_PARTICLES
+from app.web.view import COLOR_MODES
 from sim.integrators.registry import ALL_INTEGRATORS
 
 SETUP_PATH = "/setup"
@@ -32,6 +34,8 @@ SHARED = ("nx", "ny", "spacing", "mass", "stiffness", "rest_length", "diagonal_s
           "boundary", "sponge_width", "sponge_strength")
 """The scene parameters a link carries (the driver, sources and barriers stay the preset's)."""
 WHOLE = ("nx", "ny", "dim", "sponge_width")
+VIEW = ("view_colour", "view_springs", "view_size")
+"""The view's settings a link carries (``app.web.view.ViewSettings``), when chosen on the page."""
 MAX_DT = 10.0
 """Largest dt a link may ask for (s), as the page's dt box."""
 MAX_LINK = 2000
@@ -50,6 +54,17 @@ class Setup:
     overrides: dict[str, Any]
     integrator: str
     dt: float
+    view: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """``VIEW`` settings: colour (a ``COLOR_MODES`` name), springs (bool), size (0.2 to 3)."""
+
+    def show(self, settings: Any) -> None:
+        """Put the link's view settings into ``settings`` (an ``app.web.view.ViewSettings``)."""
+        if "view_colour" in self.view:
+            settings.color_by = self.view["view_colour"]
+        if "view_springs" in self.view:
+            settings.show_springs = self.view["view_springs"]
+        if "view_size" in self.view:
+            settings.particle_scale = self.view["view_size"]
 
     def build(self) -> sim.Scene:
         """The scene (``sim.scenes.build``: every value checked there too)."""
@@ -84,7 +99,7 @@ def _model_values(model: sim.Model) -> dict[str, Any]:
     return values
 
 
-def setup_query(simulation: sim.Simulation) -> str:
+def setup_query(simulation: sim.Simulation, view: Any = None) -> str:
     """The setup of ``simulation`` as a query (``scene=...&...``); LinkRefused when its scene is
     not a preset, or its masses are not one value (a link carries no arrays)."""
     name = simulation.scene.name
@@ -99,14 +114,23 @@ def setup_query(simulation: sim.Simulation) -> str:
     pairs += [(key, _text(value)) for key, value in values.items()
               if _text(value) != _text(preset[key])]
     pairs += [("integrator", simulation.integrator), ("dt", _text(simulation.dt))]
+    if view is not None:  # the page's choices, not its automatic ones
+        if view.color_by is not None:
+            pairs.append(("view_colour", view.color_by))
+        if view.show_springs is not None:
+            pairs.append(("view_springs", _text(bool(view.show_springs))))
+        if view.particle_scale != 1.0:
+            pairs.append(("view_size", _text(view.particle_scale)))
     return urlencode(pairs)
 
 
-def share_link(page_url: str, simulation: sim.Simulation) -> str:
-    """The page's address ``page_url`` (``http://host:port``) opening ``simulation``'s setup."""
+def share_link(page_url: str, simulation: sim.Simulation, view: Any = None) -> str:
+    """The page's address ``page_url`` (``http://host:port``) opening ``simulation``'s setup
+    shown with ``view`` (``app.web.view.ViewSettings``, None: the automatic view)."""
     parts = urlsplit(page_url)
     scheme = "wss" if parts.scheme == "https" else "ws"
-    encoded = base64.urlsafe_b64encode(setup_query(simulation).encode()).decode().rstrip("=")
+    encoded = base64.urlsafe_b64encode(setup_query(simulation, view).encode()).decode().rstrip(
+        "=")
     socket = f"{scheme}://{parts.netloc}{SETUP_PATH}/{encoded}"
     return f"{page_url.rstrip('/')}/?websocket={quote(socket, safe='')}"
 
@@ -114,11 +138,15 @@ def share_link(page_url: str, simulation: sim.Simulation) -> str:
 def _value(key: str, text: str) -> Any:
     if not text.isascii() or len(text) > 100:
         raise LinkRefused(f"{key}: {text[:20]!r} is not a number written in ASCII")
-    if key == "linear":
+    if key in ("linear", "view_springs"):
         if text not in ("true", "false"):
-            raise LinkRefused(f"linear: {text!r} is neither true nor false")
+            raise LinkRefused(f"{key}: {text!r} is neither true nor false")
         return text == "true"
     if key == "boundary":
+        return text
+    if key == "view_colour":
+        if text not in COLOR_MODES:
+            raise LinkRefused(f"view_colour: {text[:30]!r} is not one of {', '.join(COLOR_MODES)}")
         return text
     try:
         numbers = [float(part) for part in text.split(",")]
@@ -149,12 +177,12 @@ def setup_from_path(path: str) -> Setup | None:
         query = base64.urlsafe_b64decode(encoded + "=" * (-len(encoded) % 4)).decode("ascii")
     except (ValueError, UnicodeDecodeError):
         raise LinkRefused("the link's setup is not one this page made") from None
-    pairs = parse_qsl(query, keep_blank_values=True, max_num_fields=len(SHARED) + 3)
+    pairs = parse_qsl(query, keep_blank_values=True, max_num_fields=len(SHARED) + len(VIEW) + 3)
     seen: dict[str, str] = {}
     for key, text in pairs:
         if key in seen:
             raise LinkRefused(f"{key} is given twice")
-        if key not in (*SHARED, "scene", "integrator", "dt"):
+        if key not in (*SHARED, *VIEW, "scene", "integrator", "dt"):
             raise LinkRefused(f"the link names {key[:30]!r}, not a parameter of a scene")
         seen[key] = text
     scene = seen.pop("scene", "")
@@ -166,4 +194,8 @@ def setup_from_path(path: str) -> Setup | None:
     dt = _value("dt", seen.pop("dt", _text(sim.scenes.presets.PRESETS[scene].dt)))
     if not 0.0 < dt <= MAX_DT:
         raise LinkRefused(f"dt = {dt:g} s; a link may ask for 0 < dt <= {MAX_DT:g} s")
-    return Setup(scene, {key: _value(key, text) for key, text in seen.items()}, integrator, dt)
+    view = {key: _value(key, seen.pop(key)) for key in VIEW if key in seen}
+    if "view_size" in view and not 0.2 <= view["view_size"] <= 3.0:
+        raise LinkRefused(f"view_size: {view['view_size']:g}; the page's sizes are 0.2 to 3")
+    return Setup(scene, {key: _value(key, text) for key, text in seen.items()}, integrator, dt,
+                 view)

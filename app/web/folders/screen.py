@@ -148,8 +148,6 @@ class ScreenFolder(Folder):
                 lambda: host.runner.simulation.scene.name, self.csv, "screen")
             self.about = gui.add_html("")
             self.message = gui.add_html("")
-        self._shown: tuple[np.ndarray, np.ndarray | None] | None = None
-        """(y (m), intensity (m^2, NaN where no whole period is counted yet)) last drawn."""
 
         @self.column.on_update
         @from_user
@@ -291,18 +289,22 @@ class ScreenFolder(Folder):
         counted, waiting = self.counted_rows(frame.time, screen)
         if intensity is not None:
             intensity = np.where(counted, intensity, np.nan)
-        self._shown = (y, intensity)
         threading.Thread(target=self._draw,
                          args=(model, y, intensity, screen.whole_periods, waiting),
                          name="web-screen", daemon=True).start()
 
     def csv(self) -> str:
-        """The screen as last drawn: each row's rest height y (m) and its time-averaged <u²>
-        (m², nan until a whole period has been counted there)."""
+        """The screen now: each row's rest height y (m) and its time-averaged <u²> (m², nan
+        where no wave has arrived yet, as the picture leaves it out)."""
         headings = [("y", "m"), ("time-averaged <u²>", "m²")]
-        if self._shown is None or self._shown[1] is None:
+        screen = self.screen
+        intensity = None if screen is None else screen.intensity
+        if intensity is None:
             return csv_text(headings, [])
-        return csv_text(headings, zip(*self._shown, strict=True))
+        model = self.host.runner.simulation.model
+        y = np.asarray(model.rest_positions[screen.rows, 1])
+        counted, _ = self.counted_rows(self._last_time, screen)
+        return csv_text(headings, zip(y, np.where(counted, intensity, np.nan), strict=True))
 
     def counted_rows(self, time: float, screen: IntensityScreen) -> tuple[np.ndarray, str]:
         """(rows whose average is counted, what the picture says while none is): a row counts

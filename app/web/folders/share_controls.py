@@ -45,7 +45,8 @@ class ShareControls:
         @from_user
         def _(event: viser.GuiEvent) -> None:
             try:
-                url = share_link(self._page_url(event.client_id), host.runner.simulation)
+                url = share_link(self._page_url(event.client_id), host.runner.simulation,
+                                 host.view.settings)
             except ERRORS + (LinkRefused,) as error:
                 say(self.message(), error, "cannot share")
                 return
@@ -76,7 +77,12 @@ class ShareControls:
             setup = setup_from_path(path)
             if setup is None:
                 return
-            self.host.replace_scene(setup.build(), source="a shared link")
+            simulation = self.host.replace_scene(setup.build(), source="a shared link")
+            setup.show(self.host.view.settings)  # after the new scene's automatic view
+            view = getattr(self.host, "panel", None)
+            if view is not None and "view" in view.folders:
+                view.folders["view"].show_settings(simulation.model)
+            self.host.refresh()
         except ERRORS + (LinkRefused,) as error:
             say(self.message(), error, "the shared link was refused")
             return
