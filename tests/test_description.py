@@ -39,3 +39,9 @@ def test_the_words_are_a_live_region_shown_as_text():
     assert 'aria-live="polite"' in region and 'role="status"' in region
     assert "&lt;b&gt;" in region and "<b>" not in region
 
+
+
+def test_a_new_lattice_is_said_at_once(web_app):
+    folder = web_app.panel.folders["description"]
+    web_app.replace_scene(sim.scenes.build("chain"), source="test")
+    assert "A new lattice: chain, 5 × 1 particles" in folder.words.content

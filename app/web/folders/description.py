@@ -34,6 +34,19 @@ class DescriptionFolder(Folder):
         with host.server.gui.add_folder("In words"):
             self.words = host.server.gui.add_html(live_html("The lattice, described in words."))
 
+    def show_scene(self, simulation: sim.Simulation) -> None:
+        """A new lattice: said at once (its first frame may wait for its kernels)."""
+        model = simulation.model
+        self._say(f"A new lattice: {simulation.scene.name}, {model.nx} × {model.ny} particles, "
+                  f"t = {simulation.time:.4g} s; {simulation.integrator} at dt = "
+                  f"{simulation.dt:g} s.")
+        self._shown_at = -INTERVAL
+
+    def _say(self, text: str) -> None:
+        if text != self._text:  # the region is read out when it changes
+            self._text = text
+            self.words.content = live_html(text)
+
     def selection_changed(self, selection: np.ndarray, model: sim.Model) -> None:
         self._followed = int(selection[0]) if len(selection) else None
 
@@ -41,7 +54,10 @@ class DescriptionFolder(Folder):
         if frame.playing and now - self._shown_at < INTERVAL:
             return  # a paused lattice's frames are few (a step, a new scene): each is described
         self._shown_at = now
-        text = describe(frame, self._followed)
-        if text != self._text:  # the region is read out when it changes
-            self._text = text
-            self.words.content = live_html(text)
+        if frame.preparing is not None:
+            model = frame.model
+            self._say(f"A lattice of {model.nx} × {model.ny} particles: its kernels are being "
+                      "prepared (the first time on this machine); it starts when they are "
+                      "ready.")
+            return
+        self._say(describe(frame, self._followed))
