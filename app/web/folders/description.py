@@ -51,6 +51,8 @@ class DescriptionFolder(Folder):
         self._followed = int(selection[0]) if len(selection) else None
 
     def update(self, frame: Frame, now: float) -> None:
+        if frame.model is not self.host.runner.simulation.model:
+            return  # a frame of the lattice before (a new one was just put in)
         if frame.playing and now - self._shown_at < INTERVAL:
             return  # a paused lattice's frames are few (a step, a new scene): each is described
         self._shown_at = now
