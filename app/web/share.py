@@ -24,7 +24,7 @@ import numpy as np
 
 import sim
 from app.web.scene_files import MAX_PAGE_PARTICLES
-from app.web.view import COLOR_MODES
+from app.web.view import COLOR_MODES, ViewSettings
 from sim.integrators.registry import ALL_INTEGRATORS
 
 SETUP_PATH = "/setup"
@@ -34,8 +34,9 @@ SHARED = ("nx", "ny", "spacing", "mass", "stiffness", "rest_length", "diagonal_s
           "boundary", "sponge_width", "sponge_strength")
 """The scene parameters a link carries (the driver, sources and barriers stay the preset's)."""
 WHOLE = ("nx", "ny", "dim", "sponge_width")
-VIEW = ("view_colour", "view_springs", "view_size")
-"""The view's settings a link carries (``app.web.view.ViewSettings``), when chosen on the page."""
+VIEW = {"view_colour": "color_by", "view_springs": "show_springs", "view_size": "particle_scale"}
+"""The view's settings a link carries, each the ``app.web.view.ViewSettings`` field it sets, when
+the page chose one (a field away from its default)."""
 MAX_DT = 10.0
 """Largest dt a link may ask for (s), as the page's dt box."""
 MAX_LINK = 2000
@@ -59,19 +60,14 @@ class Setup:
 
     def show(self, settings: Any) -> None:
         """Put the link's view settings into ``settings`` (an ``app.web.view.ViewSettings``)."""
-        if "view_colour" in self.view:
-            settings.color_by = self.view["view_colour"]
-        if "view_springs" in self.view:
-            settings.show_springs = self.view["view_springs"]
-        if "view_size" in self.view:
-            settings.particle_scale = self.view["view_size"]
+        for key, field in VIEW.items():
+            if key in self.view:
+                setattr(settings, field, self.view[key])
 
     def build(self) -> sim.Scene:
         """The scene (``sim.scenes.build``: every value checked there too)."""
-        nx = int(self.overrides.get("nx", sim.scenes.presets.PRESETS[self.scene].parameters.get(
-            "nx", 1)))
-        ny = int(self.overrides.get("ny", sim.scenes.presets.PRESETS[self.scene].parameters.get(
-            "ny", 1)))
+        preset = sim.scenes.presets.PRESETS[self.scene].parameters
+        nx, ny = (int(self.overrides.get(side, preset.get(side, 1))) for side in ("nx", "ny"))
         if nx * ny > MAX_PAGE_PARTICLES:
             raise LinkRefused(f"{nx}x{ny} particles; the page builds up to {MAX_PAGE_PARTICLES:,}")
         return sim.scenes.build(self.scene, integrator=self.integrator, dt=self.dt,
@@ -115,12 +111,9 @@ def setup_query(simulation: sim.Simulation, view: Any = None) -> str:
               if _text(value) != _text(preset[key])]
     pairs += [("integrator", simulation.integrator), ("dt", _text(simulation.dt))]
     if view is not None:  # the page's choices, not its automatic ones
-        if view.color_by is not None:
-            pairs.append(("view_colour", view.color_by))
-        if view.show_springs is not None:
-            pairs.append(("view_springs", _text(bool(view.show_springs))))
-        if view.particle_scale != 1.0:
-            pairs.append(("view_size", _text(view.particle_scale)))
+        default = ViewSettings()
+        pairs += [(key, _text(getattr(view, field))) for key, field in VIEW.items()
+                  if getattr(view, field) != getattr(default, field)]
     return urlencode(pairs)
 
 

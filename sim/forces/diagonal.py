@@ -159,11 +159,17 @@ def diagonal_energy(k2, x, y, z, linear, parameters):
     ny = x.shape[0]
     energy = 0.0
     for j in range(ny + 1):
-        if linear:
-            energy += _springs_between(j, ny, x, y, z, True, k2, parameters, None)
-        else:
-            energy += _springs_between(j, ny, x, y, z, None, k2, parameters, None)
+        energy += _energy_between(j, ny, x, y, z, linear, k2, parameters)
     return energy
+
+
+@njit(**_JIT)
+def _energy_between(j, ny, x, y, z, linear, k2, parameters):
+    """Energy (J) of the diagonal springs between rows j - 1 and j, ``linear`` true for the
+    linearised law (a run-time flag, made the compile-time choice ``_springs_between`` takes)."""
+    if linear:
+        return _springs_between(j, ny, x, y, z, True, k2, parameters, None)
+    return _springs_between(j, ny, x, y, z, None, k2, parameters, None)
 
 
 @njit(**_JIT)
@@ -175,11 +181,8 @@ def diagonal_energy_around(k2, j, x, y, z, linear, parameters):
     if k2 is None:
         return 0.0
     ny = x.shape[0]
-    if linear:
-        return (_springs_between(j, ny, x, y, z, True, k2, parameters, None)
-                + _springs_between(j + 1, ny, x, y, z, True, k2, parameters, None))
-    return (_springs_between(j, ny, x, y, z, None, k2, parameters, None)
-            + _springs_between(j + 1, ny, x, y, z, None, k2, parameters, None))
+    return (_energy_between(j, ny, x, y, z, linear, k2, parameters)
+            + _energy_between(j + 1, ny, x, y, z, linear, k2, parameters))
 
 
 # --- the same physics in numpy, for the tests and the reference integrators -------------------

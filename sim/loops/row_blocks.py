@@ -122,8 +122,7 @@ def _stage_rows(table, stage, j0, j1, dt, terms, parameters, state, source, targ
     vxs, vys, vzs = components(terms.out_of_plane, source.velocity)
     ny = state.position.shape[1]
     below, above, horizontal, row = sweep_buffers(state.position)
-    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, terms, parameters,
-                             below)
+    power = vertical_springs(j0, ny, xs, ys, zs, vxs, vys, vzs, terms, parameters, below)
     if j0 > 0:
         power = 0.0
     for j in range(j0, j1):

@@ -67,8 +67,7 @@ def force_rows(j0, j1, terms, parameters, position, force_velocity, acceleration
     vx, vy, vz = components(terms.out_of_plane, force_velocity)
     dim, ny, nx = acceleration.shape
     below, above, horizontal, row = sweep_buffers(position)
-    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, terms, parameters,
-                             below)
+    power = vertical_springs(j0, ny, x, y, z, vx, vy, vz, terms, parameters, below)
     if j0 > 0:
         power = 0.0
     for j in range(j0, j1):

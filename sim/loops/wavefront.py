@@ -116,8 +116,7 @@ def _stage_forces(j, first, ny, ends, terms, parameters, below, above, horizonta
     and drag (W)."""
     x, y, z, vx, vy, vz = ends
     if j == first:
-        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, terms, parameters,
-                             below)
+        p = vertical_springs(j, ny, x, y, z, vx, vy, vz, terms, parameters, below)
         if j == 0:
             powers[stage] += p
     return row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below, above,
