@@ -332,11 +332,43 @@ def _instruments(scene, seconds: float) -> dict:
             "cost": {name: base / rate for name, rate in rates.items() if name != "as_is"}}
 
 
+def _gpu(scene, seconds: float) -> dict:
+    """Velocity Verlet on the GPU (``Simulation(..., device="cuda")``) against one CPU thread, in
+    float64 and float32, on a lattice of the scene's size with nearest springs and fixed walls
+    only (what the GPU runs); ``{"found": False, "reason": ...}`` where no GPU is found."""
+    import sim
+    from sim.devices.cuda_stepper import cuda_device_problem, device_name
+
+    problem = cuda_device_problem()
+    if problem is None and device_name() == "simulator":
+        problem = "NUMBA_ENABLE_CUDASIM is set: the simulator is not timed"
+    if problem is not None:
+        return {"found": False, "reason": problem}
+    model = scene.model
+    plain = sim.Model.create(nx=model.nx, ny=model.ny, spacing=model.spacing,
+                             stiffness=model.stiffness, rest_length=model.rest_length)
+    start = plain.rest_positions + 0.01 * model.spacing * np.sin(
+        np.arange(plain.n_particles))[:, None]
+    table = {"found": True, "device": device_name()}
+    for precision in ("float64", "float32"):
+        runs = {}
+        for device in ("cpu", "cuda"):
+            simulation = sim.Simulation(plain, integrator="verlet", precision=precision,
+                                        device=device, dt=0.2 * plain.spacing / np.sqrt(
+                                            plain.stiffness))
+            simulation.positions = start
+            runs[device] = simulation.step
+        rates = _side_by_side(runs, sim.Simulation.chunk_steps, seconds)
+        table[precision] = {**rates, "ratio": rates["cuda"] / rates["cpu"]}
+    return table
+
+
 PARTS = {
     "integrators": "every integrator in float64 on one thread, against plain numpy",
     "threads": "Verlet and RK4 in float64/float32 on 1 and N threads, against C",
     "specialisation": "what each of the scene's compile-time flags buys",
     "instruments": "what periodic rows, absorbing walls and a force driver cost",
+    "gpu": "velocity Verlet on an NVIDIA GPU against one CPU thread (a line if none is found)",
 }
 """The benchmark's parts, in the order they run (``measure(parts=...)``, ``bench --only``)."""
 
@@ -373,4 +405,6 @@ def measure(scene_name: str = "interference", overrides: dict | None = None,
         results["specialisation"] = _specialisation(scene, seconds)
     if "instruments" in parts:
         results["instruments"] = _instruments(scene, seconds)
+    if "gpu" in parts:
+        results["gpu"] = _gpu(scene, seconds)
     return results

@@ -69,6 +69,7 @@ def command_bench(arguments: argparse.Namespace) -> int:
     else:
         print_table(results)
         _print_instruments(results.get("instruments"))
+        _print_gpu(results.get("gpu"))
     return 0
 
 
@@ -147,3 +148,16 @@ def _print_instruments(instruments: dict | None) -> None:
     parts = [f"{labels[name]} {rates[name]:.1f} ({costs[name]:.2f}x the time)" for name in costs]
     print(f"\ninstruments (Verlet, Simulation.step steps/s): as is {rates['as_is']:.1f}; "
           + "; ".join(parts))
+
+
+def _print_gpu(gpu: dict | None) -> None:
+    if gpu is None:
+        return
+    if not gpu["found"]:
+        print(f"\nGPU: none measured: {gpu['reason']}")
+        return
+    print(f"\nvelocity Verlet on the GPU ({gpu['device']}), Simulation.step steps/s")
+    for precision in ("float64", "float32"):
+        row = gpu[precision]
+        print(f"  {precision}: GPU {row['cuda']:,.0f}, one CPU thread {row['cpu']:,.0f}, "
+              f"ratio {row['ratio']:.2f}")

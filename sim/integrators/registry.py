@@ -94,6 +94,9 @@ class IntegratorDescription:
     splitting: SplittingTable | None = None
     """The table of a splitting method (``splitting(table, name)`` fills the fields that follow
     from it); None for the others."""
+    devices: tuple[str, ...] = ("cpu",)
+    """Where it runs (``sim.devices.DEVICES``): the CPU, and "cuda" for the GPU stepper
+    (``sim.devices.cuda_stepper``)."""
 
     def reason_not_applicable(self, model: Model) -> str | None:
         return None if self.applies_to is None else self.applies_to(model)
@@ -175,6 +178,11 @@ def names(model: Model | None = None, kernel_only: bool = False) -> tuple[str, .
         if (not kernel_only or d.kernel)
         and (d.applies_to is None if model is None else d.reason_not_applicable(model) is None)
     )
+
+
+def names_on(device: str) -> tuple[str, ...]:
+    """The integrators that run on ``device`` ("cpu", "cuda"), in the registry's order."""
+    return tuple(d.name for d in _REGISTRY.values() if device in d.devices)
 
 
 def most_accurate(model: Model | None = None) -> str:
@@ -287,7 +295,7 @@ register(IntegratorDescription(
     force_evaluations=1, stability_factor=2.0, stepper=Verlet,
     amplification=verlet_amplification, symplectic=True,
     aliases=("velocity-verlet",), colour=(30, 150, 60), step_cost=(1.0e-6, 1 / 3.4e8),
-    bench_burst=100,
+    bench_burst=100, devices=("cpu", "cuda"),
     drift_when_gaining=(
         "Velocity Verlet keeps a nearby energy exactly, so its error stays bounded, but short "
         "waves travel at the wrong speed (phase error); the error shown is that wobble."

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from sim.devices import check_device
 from sim.integrators.registry import (
     LABELS,
     check_integrator_name,
@@ -27,6 +28,7 @@ from sim.integrators.registry import (
     check_threads,
     describe,
     make_integrator,
+    names_on,
 )
 from sim.model import schema
 from sim.model.lattice import Model, ModelError
@@ -115,13 +117,15 @@ class Simulation:
     (particle p = j * nx + i); ``time`` in seconds; ``energy()``, ``strains()``, ``stable_dt()``.
     Parameters change mid-run through ``set_parameters`` / ``set_masses``; the integrator and dt
     through the ``integrator`` and ``dt`` properties.  Nothing is lost by any of these changes.
+    ``device="cuda"`` runs velocity Verlet of a planar lattice of nearest springs on an NVIDIA GPU
+    (``sim.devices.cuda_stepper``; the extra ``gpu``).
     """
 
     chunk_steps = 64
 
     def __init__(
         self, scene: Any, integrator: str | None = None, dt: float | None = None,
-        precision: str | None = None, threads: int = 1,
+        precision: str | None = None, threads: int = 1, device: str = "cpu",
     ) -> None:
         if isinstance(scene, Model):
             scene = Scene(name="custom", model=scene)
@@ -129,7 +133,11 @@ class Simulation:
             raise TypeError(f"Simulation needs a sim.scenes.Scene or a sim.Model, got {scene!r}")
         self.scene = scene
         self._model = scene.model
-        self._integrator_name = check_integrator_name(integrator or scene.integrator, self._model)
+        self._device = check_device(device)
+        default = scene.integrator
+        if integrator is None and default not in names_on(self._device):
+            default = names_on(self._device)[0]
+        self._integrator_name = check_integrator_name(integrator or default, self._model)
         self._dt = _check_dt(dt if dt is not None else scene.dt)
         self._precision = check_precision(precision or getattr(scene, "precision", "float64"))
         self._threads = check_threads(threads)
@@ -208,12 +216,27 @@ class Simulation:
 
     @integrator.setter
     def integrator(self, name: str) -> None:
-        self._integrator_name = check_integrator_name(name, self._model)
-        self._integrator = self._make_integrator()
+        name = check_integrator_name(name, self._model)
+        previous, self._integrator_name = self._integrator_name, name
+        try:
+            self._integrator = self._make_integrator()
+        except ModelError:
+            self._integrator_name = previous
+            raise
 
-    def _make_integrator(self):
+    @property
+    def device(self) -> str:
+        """Where the steps run: "cpu", or "cuda" (an NVIDIA GPU, ``sim.devices.cuda_stepper``)."""
+        return self._device
+
+    def _make_integrator(self, model: Model | None = None):
+        model = self._model if model is None else model
+        if self._device == "cuda":
+            from sim.devices.cuda_stepper import CudaVerlet
+
+            return CudaVerlet(model, self._precision, self._integrator_name)
         return make_integrator(
-            self._integrator_name, self._model, self._precision.__name__, self._threads
+            self._integrator_name, model, self._precision.__name__, self._threads
         )
 
     @property
@@ -275,8 +298,9 @@ class Simulation:
     def _set_model(self, model: Model) -> None:
         # check first: a model the current integrator cannot run changes nothing
         check_integrator_name(self._integrator_name, model)
+        integrator = self._make_integrator(model)
         self._model = model
-        self._integrator = self._make_integrator()
+        self._integrator = integrator
         self._forcing = self._make_forcing()
         self._stability_cache.clear()
         self._rule = None
