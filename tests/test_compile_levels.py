@@ -80,12 +80,15 @@ print(json.dumps(simulation.positions.ravel().tolist()))
 """
 
 
-@pytest.mark.slow  # compiles the grid's kernels at each level in children: about a minute
-@pytest.mark.parametrize("integrator", ["verlet", "rk4", "yoshida4"])
+# each case compiles the grid's kernels at three levels in children: about 30 s on an empty cache;
+# velocity Verlet (the fused leapfrog, the kernels most users run) in the default suite
+@pytest.mark.parametrize("integrator", [
+    "verlet", pytest.param("rk4", marks=pytest.mark.slow),
+    pytest.param("yoshida4", marks=pytest.mark.slow)])
 def test_every_level_steps_to_the_same_positions(integrator):
     """The suite runs at LLVM's level 1 (``make test``), users at numba's default level (the
     command line) or ``max`` (``import sim``): the grid after 300 steps is the same to round-off
-    at all three."""
+    at all three, so the suite tests the results users get."""
     import numpy as np
 
     runs = {}
