@@ -104,3 +104,53 @@ def test_every_level_steps_to_the_same_positions(integrator):
     reference = runs["command line"]
     for name, positions in runs.items():
         assert np.allclose(positions, reference, rtol=1e-12, atol=1e-13), name
+
+
+FOLDERS = """
+import json
+import sim
+from sim.loops import row_sweep
+from sim.runtime.optimisation import use_numba_default
+before = row_sweep.accelerations._cache._cache_path
+use_numba_default()
+print(json.dumps([before, row_sweep.accelerations._cache._cache_path]))
+"""
+
+
+def test_going_back_to_numbas_default_moves_the_kernels_cache_folder_too():
+    """The kernels made at ``import sim`` (level max) look in the default level's folder once
+    a command goes back to numba's default: there a child process wrote them."""
+    env = {key: value for key, value in os.environ.items()
+           if key not in ("NUMBA_OPT", "OSCILLATORS_NUMBA_OPT", "_OSCILLATORS_SET_NUMBA_OPT")}
+    result = subprocess.run([sys.executable, "-c", FOLDERS], capture_output=True, text=True,
+                            env=env, check=True, timeout=120)
+    before, after = json.loads(result.stdout.strip().splitlines()[-1])
+    assert os.path.basename(before) == "opt-max"
+    assert os.path.normpath(after) == os.path.dirname(before)
+
+
+READ_AFTER_CHILD = """
+import json
+from sim.runtime.optimisation import use_numba_default
+use_numba_default()
+import sim
+from sim.runtime import warming
+warming.compiles_started()  # watch from here
+scene = sim.scenes.build("chain")
+warming.call_in_child(warming.rehearse, scene, "verlet", scene.dt, "float64", 1, 65)
+warming.rehearse(scene, "verlet", scene.dt, "float64", 1, 65)
+print(json.dumps(warming.compiles_started()))
+"""
+
+
+def test_a_command_reads_the_kernels_its_child_compiled(tmp_path):
+    """A command (numba's default level) has a child compile a scene's kernels on an empty
+    cache, then runs the scene itself: it reads every kernel from the cache and compiles none
+    (compiled here, they would run the slower code of kernels compiled apart)."""
+    env = {key: value for key, value in os.environ.items()
+           if key not in ("NUMBA_OPT", "OSCILLATORS_NUMBA_OPT", "_OSCILLATORS_SET_NUMBA_OPT")}
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba")
+    result = subprocess.run([sys.executable, "-c", READ_AFTER_CHILD], capture_output=True,
+                            text=True, env=env, timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert json.loads(result.stdout.strip().splitlines()[-1]) == 0

@@ -23,6 +23,7 @@ import functools
 import hashlib
 import os
 import pickle
+import sys
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent
@@ -76,6 +77,30 @@ def optimisation_folder() -> str:
 
     level = str(getattr(config.OPT, "_raw_value", config.OPT))  # an int, or "max"
     return "" if level == "3" else f"opt-{level}"
+
+
+def follow_level() -> int:
+    """Point the caches of the kernels made so far (the ``@njit(cache=True)`` functions of the
+    modules of ``sim`` and ``app`` imported so far) at the folder of the optimisation level now in
+    effect; returns how many.  numba fixes a kernel's cache folder when the kernel is made (at
+    import), so without this a process that changes its level after ``import sim``
+    (``sim.runtime.optimisation.use_numba_default``) would look for its kernels in the folder of
+    the level before, miss the kernels a child process compiled, and compile them itself."""
+    try:
+        from numba.core.caching import FunctionCache
+        from numba.core.dispatcher import Dispatcher
+    except ImportError:  # pragma: no cover - numba's internals moved (tests/test_kernel_cache.py)
+        return 0
+    count = 0
+    for name, module in list(sys.modules.items()):
+        if module is None or not (name in ("sim", "app") or name.startswith(("sim.", "app."))):
+            continue
+        for value in list(vars(module).values()):
+            if isinstance(value, Dispatcher) and isinstance(getattr(value, "_cache", None),
+                                                            FunctionCache):
+                value.enable_caching()
+                count += 1
+    return count
 
 
 def _inside_package(py_file: str) -> bool:

@@ -71,6 +71,9 @@ def use_numba_default() -> None:
     if os.environ.pop(_OURS, None) is not None:
         os.environ.pop("NUMBA_OPT", None)
         _apply(0, False)
+        from sim.runtime.kernel_cache import follow_level
+
+        follow_level()  # the kernels made at import look in the default level's folder
 
 
 OPTIMISED_BEFORE_INLINING = optimise_before_inlining()
