@@ -217,83 +217,57 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
     return rows
 
 
-def _rk4_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
-    """``run(steps)``: the compiled Runge-Kutta loop (``sim.loops.row_sweep.runge_kutta_steps``)
-    with the classic RK4 table on ``common``."""
-    from sim.integrators.butcher import CLASSIC_RK4
-    from sim.loops import row_sweep as stepping
-    from sim.loops.stage_updates import Fields
-
-    dim, _, nx = position.shape
-    stage, sums = (Fields(*(np.zeros((dim, CLASSIC_RK4.stages, nx)) for _ in range(2)))
-                   for _ in range(2))
-    table = CLASSIC_RK4.coefficients
-
-    def run(steps: int) -> None:
-        stepping.runge_kutta_steps(table, steps, dt, *common, stage, sums)
-
-    return run
-
-
-def _verlet_sweep(dt: float, common: tuple, position: np.ndarray) -> Callable[[int], None]:
-    """``run(steps)``: the compiled velocity Verlet loop (``sim.loops.row_sweep.verlet_steps``)."""
-    from sim.loops import row_sweep as stepping
-
-    acceleration = np.zeros_like(position)
-    predicted = np.zeros_like(position)
-    power = stepping.accelerations(*common, acceleration)
-
-    def run(steps: int) -> None:
-        stepping.verlet_steps(steps, dt, *common, acceleration, power, predicted)
-
-    return run
-
-
-SPECIALISATION_SWEEPS = (("rk4", _rk4_sweep), ("verlet", _verlet_sweep))
-"""The compiled loops the specialisation table times directly, named by their integrator: the
-two the C reference also implements."""
+SPECIALISATION_DAMPING = 0.3
+"""Dashpots (N s/m) of the damped kernels the specialisation part measures gravity in."""
 
 
 def _specialisation(scene, seconds: float) -> dict | None:
-    """What each of the scene's specialisations buys, measured one at a time on RK4 and Verlet."""
+    """What each compile-time flag buys, each alone, on the loops the scene runs with RK4 and
+    velocity Verlet: the scene's kernel against the same one with a term passed as a zero
+    instead of compiled out (gravity, drag, dashpots), with an array of 1/m instead of a scalar,
+    and in 3-D with z = 0; and in the damped kernels (dashpots), which pass gravity as a zero
+    pull when a scene has none (``ForceTerm.compiled_out_when_damped``), that zero pull against
+    gravity compiled out.  None where the scene is not the plain kernel."""
     import sim
     from sim.integrators.steppers import KernelArguments
 
     model = scene.model
-    arguments, parameters = KernelArguments.from_model(model)
-    if not (arguments.dashpot is None and arguments.drag is None and arguments.gravity is None
-            and arguments.uniform_inverse_mass is not None and model.dim == 2):
-        return None  # the scene already runs the general kernel
-    state = sim.State.from_particle_arrays(model, scene.initial_positions, scene.initial_velocities)
-    planar = (state.positions, state.velocities)
-    volume = (np.concatenate([state.positions, np.zeros((1, model.ny, model.nx))]),
-              np.concatenate([state.velocities, np.zeros((1, model.ny, model.nx))]))
-    zero_terms = dict(dashpot=0.0, drag=0.0, gravity=np.zeros(3))
-    no_terms = dict(dashpot=None, drag=None, gravity=None)
-    variants = {
-        "specialised": dict(out_of_plane=None, arrays=planar, mass=arguments.uniform_inverse_mass,
-                            terms=no_terms),
-        "zero_damping_drag_gravity": dict(out_of_plane=None, arrays=planar,
-                                          mass=arguments.uniform_inverse_mass, terms=zero_terms),
-        "inverse_mass_array": dict(out_of_plane=None, arrays=planar, mass=None, terms=no_terms),
-        "three_dimensional": dict(out_of_plane=True, arrays=volume,
-                                  mass=arguments.uniform_inverse_mass, terms=no_terms),
+    if model.is_damped or model.has_gravity or not model.uniform_mass or model.dim != 2:
+        return None  # the scene already runs a general kernel
+    damped = model.replace(damping=SPECIALISATION_DAMPING)
+    cases = {  # name: (model, changes to the kernel's terms)
+        "specialised": (model, {}),
+        "zero_gravity": (model, {"gravity": np.zeros(3)}),
+        "zero_drag": (model, {"drag": 0.0}),
+        "zero_dashpot": (model, {"dashpot": 0.0}),
+        "inverse_mass_array": (model, {"uniform_inverse_mass": None}),
+        "three_dimensional": (model.replace(dim=3), {}),
+        "damped_zero_gravity": (damped, {}),
+        "damped_without_gravity": (damped, {"gravity": None}),
     }
+    start = np.sin(np.arange(model.n_particles * 3)).reshape(model.n_particles, 3)
     results: dict = {}
-    for integrator, sweep in SPECIALISATION_SWEEPS:
-        rates = {}
-        for variant, setup in variants.items():
-            position, velocity = (a.copy() for a in setup["arrays"])
-            terms = arguments._replace(out_of_plane=setup["out_of_plane"],
-                                       uniform_inverse_mass=setup["mass"], **setup["terms"])
-            common = (terms, parameters, position, velocity)
-            run = sweep(scene.dt, common, position)
-            rates[variant] = _best_rate(run, _burst(integrator), seconds)
+    for integrator in ("rk4", "verlet"):
+        runs = {}
+        for name, (variant, changes) in cases.items():
+            simulation = sim.Simulation(variant, integrator=integrator, dt=scene.dt)
+            simulation.positions += 1e-3 * model.spacing * start[:, :variant.dim]
+            stepper = simulation._integrator
+            terms, parameters = stepper.kernel
+            stepper.kernel = KernelArguments(terms._replace(**changes), parameters)
+
+            def run(steps: int, stepper=stepper, state=simulation.state, dt=simulation.dt) -> None:
+                stepper.invalidate()
+                stepper.advance(state, steps, dt)
+
+            runs[name] = run
+        rates = _side_by_side(runs, _burst(integrator), seconds)
         base = rates["specialised"]
-        results[integrator] = {
-            "steps_per_second": rates,
-            "gain": {variant: base / rate for variant, rate in rates.items() if variant != "specialised"},
-        }
+        gain = {name: base / rate for name, rate in rates.items() if not name.startswith(
+            ("specialised", "damped"))}
+        gain["damped_gravity_compiled_out"] = (rates["damped_without_gravity"]
+                                               / rates["damped_zero_gravity"])
+        results[integrator] = {"steps_per_second": rates, "gain": gain}
     return results
 
 

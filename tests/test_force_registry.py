@@ -3,6 +3,7 @@ model's stored values, the kernels' records, the kernel key, scene files and the
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import sim
@@ -66,3 +67,32 @@ def test_a_terms_parameter_is_checked_like_every_value_from_outside():
         sim.Model.create(3, 1, gravity="down")
     model = sim.Model.create(3, 1, gravity=9.81)
     assert model.gravity == (0.0, -9.81, 0.0) and model.damping == 0.0
+
+
+def test_gravity_is_a_value_in_damped_kernels_and_compiled_out_in_undamped_ones():
+    """Toggling Gravity in a damped scene needs no new kernel (a zero pull costs those kernels
+    less than 3 %); in an undamped one it is compiled out.  The zero pull changes nothing."""
+    from sim.runtime.warming import kernel_key
+
+    def key(**changes):
+        return kernel_key(sim.Simulation(sim.scenes.build("grid", **changes)), 64)
+
+    assert key(damping=0.3) == key(damping=0.3, gravity=9.81)
+    assert key(drag=0.1) == key(drag=0.1, gravity=9.81)
+    assert key() != key(gravity=9.81)
+    damped = sim.Simulation(sim.scenes.build("grid", damping=0.3))
+    assert damped._integrator.kernel.terms.gravity is not None
+    assert not damped._integrator.kernel.terms.gravity.any()
+    assert sim.Simulation(sim.scenes.build("grid"))._integrator.kernel.terms.gravity is None
+    # the zero pull adds nothing: the kernel's accelerations are numpy's independent ones
+    from sim.integrators import reference
+
+    rng = np.random.default_rng(4)
+    damped.positions += 0.1 * rng.standard_normal(damped.positions.shape)
+    damped.velocities = rng.standard_normal(damped.velocities.shape)
+    damped.integrator = "verlet"
+    state = damped.state
+    damped._integrator._accelerations(state)
+    expected = reference.accelerations(damped.model, state.positions, state.velocities)
+    assert np.abs(expected).max() > 1.0
+    assert np.allclose(damped._integrator.work[0], expected, rtol=1e-12, atol=1e-12)

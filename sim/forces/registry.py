@@ -47,10 +47,21 @@ def present(model: Any) -> tuple[ForceTerm, ...]:
     return tuple(term for term in TERMS if term.present(model))
 
 
+def kernel_values(record: str, model: Any) -> dict[str, Any]:
+    """The values of the fields the terms add to the kernel record ``record`` ("springs" or
+    "terms") for ``model`` (float64; None: compiled out, ``ForceTerm.kernel_values``)."""
+    damped = velocity_dependent(model)
+    names = {field.name for field in fields(record)}
+    return {name: value for term in TERMS for name, value in term.kernel_values(model, damped).items()
+            if name in names}
+
+
 def kernel_flags(model: Any) -> tuple:
-    """What of every term changes the compiled kernels' types (``ForceTerm.flag``), in order: the
-    force terms' part of the kernel key."""
-    return tuple(term.flag(model) for term in TERMS)
+    """What of every term changes the compiled kernels' types (which fields are compiled in),
+    in order: the force terms' part of the kernel key."""
+    damped = velocity_dependent(model)
+    return tuple(tuple(value is not None for value in term.kernel_values(model, damped).values())
+                 for term in TERMS)
 
 
 def linear_stiffness(model: Any) -> LinearStiffness:

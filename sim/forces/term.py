@@ -71,6 +71,9 @@ class KernelField:
     record: str
     kind: str
     value: Callable[[Any], Any]
+    zero: Any = None
+    """The value that adds nothing (a zero vector), passed where the term is absent but not
+    compiled out (``ForceTerm.compiled_out_when_damped``)."""
 
 
 def in_precision(kind: str, value: Any, scalar: type) -> Any:
@@ -136,7 +139,17 @@ class ForceTerm:
     numpy_energy: Callable[..., Any] | None = None
     numpy_axial: Callable[..., Any] | None = None
     linear_stiffness: Callable[[Any], LinearStiffness] | None = None
+    compiled_out_when_damped: bool = True
+    """False: in a scene with a velocity-dependent term, this term's fields are passed as their
+    ``zero`` when it is absent instead of being compiled out, so that switching it on or off there
+    compiles nothing new (for a term that buys less than 3 % in those kernels, which are slower
+    anyway: ``oscillators bench --only specialisation``, ``docs/speed.md``)."""
 
-    def flag(self, model: Any) -> tuple:
-        """What of this term changes the compiled kernels' types: which fields are present."""
-        return tuple(field.value(model) is not None for field in self.fields)
+    def kernel_values(self, model: Any, damped: bool) -> dict[str, Any]:
+        """Its fields' values for the kernels of ``model`` (float64; None: compiled out), in a
+        scene with velocity-dependent terms when ``damped``."""
+        values = {field.name: field.value(model) for field in self.fields}
+        if damped and not self.compiled_out_when_damped:
+            values = {field.name: field.zero if values[field.name] is None else values[field.name]
+                      for field in self.fields}
+        return values

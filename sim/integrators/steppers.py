@@ -46,6 +46,7 @@ class KernelArguments(NamedTuple):
         """The arguments in ``dtype``, with the 1/sqrt variant measured fastest in ``loop``
         (``sim.loops.host_tuning.LOOPS``) in float64."""
         scalar = np.dtype(dtype).type
+        values = registry.kernel_values("terms", model)
         terms = Terms(
             linear=True if model.linear else None,
             out_of_plane=None if model.dim == 2 else True,
@@ -54,7 +55,7 @@ class KernelArguments(NamedTuple):
                 scalar(model.inverse_masses.flat[0]) if model.uniform_mass else None
             ),
             damped=True if registry.velocity_dependent(model) else None,
-            **{field.name: in_precision(field.kind, field.value(model), scalar)
+            **{field.name: in_precision(field.kind, values[field.name], scalar)
                for field in registry.fields("terms")},
         )
         parameters = model.kernel_parameters.as_type(

@@ -310,7 +310,7 @@ class Model:
             float(self.spacing), float(origin_x), float(origin_y),
             periodic=True if self.periodic else None,
             free_ends=True if self.walls.free_ends else None,
-            **{field.name: field.value(self) for field in registry.fields("springs")},
+            **registry.kernel_values("springs", self),
         )
 
     @property
