@@ -169,3 +169,35 @@ def test_the_warmed_toggles_include_the_other_spring_law():
     labels = [combination.label for combination in toggles("grid")]
     assert labels == ["grid (gravity on)", "grid (damping on)", "grid (gravity on, damping on)",
                       "grid (linear on)"]
+
+
+def test_warm_uses_a_process_per_core_as_far_as_the_memory_goes(monkeypatch):
+    import psutil
+
+    from app.cli import warm
+
+    class Memory:
+        available = 100e9
+
+    monkeypatch.setattr(psutil, "virtual_memory", lambda: Memory)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda _: {0, 1, 2, 3}, raising=False)
+    assert warm.worker_count(10) == 4
+    assert warm.worker_count(3) == 3
+    Memory.available = 1.5 * warm.WORKER_MEMORY
+    assert warm.worker_count(10) == 1
+
+
+@pytest.mark.slow  # compiles the single preset's toggles in two spawned processes
+def test_warm_compiles_side_by_side_and_the_page_then_reads_them(capsys):
+    from app.cli import warm
+
+    if warm.worker_count(4) < 2:
+        pytest.skip("one core or little memory: warm runs in one process")
+    assert cli.main(["warm", "single", "--toggles"]) == 0
+    out = capsys.readouterr().out
+    assert "on 2 processes" in out or "processes:" in out
+    for changes in ({}, {"gravity": 9.81}, {"damping": 0.5}, {"linear": True}):
+        simulation = sim.Simulation(sim.scenes.build("single", **changes))
+        before = warming.compiles_started()
+        simulation.step(runner_pacing(simulation)[0])
+        assert warming.compiles_started() == before, changes

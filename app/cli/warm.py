@@ -3,7 +3,8 @@
 numba compiles a kernel variant for each combination of a scene's flags on first use on a machine
 (seconds to a minute each) and keeps it in its on-disk cache.  This command runs every preset
 (or the ones named) for a few steps as the web app runs it (``sim.runtime.warming.rehearse``), with a
-progress bar, and says what it compiled and what was already in the cache.  ``--toggles`` adds the
+progress bar, and says what it compiled and what was already in the cache; the combinations are
+compiled side by side on one process per core (as many as the memory holds).  ``--toggles`` adds the
 Physics folder's Gravity, Damping and Linearised springs ticked or unticked; ``serve`` starts this
 command in the background (``--background --served SCENE``) with its scene's toggles first.
 """
@@ -116,6 +117,49 @@ def _unique(combinations: list[Combination], skip: set) -> Iterator[tuple[Combin
             yield combination, simulation, steps
 
 
+WORKER_MEMORY = 2.5e9
+"""Bytes a worker process may take while it compiles (the largest presets' peak, 2.2 GB seen)."""
+
+
+def worker_count(combinations: int) -> int:
+    """Processes ``warm`` compiles in side by side: one per core, as many as the memory
+    available holds (``WORKER_MEMORY`` each), no more than there are combinations."""
+    import psutil
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    by_memory = int(psutil.virtual_memory().available // WORKER_MEMORY)
+    return max(1, min(cores or 1, by_memory, combinations))
+
+
+def rehearse_combination(combination: Combination) -> tuple[str, float, bool]:
+    """Compile (or read from the cache) the kernels of ``combination`` in this process:
+    (its label, seconds, whether anything was compiled)."""
+    from sim.runtime import warming
+
+    simulation, steps = combination.build()
+    before, clock = warming.compiles_started(), time.perf_counter()
+    warming.rehearse_simulation(simulation, steps)
+    return combination.label, time.perf_counter() - clock, warming.compiles_started() > before
+
+
+def _rehearse_all(unique: list[Combination], workers: int, bar: Any) -> Iterator[tuple]:
+    """``rehearse_combination`` of each, on ``workers`` processes (1: in this one), as each ends."""
+    if workers <= 1:
+        for combination in unique:
+            bar.set_postfix_str(combination.label)
+            yield rehearse_combination(combination)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(rehearse_combination, combination) for combination in unique]
+        for future in as_completed(futures):
+            result = future.result()
+            bar.set_postfix_str(result[0])
+            yield result
+
+
 def command_warm(arguments: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -137,29 +181,27 @@ def command_warm(arguments: argparse.Namespace) -> int:
     started = time.perf_counter()
     compiled: list[tuple[str, float]] = []
     cached: list[tuple[str, float]] = []
-    bar = tqdm(total=len(combinations), unit="scene", disable=arguments.background,
-               file=sys.stderr, desc="warming kernels")
-    done = 0
-    for combination, simulation, steps in _unique(combinations, skip):
-        if arguments.background and os.getppid() != parent:
-            return 0  # the server that started this ended
-        bar.set_postfix_str(combination.label)
-        before, clock = warming.compiles_started(), time.perf_counter()
-        warming.rehearse_simulation(simulation, steps)
-        seconds = time.perf_counter() - clock
-        (compiled if warming.compiles_started() > before else cached).append(
-            (combination.label, seconds))
-        done += 1
+    if arguments.background:  # one process at the lowest priority, stopping with its server
+        for _, simulation, steps in _unique(combinations, skip):
+            if os.getppid() != parent:
+                return 0  # the server that started this ended
+            warming.rehearse_simulation(simulation, steps)
+        return 0
+    unique = [combination for combination, _, _ in _unique(combinations, skip)]
+    workers = worker_count(len(unique))
+    bar = tqdm(total=len(unique), unit="scene", file=sys.stderr,
+               desc=f"warming kernels ({workers} process{'es' if workers > 1 else ''})")
+    for label, seconds, did_compile in _rehearse_all(unique, workers, bar):
+        (compiled if did_compile else cached).append((label, seconds))
         bar.update(1)
-    bar.update(len(combinations) - bar.n)
     bar.close()
-    if not arguments.background:
-        total = time.perf_counter() - started
-        print(f"{done} kernel combinations for {len(names)} preset(s) in {total:.0f} s: "
-              f"{len(compiled)} compiled ({sum(s for _, s in compiled):.0f} s), "
-              f"{len(cached)} already in numba's cache ({sum(s for _, s in cached):.1f} s)")
-        for label, seconds in compiled:
-            print(f"  compiled  {label:<34} {seconds:6.1f} s")
+    total = time.perf_counter() - started
+    print(f"{len(unique)} kernel combinations for {len(names)} preset(s) in {total:.0f} s on "
+          f"{workers} process{'es' if workers > 1 else ''}: {len(compiled)} compiled "
+          f"({sum(s for _, s in compiled):.0f} s), {len(cached)} already in numba's cache "
+          f"({sum(s for _, s in cached):.1f} s)")
+    for label, seconds in compiled:
+        print(f"  compiled  {label:<34} {seconds:6.1f} s")
     return 0
 
 
