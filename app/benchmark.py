@@ -217,6 +217,8 @@ def _configurations(scene, seconds: float, thread_counts: list[int], c_reference
     return rows
 
 
+SPECIALISATION_INTEGRATORS = tuple(method.integrator for method in c_module.METHODS)
+"""The integrators whose loops the specialisation part times: the ones the C reference has."""
 SPECIALISATION_DAMPING = 0.3
 """Dashpots (N s/m) of the damped kernels the specialisation part measures gravity in."""
 
@@ -247,7 +249,7 @@ def _specialisation(scene, seconds: float) -> dict | None:
     }
     start = np.sin(np.arange(model.n_particles * 3)).reshape(model.n_particles, 3)
     results: dict = {}
-    for integrator in ("rk4", "verlet"):
+    for integrator in SPECIALISATION_INTEGRATORS:
         runs = {}
         for name, (variant, changes) in cases.items():
             simulation = sim.Simulation(variant, integrator=integrator, dt=scene.dt)

@@ -400,3 +400,31 @@ def test_infinite_packets_and_non_ascii_numbers_are_one_line(capsys, arguments, 
         assert_refused(capsys, ["run", "grid", *arguments, "--steps", "1", "--quiet"]
                        if "--steps" not in arguments else ["run", "grid", *arguments, "--quiet"],
                        fragment)
+
+
+LOADED_AFTER = """
+import json, sys
+from app.cli import main
+try:
+    main({argv!r})
+except SystemExit:
+    pass
+print(json.dumps(sorted(name for name in ("numba", "rerun", "viser", "sim", "matplotlib")
+                        if name in sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("argv, loaded", [
+    (["--help"], []), (["warm", "--help"], []), (["run", "--help"], ["numba", "sim"]),
+    (["serve", "--help"], ["numba", "sim"]),
+])
+def test_help_loads_only_what_the_command_needs(argv, loaded):
+    """``oscillators --help`` lists the commands without importing them (it answers in tens of
+    milliseconds); a command's help imports that command's module only, without viser or rerun."""
+    import json
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-c", LOADED_AFTER.format(argv=argv)],
+                            capture_output=True, text=True, timeout=120, check=True)
+    assert json.loads(result.stdout.strip().splitlines()[-1]) == loaded

@@ -20,43 +20,25 @@ Parameters of any scene can be overridden with ``--set key=value`` (repeatable),
 ``--set boundary=absorbing``.
 
 Each command is one module of this package with ``register(subparsers)``, which adds its parser
-and sets its ``handler``; ``COMMANDS`` lists them in the order ``--help`` shows them, so a new
-command is one module and one entry there.
+and sets its ``handler``; ``app.cli.commands.COMMANDS`` lists them with their one line, in the
+order ``--help`` shows them, so a new command is one module and one entry there.  A command's
+module is imported only when it runs or shows its help.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Sequence
 
-from app.cli import (
-    accuracy,
-    bench,
-    choose,
-    continuum,
-    dispersion,
-    lessons,
-    movie,
-    record,
-    reflection,
-    response,
-    run,
-    scenes,
-    serve,
-    slits,
-    stability,
-    warm,
-)
-from app.cli.arguments import EPILOG, OneLineErrorParser
-
-COMMANDS = (scenes, lessons, run, bench, serve, record, choose, accuracy, stability, dispersion,
-            continuum, response, reflection, slits, movie, warm)
-"""The command modules, in the order ``oscillators --help`` lists them."""
+from app.cli.commands import COMMANDS, EPILOG, OneLineErrorParser
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``oscillators`` parser with every command of ``COMMANDS``."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``oscillators`` parser: every command of ``COMMANDS`` with its full parser
+    (``command`` None), or only ``command``'s full parser and the others by their one line,
+    which is all ``--help`` and that command need (their modules are not imported)."""
     parser = OneLineErrorParser(
         prog="oscillators",
         description="Coupled oscillators: watch waves emerge from a lattice of masses and springs.",
@@ -64,14 +46,27 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for command in COMMANDS:
-        command.register(subparsers)
+    for entry in COMMANDS:
+        if command is None or entry.name == command:
+            importlib.import_module(f"app.cli.{entry.name}").register(subparsers)
+        else:
+            subparsers.add_parser(entry.name, help=entry.summary)
     return parser
+
+
+def _command_named(argv: Sequence[str]) -> str:
+    """The command ``argv`` names (its first word that is not an option), "" if none."""
+    names = {entry.name for entry in COMMANDS}
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in names else ""
+    return ""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` (default: the process's), run the command; returns the exit code."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(_command_named(argv))
     arguments = parser.parse_args(argv)
     if not getattr(arguments, "handler", None):
         parser.print_help()

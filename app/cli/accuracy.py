@@ -10,6 +10,7 @@ import argparse
 from app.cli.arguments import add_scene_arguments, positive_float, scene_from_arguments
 from app.cli.choose import format_choice
 from app.cli.cluster import add_cluster_arguments, executor_from
+from app.cli.commands import summary
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -68,7 +69,7 @@ Python: from app.study.accuracy import accuracy_study  (returns the data; .as_di
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``accuracy`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "accuracy", help="error against wall time of every integrator (work-precision)",
+        "accuracy", help=summary("accuracy"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_scene_arguments(parser, default_scene="grid")

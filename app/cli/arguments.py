@@ -12,44 +12,15 @@ import math
 import shlex
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from app.cli import argparse_adapter
+from app.cli.commands import EPILOG, OneLineErrorParser  # noqa: F401 - the commands' shared parts
 from sim.integrators.registry import ALL_INTEGRATORS
 from sim.model import parameters
 from sim.storage.files import check_target
 
-EPILOG = """examples:
-  oscillators scenes
-  oscillators run chain --integrator verlet --dt 0.01 --steps 2000
-  oscillators run grid --set nx=40 --set ny=30 --duration 20
-  oscillators run catenary --duration 30            # watch it settle under gravity
-  oscillators run resonance --probe 0,0             # driven at its 3rd mode: the probe finds it
-  oscillators run grid --set nx=400 --set ny=1 --packet 0.5,0   # a wave packet's group speed
-  oscillators run chain --set driver=column=0,frequency=0.6,amplitude=0.02,kind=force
-  oscillators run grid --set nx=120 --set ny=1 --set boundary=absorbing --set sponge_width=20
-  oscillators serve grid                            # the web app on http://127.0.0.1:8080
-  oscillators bench --seconds 1                     # steps per second of every integrator
-
-units are SI: metres, kilograms, seconds; stiffness in N/m, damping and drag in N s/m.
-
-a driver (--set driver=...) takes column, row, direction (x, y, z), amplitude A (m), frequency
-f (Hz), kind (force: A k sin 2 pi f t; displacement: A sin 2 pi f t), start, ramp (s) and
-phase (rad); --set sources=... takes several of them separated by ";" (row=all drives a whole
-column: a plane wave); --set barriers="column=45,openings=89-91 109-111" pins a column (or
-row=j) except its openings (";" between barriers, docs/instruments.md);
-boundary=absorbing adds a sponge sponge_width particles deep (sponge_sides=left,right,... or
-auto) that takes waves out instead of reflecting them (docs/instruments.md).
-"""
 """The examples under ``oscillators --help`` and ``oscillators run --help``."""
-
-
-class OneLineErrorParser(argparse.ArgumentParser):
-    """An ArgumentParser whose usage errors are one line on stderr (exit code 2), not the usage
-    block followed by the message."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def ascii_float(text: str) -> float:

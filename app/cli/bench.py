@@ -12,13 +12,14 @@ import textwrap
 from app.benchmark import PARTS, measure
 from app.cli import kernels
 from app.cli.arguments import parse_overrides, positive_float, positive_int
+from app.cli.commands import summary
 from app.cli.limits import check_measurement_seconds
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``bench`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "bench", help="steps per second of each integrator against plain numpy and C",
+        "bench", help=summary("bench"),
         description=textwrap.fill(
             "Benchmark the numba kernels against the same step in vectorised numpy and against "
             "hand-written C kernels (built with gcc into a cache directory; skipped with a note "

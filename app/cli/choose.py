@@ -19,6 +19,7 @@ from typing import Any
 
 from app.cli.arguments import positive_float, positive_int, scene_from_arguments
 from app.cli.cluster import add_cluster_arguments, executor_from
+from app.cli.commands import summary
 
 DESCRIPTION = """\
 The cheapest integrator and time step that meet an error tolerance over the scene's whole
@@ -58,7 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     from sim.runtime.errors import MEASURES, SAMPLES
 
     parser = subparsers.add_parser(
-        "choose", help="the cheapest integrator and dt that meet a tolerance (verified)",
+        "choose", help=summary("choose"),
         description=DESCRIPTION.format(samples=SAMPLES, budget=REFERENCE_BUDGET_SECONDS),
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -8,6 +8,7 @@ import argparse
 from pathlib import Path
 
 from app.cli.arguments import IntegratorChoices, bounded_int, positive_float
+from app.cli.commands import summary
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -117,7 +118,7 @@ def serve_page(body, particles: list[int], arguments: argparse.Namespace) -> int
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``continuum`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "continuum", help="one body at several N against the exact continuum solution",
+        "continuum", help=summary("continuum"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("body", nargs="?", choices=BODY_KINDS, default="string",

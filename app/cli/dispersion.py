@@ -10,6 +10,7 @@ import argparse
 import math
 
 from app.cli.arguments import IntegratorChoices, bounded_int, positive_float, scene_from_arguments
+from app.cli.commands import summary
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -66,7 +67,7 @@ def _stiffness_or_zero(text: str) -> float:
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``dispersion`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "dispersion", help="wave speed and dispersion relation measured on long chains",
+        "dispersion", help=summary("dispersion"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("scene", nargs="?", default=None,

@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import argparse
 
+from app.cli.commands import summary
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``lessons`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "lessons", help="the lessons: what to start, look at, ask and measure",
+        "lessons", help=summary("lessons"),
         description="The lessons, each a scene to open, what to look at, three questions for "
         "students and the answers the product measures (with the command that measures each). "
         "On the page they are in the Lessons folder.",

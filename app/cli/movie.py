@@ -25,6 +25,7 @@ from app.cli.arguments import (
     positive_float,
     scene_from_arguments,
 )
+from app.cli.commands import summary
 from app.cli.limits import planned_steps
 from app.colours import SCALES
 from app.movie.options import COLOURS, DEFAULTS, MAX_FRAMES, MovieOptions
@@ -79,7 +80,7 @@ def _size(text: str) -> tuple[int, int]:
 def register(subparsers: Any) -> None:
     """Add the ``movie`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "movie", help="render a run or a recording to an MP4, WebM or GIF movie",
+        "movie", help=summary("movie"),
         description="Run a scene (or read a .rrd recording) and render it to a movie without a "
         "screen: field image or springs and particles, title, time, colour bar, summary.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,

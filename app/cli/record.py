@@ -31,6 +31,7 @@ from app.cli.arguments import (
     positive_int,
     scene_from_arguments,
 )
+from app.cli.commands import summary
 from app.cli.limits import planned_steps
 from app.colours import SCALES
 from app.recording import destination, instruments
@@ -93,7 +94,7 @@ layout of the file for analysis: docs/recording.md
 def register(subparsers: Any) -> None:
     """Add the ``record`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "record", help="run a scene headless and write a rerun .rrd recording",
+        "record", help=summary("record"),
         description="Run a scene without a viewer and record it into a rerun .rrd file: "
         "positions, springs coloured by strain (small lattices) or a field image (large ones), "
         "energies, integrator and dt on the timelines `step` and `sim_time`.",

@@ -10,6 +10,7 @@ import math
 from collections.abc import Callable
 
 from app.cli.arguments import bounded_int, positive_float
+from app.cli.commands import summary
 from app.cli.limits import check_plan
 from app.cli.study_output import add_output_arguments, advance, default_plot, emit, progress_bar, save_picture
 
@@ -47,7 +48,7 @@ Python: from app.study.reflection import reflection_study
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``reflection`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "reflection", help="reflection of the absorbing walls against wavelength",
+        "reflection", help=summary("reflection"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(

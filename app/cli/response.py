@@ -9,6 +9,7 @@ import argparse
 import math
 
 from app.cli.arguments import add_scene_arguments, bounded_int, scene_from_arguments
+from app.cli.commands import summary
 from app.cli.limits import check_plan
 from app.cli.study_output import (
     add_output_arguments,
@@ -66,7 +67,7 @@ Python: from app.study.response import response_curve  (returns the data; .as_di
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``response`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "response", help="resonance curve of a driven scene: steady amplitude against frequency",
+        "response", help=summary("response"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_scene_arguments(parser, default_scene="resonance")

@@ -26,6 +26,7 @@ from app.cli.arguments import (
     add_scene_arguments,
     simulation_from_arguments,
 )
+from app.cli.commands import summary
 from app.cli.limits import planned_steps
 from app.cli.packets import PacketRun, add_packet_argument, print_packet
 from app.cli.run_table import RunTable
@@ -34,7 +35,7 @@ from app.cli.run_table import RunTable
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``run`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "run", help="run a scene headless and print an energy summary",
+        "run", help=summary("run"),
         description="Run a scene without a viewer; prints progress and the energy account.",
         epilog=EPILOG + SOUND_EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -8,12 +8,13 @@ from __future__ import annotations
 import argparse
 
 from app.cli.arguments import positive_float
+from app.cli.commands import summary
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``scenes`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "scenes", help="list the preset scenes",
+        "scenes", help=summary("scenes"),
         description="The presets, their parameters, default integrator and dt, and the energy-"
         "balance error those defaults give over the scene's duration.",
     )

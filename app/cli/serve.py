@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from app.cli.arguments import add_scene_arguments, simulation_from_arguments
+from app.cli.commands import summary
 from sim.scenes.presets import PRESETS
 
 EPILOG = """examples:
@@ -49,7 +50,7 @@ machine (127.0.0.1) unless you pass --host; anyone who can then reach the port c
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``serve`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "serve", help="the web app: watch and play with a lattice in the browser",
+        "serve", help=summary("serve"),
         description="Start a viser web server showing the lattice live. Open the printed "
         "address in a browser; every browser connected sees (and controls) the same lattice.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,

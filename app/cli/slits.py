@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from app.cli.arguments import add_scene_arguments, positive_float, positive_int, scene_from_arguments
+from app.cli.commands import summary
 from app.cli.study_output import (
     add_output_arguments,
     default_plot,
@@ -42,7 +43,7 @@ Python: from app.study.slits import measure
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``slits`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "slits", help="slit experiment: intensity screen against the fringe theory",
+        "slits", help=summary("slits"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_scene_arguments(parser, default_scene="double-slit")

@@ -9,6 +9,7 @@ import argparse
 
 from app.cli.arguments import bounded_int, positive_float, scene_from_arguments
 from app.cli.cluster import add_cluster_arguments, executor_from
+from app.cli.commands import summary
 from app.cli.study_output import (
     add_output_arguments,
     advance,
@@ -52,7 +53,7 @@ examples:
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``stability`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "stability", help="largest stable dt of every integrator, measured and theoretical",
+        "stability", help=summary("stability"),
         description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(

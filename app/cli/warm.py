@@ -19,6 +19,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
+from app.cli.commands import summary
+
 EPILOG = """examples:
   oscillators warm                     # every preset as the web app runs it
   oscillators warm grid catenary       # only these presets
@@ -37,7 +39,7 @@ TOGGLED_DAMPING = 0.5
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``warm`` command to ``oscillators``."""
     parser = subparsers.add_parser(
-        "warm", help="compile the presets' kernels ahead (so the page never waits for them)",
+        "warm", help=summary("warm"),
         description="Compile the numba kernels every preset scene needs in the web app, with a\n"
         "progress bar, and say what was compiled and what numba's cache already held.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,

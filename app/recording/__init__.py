@@ -6,11 +6,22 @@ The ``oscillators record`` command uses them.
 See ``docs/recording.md`` for the file layout and how to open or analyse a recording.
 """
 
-from app.recording.destination import RecordingError
-from app.recording.explain import RunInfo
-from app.recording.options import DETAIL_LIMIT, LoggingPlan, RecordingOptions
-from app.recording.recorder import Recorder
-from app.recording.scales import ColourScales, look_ahead
+import importlib
+
+_HOMES = {
+    "RecordingError": "destination", "RunInfo": "explain", "DETAIL_LIMIT": "options",
+    "LoggingPlan": "options", "RecordingOptions": "options", "Recorder": "recorder",
+    "ColourScales": "scales", "look_ahead": "scales",
+}
+"""Where each name lives: imported at first use, so that what needs only the options (the
+command line's parsers) does not load rerun."""
+
+
+def __getattr__(name: str):
+    if name in _HOMES:
+        return getattr(importlib.import_module(f"app.recording.{_HOMES[name]}"), name)
+    raise AttributeError(f"module 'app.recording' has no attribute {name!r}")
+
 
 __all__ = [
     "DETAIL_LIMIT", "ColourScales", "LoggingPlan", "Recorder", "RecordingError",
