@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import sim
 from app.cli import main
 
 
@@ -112,3 +113,22 @@ def test_the_viser_adapter_still_finds_what_it_uses():
     assert document.index("<!--our body-->") < document.rindex("</body>")
     assert "__VISER_EMBED_DATA__" in document
     assert viser_page.HIDDEN_NOTICES in document
+
+
+def test_a_movie_too_large_for_memory_is_refused_before_it_runs(monkeypatch, tmp_path, capsys):
+    """The movie's memory is estimated from the lattice (measured bytes per particle) and a
+    movie over the limit, or over the memory available, is refused at once with the figures."""
+    from app.movie import options as movie_options
+
+    big = sim.Model.create(nx=2000, ny=2000)
+    with pytest.raises(ValueError, match=r"2000x2000 lattice would take about 2\.9 GB.*limit of "
+                                         r"a movie \(2\.0 GB\).*up to about 16\d\dx16\d\d fits"):
+        movie_options.check_movie_memory(big)
+    movie_options.check_movie_memory(sim.Model.create(nx=682, ny=383))  # the flagship fits
+    with pytest.raises(ValueError, match="memory available now"):
+        movie_options.check_movie_memory(sim.Model.create(nx=682, ny=383), available=0.4e9)
+    monkeypatch.setattr(movie_options, "MOVIE_MEMORY_LIMIT", movie_options.movie_bytes(100 * 100))
+    output = tmp_path / "big.html"
+    assert main(["movie", "grid", "--set", "nx=200", "--set", "ny=200", "-o", str(output)]) == 2
+    assert "200x200 lattice would take about" in capsys.readouterr().err
+    assert not output.exists() and not list(tmp_path.iterdir())

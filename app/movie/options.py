@@ -13,6 +13,41 @@ from app.recording.options import DETAIL_LIMIT
 COLOURS = ("displacement", "speed", "strain", "density")
 """What colours the picture: the signed displacement component (m), the speed |v| (m/s), the
 strain of the springs minus the rest strain, the relative density change rho/rho_0 - 1."""
+MOVIE_BASE_BYTES = 330e6
+"""Memory (bytes) a movie takes whatever the lattice (Python, numba, viser or the encoder)."""
+MOVIE_BYTES_PER_PARTICLE = 700.0
+"""Memory (bytes) a movie takes per particle: the simulation, its look-ahead for the colour
+scale and the frames' fields (measured peaks: 493 MB at 500x500, 1,003 MB at 1000x1000 for an
+HTML page, 946 MB for an MP4; the same for 1 s and 3 s of run)."""
+MOVIE_MEMORY_LIMIT = 2 * 2**30
+"""Most memory a movie may plan to take (bytes): a laptop's fair share; the frames show at most
+``PICTURE_SIZE``-class pictures, so a larger lattice adds no detail to them."""
+
+
+def movie_bytes(n_particles: int) -> float:
+    """Memory (bytes) a movie of a lattice of ``n_particles`` takes at its peak."""
+    return MOVIE_BASE_BYTES + MOVIE_BYTES_PER_PARTICLE * n_particles
+
+
+def check_movie_memory(model: Any, available: float | None = None) -> None:
+    """Refuse (``ValueError``, with the figures) a movie of ``model`` that would take more
+    memory than ``MOVIE_MEMORY_LIMIT`` or than is available now, before anything runs."""
+    from sim.model.limits import available_memory
+
+    needed = movie_bytes(model.n_particles)
+    available = available_memory() if available is None else available
+    limit = MOVIE_MEMORY_LIMIT if available is None else min(MOVIE_MEMORY_LIMIT, available)
+    if needed > limit:
+        largest = int(math.sqrt(max(0.0, limit - MOVIE_BASE_BYTES) / MOVIE_BYTES_PER_PARTICLE))
+        why = ("the limit of a movie" if limit == MOVIE_MEMORY_LIMIT else
+               "the memory available now")
+        raise ValueError(
+            f"a movie of the {model.nx}x{model.ny} lattice would take about "
+            f"{needed / 2**30:.1f} GB of memory ({MOVIE_BYTES_PER_PARTICLE:.0f} bytes per "
+            f"particle), over {why} ({limit / 2**30:.1f} GB); a lattice of up to about "
+            f"{largest}x{largest} fits (its pictures show no more detail than that)")
+
+
 MAX_FRAMES = 1000
 """Frames of an MP4 or WebM movie at most, unless asked for more (``MovieOptions.frames``)."""
 DEFAULTS = {"mp4": ((1280, 720), 30.0, MAX_FRAMES), "webm": ((1280, 720), 30.0, MAX_FRAMES),

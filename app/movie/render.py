@@ -22,7 +22,7 @@ import numpy as np
 
 from app.movie.encode import kind_of, open_writer
 from app.movie.frames import FrameSource
-from app.movie.options import MovieOptions, default_colour
+from app.movie.options import MovieOptions, check_movie_memory, default_colour
 from app.movie.painter import Painter
 from app.movie.recorded_field import open_recording
 from app.movie.simulated import SimulationSource
@@ -157,6 +157,7 @@ def _source(scene_or_simulation: Any, options: MovieOptions) -> FrameSource:
         scene = scene_from_simulation(scene)
         options = dataclasses.replace(
             options, integrator=options.integrator or scene.integrator, dt=options.dt or scene.dt)
+    check_movie_memory(scene.model)  # before anything runs
     return SimulationSource(scene, options, start_time)
 
 
