@@ -197,9 +197,40 @@ def test_a_refused_packet_says_why(spec, words):
         theory(model, spec)
 
 
-def test_unequal_masses_are_refused():
-    with pytest.raises(ValueError, match="equal masses"):
-        packet_state(sim.scenes.build("ionic").model, PacketSpec(1.0, 0.0, "x"))
+def test_unequal_masses_without_a_repeating_cell_are_refused():
+    model = sim.scenes.build("grid", nx=12, ny=8).model
+    masses = 1.0 + np.random.default_rng(0).random((8, 12))
+    with pytest.raises(ValueError, match="equal masses or the ionic checkerboard"):
+        packet_state(model.replace(mass=masses), PacketSpec(1.0, 0.0, "x"))
+
+
+def diatomic(q: float, k: float, heavy: float, light: float, optical: bool) -> float:
+    """omega (rad/s) of the diatomic chain's branch at q (rad/m, a = 1): omega^2 =
+    k (1/M + 1/m) -+ k sqrt((1/M + 1/m)^2 - 4 sin^2(q a) / (M m))."""
+    mean = 1 / heavy + 1 / light
+    root = math.sqrt(mean**2 - 4 * math.sin(q) ** 2 / (heavy * light))
+    return math.sqrt(k * (mean + (root if optical else -root)))
+
+
+@pytest.mark.parametrize("branch, tolerance", [("x acoustic", 0.005), ("x optical", 0.015)])
+def test_packets_of_the_ionic_chain_travel_at_its_branches_group_velocity(branch, tolerance):
+    """The checkerboard chain (4 kg and 1 kg alternating): a Bloch packet of each branch keeps
+    the branch's frequency and travels at its group velocity, from the diatomic chain's textbook
+    dispersion (the centroid lags by the envelope's spread of wave vectors: more on the optical
+    branch, whose group velocity bends more)."""
+    scene = sim.scenes.build("ionic", nx=800, ny=1)
+    heavy, light = 4.0, 1.0
+    assert sorted(set(scene.model.masses.ravel())) == [light, heavy]
+    q = 0.3 * math.pi
+    optical = branch.endswith("optical")
+    omega = diatomic(q, 35.0, heavy, light, optical)
+    h = 1e-5
+    group = (diatomic(q + h, 35.0, heavy, light, optical)
+             - diatomic(q - h, 35.0, heavy, light, optical)) / (2 * h)
+    measured = measure(scene, PacketSpec(q, 0.0, branch))
+    assert measured["omega"] == pytest.approx(omega, rel=1e-3)
+    assert measured["group_speed"] == pytest.approx(abs(group), rel=tolerance)  # along vg
+    assert measured["samples"] > 100
 
 
 def test_run_packet_json_reports_the_speeds(capsys):

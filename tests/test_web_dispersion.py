@@ -119,11 +119,21 @@ def test_launch_puts_the_chosen_packet_in_the_lattice_and_refuses_what_it_cannot
     press(panel.scene.build_button)
     settle(web_app)
     assert wait_for(lambda: "ionic lattice" in folder.summary.content)
-    assert folder.launch_button.disabled  # a button that cannot act says why
-    assert folder.launch_reason.visible and "equal masses" in folder.launch_reason.content
+    assert not folder.launch_button.disabled  # a Bloch packet of the checkerboard's branch
+    send(folder.branch, "x optical")
     send(folder.position, 0.3)
     press(folder.launch_button)
-    assert "could not launch" in folder.message.content and "equal masses" in folder.message.content
+    settle(web_app)
+    assert "launched a packet on branch x optical" in folder.message.content
+    model = web_app.runner.simulation.model
+    _, qx, qy = folder.structure.point(0.3)
+    expected, _ = packet_state(model, PacketSpec(qx, qy, "x optical"), None)
+    assert np.allclose(web_app.runner.simulation.positions, expected)
+    masses = 1.0 + np.random.default_rng(0).random(model.n_particles)  # no repeating cell
+    web_app.runner.post(lambda simulation: simulation.set_masses(masses)).result(timeout=30)
+    settle(web_app)
+    assert wait_for(lambda: folder.launch_button.disabled)  # a button that cannot act says why
+    assert folder.launch_reason.visible and "ionic checkerboard" in folder.launch_reason.content
 
 
 class StandInTracker:

@@ -19,7 +19,11 @@ Polarisations: on a lattice of nearest springs each displacement component obeys
 equation (``sim.theory.lattice_waves``): "x", "y" (in the plane) and, in 3-D, "z".  With diagonal
 springs (``model.diagonal_stiffness > 0``) the in-plane components are coupled: "S" is the lower
 branch and "P" the upper one (eigenvectors of ``dynamical_matrix``; along an axis S is transverse
-and P longitudinal), and "z" in 3-D.  Masses must be equal.
+and P longitudinal), and "z" in 3-D.  On the ionic checkerboard (masses M and m alternating, nearest
+springs) the branches are those of ``sim.theory.bands`` ("x acoustic", "x optical", ...): a
+Bloch wave of the two-particle cell with the sublattices' amplitudes of the branch's
+eigenvector, its velocities to first order in the envelope's slope (``_bloch_packet``).  Other
+unequal masses have no bands and are refused.
 
 Geometry (``plan``): the envelope's full width at half maximum along q is ``lengths``
 wavelengths; across q it is at least as wide, and wider when the group velocity changes with the
@@ -43,6 +47,7 @@ import numpy as np
 
 from sim.forces import registry
 from sim.model.lattice import Model
+from sim.theory.bands import BandStructure, ionic_pair
 from sim.theory.lattice_waves import WaveError, dynamical_matrix, polarisation
 from sim.theory.modes import static_offset
 
@@ -74,7 +79,10 @@ class PacketSpec:
 
 def polarisation_names(model: Model) -> tuple[str, ...]:
     """The polarisations a packet on ``model`` may have: ("x", "y"[, "z"]) with nearest springs
-    only, ("S", "P"[, "z"]) with diagonal springs ("z" in 3-D)."""
+    only, ("S", "P"[, "z"]) with diagonal springs ("z" in 3-D); on the ionic checkerboard the
+    branches of ``sim.theory.bands`` ("x acoustic", "x optical", ...)."""
+    if ionic_pair(model) is not None:
+        return tuple(f"{c} {kind}" for c in "xyz"[: model.dim] for kind in ("acoustic", "optical"))
     names = ("S", "P") if registry.linear_stiffness(model).diagonal > 0 else ("x", "y")
     return names + (("z",) if model.dim == 3 else ())
 
@@ -110,17 +118,61 @@ class _Branch:
         return result
 
 
-def branch(model: Model, name: str) -> _Branch:
-    """The branch called ``name`` of ``model`` (raises WaveError for an unknown name or
-    unequal masses)."""
-    if not model.uniform_mass:
-        raise WaveError("a wave packet of one wave vector needs equal masses (with unequal "
-                        "masses the branches mix the sublattices)")
+class _IonicBranch:
+    """One branch of the ionic checkerboard (masses M and m, ``sim.theory.bands``): a Bloch wave
+    of the two-particle cell, u_j = Re(a_s e^(i q . r_j)) e along one component e, with the
+    amplitudes (a_M, a_m) of the heavy and light sublattices from the eigenvector w of the
+    mass-weighted dynamical matrix, a = w / sqrt(mass) (``cell``)."""
+
+    coupled = False
+
+    def __init__(self, model: Model, name: str) -> None:
+        component, kind = name.split()
+        self.model, self.name, self.dim = model, name, model.dim
+        self.component = "xyz".index(component)
+        self.index = 0 if kind == "acoustic" else 1
+        self.structure = BandStructure(model)
+        self.pair = ionic_pair(model)
+
+    def _eigen(self, qx, qy) -> tuple[np.ndarray, np.ndarray]:
+        if self.structure.chain:  # one row between walls: its one sine mode across
+            qy = np.full_like(np.asarray(qx, dtype=float), 0.5 * math.pi / self.model.spacing)
+        matrix = self.structure.ionic_matrices(np.asarray(qx, float), np.asarray(qy, float))
+        values, vectors = np.linalg.eigh(matrix[self.component])
+        return np.sqrt(np.maximum(values[..., self.index], 0.0)), vectors[..., :, self.index]
+
+    def omega(self, qx, qy) -> np.ndarray:
+        return self._eigen(qx, qy)[0]
+
+    def vectors(self, qx, qy) -> np.ndarray:
+        qx, qy = np.broadcast_arrays(np.asarray(qx, float), np.asarray(qy, float))
+        result = np.zeros(qx.shape + (self.dim,))
+        result[..., self.component] = 1.0
+        return result
+
+    def cell(self, qx: float, qy: float) -> tuple[float, float]:
+        """(a_M, a_m): the heavy and light sublattices' amplitudes at q, the larger 1."""
+        heavy, light = self.pair
+        w = self._eigen(qx, qy)[1]
+        amplitudes = np.array([w[0] / math.sqrt(heavy), w[1] / math.sqrt(light)])
+        amplitudes /= float(np.abs(amplitudes).max())
+        return float(amplitudes[0]), float(amplitudes[1])
+
+
+def branch(model: Model, name: str) -> _Branch | _IonicBranch:
+    """The branch called ``name`` of ``model`` (raises WaveError for an unknown name, or for
+    unequal masses that are not the ionic checkerboard)."""
+    ionic = ionic_pair(model) is not None
+    if not model.uniform_mass and not ionic:
+        raise WaveError("a wave packet of one wave vector needs equal masses or the ionic "
+                        "checkerboard (other masses have no repeating cell, so no bands)")
+    if ionic and registry.linear_stiffness(model).diagonal:
+        raise WaveError("the ionic checkerboard with diagonal springs has no bands drawn")
     names = polarisation_names(model)
     if name not in names:
         raise WaveError(f"polarisation must be one of {', '.join(names)} on this lattice, "
                         f"got {name!r}")
-    return _Branch(model, name)
+    return _IonicBranch(model, name) if ionic else _Branch(model, name)
 
 
 def _gradient(function, q: np.ndarray, step: float) -> np.ndarray:
@@ -356,6 +408,10 @@ def packet_state(model: Model, spec: PacketSpec,
     rest = model.rest_positions
     offset = rest[:, :2] - packet.centre
     envelope = np.exp(-0.5 * np.einsum("pi,ij,pj->p", offset, packet.precision, offset))
+    equilibrium = static_offset(model).reshape(model.dim, -1).T
+    if isinstance(packet.branch, _IonicBranch):
+        displacement, velocity = _bloch_packet(packet, offset, envelope, amplitude)
+        return rest + equilibrium + displacement, velocity
     field = (amplitude * envelope * np.exp(1j * offset @ packet.q)).reshape(model.ny, model.nx)
     spectrum = np.fft.fft2(field)
     kx = 2 * np.pi * np.fft.fftfreq(model.nx, model.spacing)
@@ -371,8 +427,27 @@ def packet_state(model: Model, spec: PacketSpec,
         part = spectrum * vectors[..., component]
         displacement[:, component] = np.fft.ifft2(part).real.ravel()
         velocity[:, component] = np.fft.ifft2(omega * part).imag.ravel()
-    equilibrium = static_offset(model).reshape(model.dim, -1).T
     return rest + equilibrium + displacement, velocity
+
+
+def _bloch_packet(packet: Packet, offset: np.ndarray, envelope: np.ndarray,
+                  amplitude: float) -> tuple[np.ndarray, np.ndarray]:
+    """A packet of the ionic checkerboard's branch: u = A E Re(c), c = a_s e^(i q . (r - c0)),
+    moving forward, du/dt = A (omega E Im(c) - (vg . grad E) Re(c)) (the module docstring's
+    first order in the envelope's slope; the envelope spans several wavelengths)."""
+    model = packet.model
+    heavy, light = packet.branch.cell(*packet.q)
+    rows, columns = np.indices((model.ny, model.nx))
+    sublattice = np.where(((rows + columns) % 2 == 0).ravel(), heavy, light)
+    carrier = sublattice * np.exp(1j * (offset @ packet.q))
+    slope = envelope * (offset @ packet.precision @ packet.group_velocity)  # -vg . grad E
+    displacement = np.zeros((model.n_particles, model.dim))
+    velocity = np.zeros_like(displacement)
+    component = packet.branch.component
+    displacement[:, component] = amplitude * envelope * carrier.real
+    velocity[:, component] = amplitude * (packet.omega * envelope * carrier.imag
+                                          + slope * carrier.real)
+    return displacement, velocity
 
 
 def default_polarisation(model: Model, qx: float, qy: float) -> str:
