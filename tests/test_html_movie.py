@@ -132,3 +132,24 @@ def test_a_movie_too_large_for_memory_is_refused_before_it_runs(monkeypatch, tmp
     assert main(["movie", "grid", "--set", "nx=200", "--set", "ny=200", "-o", str(output)]) == 2
     assert "200x200 lattice would take about" in capsys.readouterr().err
     assert not output.exists() and not list(tmp_path.iterdir())
+
+
+@pytest.mark.slow  # a movie rendered, then opened at a phone's size in Chromium
+def test_on_a_phone_the_caption_is_one_line_above_the_lattice(tmp_path, browser):
+    """At 414x896 the title is the scene's name on one line (the description and the run line
+    are under "About this run"), so it does not cover the lattice."""
+    path = tmp_path / "grid.html"
+    assert main(["movie", "grid", "-o", str(path), "--duration", "2", "--quiet"]) == 0
+    page, _ = open_offline(browser, path, {"width": 414, "height": 896})
+    time.sleep(2)
+    page.screenshot(path=str(tmp_path / "phone.png"))
+    title = page.locator("#co-title").bounding_box()
+    assert title is not None and title["height"] < 30, title
+    assert not page.locator("#co-title .co-run").is_visible()
+    picture = canvas_picture(page)  # the overlay's boxes included: the lattice starts lower
+    below = picture[int(title["y"] + title["height"]) + 40:]
+    rows = np.flatnonzero((np.abs(below - np.median(picture.reshape(-1, 3), axis=0))
+                           .max(axis=2) > 60).any(axis=1))
+    assert rows.size and rows[0] > 20, rows[:3]  # a clear gap under the title, then the lattice
+    page.get_by_text("About this run").click()
+    assert "A 12x8 lattice" in page.locator("#co-readme").text_content()

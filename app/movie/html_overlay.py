@@ -25,7 +25,7 @@ def overlay(scene: Any, integrator: str, dt: float, lattice: Any, label: str,
         table[np.linspace(0, 255, 17).round().astype(int)]))
     unit_scale = make_scale(lattice.scale.policy, 1.0, lattice.scale.signed)
     ticks = [[position, value] for position, value in unit_scale.ticks()]
-    title = f"{scene.name}: {scene.description}" if scene.description else scene.name
+    description = f": {scene.description}" if scene.description else ""
     data = json.dumps({"times": [round(t, 5) for t in times],
                        "limits": [float(f"{v:.4g}") for v in limits],
                        "ticks": ticks, "start": start})
@@ -33,7 +33,8 @@ def overlay(scene: Any, integrator: str, dt: float, lattice: Any, label: str,
     heights = (f" · heights drawn {lattice.exaggeration:g} times larger"
                if lattice.exaggeration != 1.0 else "")
     body = f"""
-<div id="co-title"><div class="co-name">{html.escape(title)}</div>
+<div id="co-title"><div class="co-name">{html.escape(scene.name)}<span class="co-description"
+>{html.escape(description)}</span></div>
 <div class="co-run">{html.escape(scene.name)} · {html.escape(integrator)}, dt = {dt:g} s ·
 {html.escape(lattice.model.describe())}{heights}</div></div>
 <div id="co-time">t = {start:.2f} s</div>
@@ -104,4 +105,12 @@ STYLE = """
 #co-bar .co-ticks span.first { transform: none; }
 #co-bar .co-ticks span.last { transform: translateX(-100%); }
 #co-bar .co-caption { font-size: 11px; color: #555; }
+@media (max-width: 600px) {  /* a phone: the title one line, the rest under "About this run" */
+  #co-title { right: 118px; font-size: 14px; }
+  #co-title .co-description, #co-title .co-run { display: none; }
+  #co-time { font-size: 16px; }
+  #co-about { top: 42px; font-size: 12px; }
+  #co-readme { top: 76px; bottom: 12px; left: 8px; right: 8px; padding: 8px 12px; }
+  #co-bar { bottom: 52px; left: 8px; width: calc(100vw - 16px); }
+}
 """
