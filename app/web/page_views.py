@@ -34,7 +34,7 @@ from typing import Any
 
 import viser
 
-from app.web import viser_adapter
+from app.web import phone, viser_adapter
 
 SOFTWARE_PIXEL_RATIO = 0.5
 """The drawing resolution of a page drawing in software, as a fraction of its pixel ratio."""
@@ -143,6 +143,7 @@ class PageViews:
 
     def _connected(self, client: Any) -> None:
         viser_adapter.run_javascript(client, script(client.client_id, self.ratio))
+        viser_adapter.run_javascript(client, phone.FOLD)
         self.ask(client)
         canvas = {"size": (0, 0)}
 

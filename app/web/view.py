@@ -380,8 +380,9 @@ PANEL_WIDTH = 420
 """CSS pixels of the page's control panel (viser's "large" controls) at the right edge."""
 NARROW = 700
 """Views narrower than this (phones): the panel floats over the lower part of the view."""
-PHONE_PANEL_SHARE = 0.6
-"""Share of a narrow view's height the floating panel takes at most (viser's phone layout)."""
+PHONE_PANEL_SHARE = 0.1
+"""Share of a narrow view's height under the panel's title bar: a phone's panel starts folded
+(``app.web.phone``), and the lattice with its colour bar fills the view above it."""
 
 
 def box_fit(left: float, right: float, bottom: float, top: float, fov: float, aspect: float,
