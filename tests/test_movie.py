@@ -188,3 +188,26 @@ def test_default_interference_movie(tmp_path):
     assert path.stat().st_size < 20e6
     frames, duration, _ = decoded(path)
     assert len(frames) == 1000 and duration == pytest.approx(1000 / 30, abs=0.1)
+
+
+def test_a_movie_says_so_when_its_kernels_compile_first(monkeypatch, capsys):
+    """A first run on a machine compiles its kernels in the movie's process for seconds: the
+    command says so before it starts (a step tried with compiles refused tells)."""
+    import argparse
+
+    from app.cli import movie
+    from sim.runtime import warming
+
+    scene = sim.scenes.build("chain")
+    arguments = argparse.Namespace(integrator=None, dt=None)
+    sim.Simulation(scene).step(1)  # compiled: nothing to say
+    movie._say_if_compiling(scene, arguments)
+    assert "compiling" not in capsys.readouterr().err
+
+    def refuse(self, n=1):
+        raise warming.WouldCompile("a kernel is missing")
+
+    monkeypatch.setattr(sim.Simulation, "step", refuse)
+    movie._say_if_compiling(scene, arguments)
+    assert "compiling the kernels for this run (first time on this machine" in \
+        capsys.readouterr().err

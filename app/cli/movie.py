@@ -77,6 +77,22 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
+def _say_if_compiling(scene: Any, arguments: argparse.Namespace) -> None:
+    """Say so before the run when its kernels are not in numba's cache yet (they compile in
+    this process, seconds to a minute on a first run): a step tried with compiles refused."""
+    from sim import Simulation
+    from sim.runtime.warming import WouldCompile, refusing_compiles
+
+    simulation = Simulation(scene, integrator=arguments.integrator, dt=arguments.dt)
+    try:
+        with refusing_compiles():
+            simulation.energy()
+            simulation.step(1)
+    except WouldCompile:
+        print("compiling the kernels for this run (first time on this machine; later runs read "
+              "them from the cache) ...", file=sys.stderr, flush=True)
+
+
 def register(subparsers: Any) -> None:
     """Add the ``movie`` command to ``oscillators``."""
     parser = subparsers.add_parser(
@@ -205,6 +221,8 @@ def _make_movie(arguments: argparse.Namespace) -> int:
                 integrator=arguments.integrator or source.integrator),
                 duration=arguments.duration)
         started = time.perf_counter()
+        if not isinstance(source, Path) and not arguments.quiet:
+            _say_if_compiling(source, arguments)
         if page:
             from app.cli.arguments import command_from_arguments
             from app.movie.html import render_html
