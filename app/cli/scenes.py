@@ -33,9 +33,9 @@ def command_scenes(arguments: argparse.Namespace) -> int:
     from app.cli.choose import format_choice
     from app.study.choose import choose
     from app.study.choose_runs import RunTask, run_setting
-    from sim import ModelError, Simulation
+    from sim import ModelError
     from sim.scenes import building as scenes
-    from sim.theory.prediction import predictor_for
+    from sim.theory.prediction import predictor_for_scene
 
     names = arguments.names or scenes.names()
     unknown = [name for name in names if name not in scenes.names()]
@@ -43,11 +43,11 @@ def command_scenes(arguments: argparse.Namespace) -> int:
         raise ValueError(f"unknown preset {unknown[0]!r}; choose from: {', '.join(scenes.names())}")
     for name in names:
         scene = scenes.build(name)
-        simulation = Simulation(scene)
         steps = int(round(scene.duration / scene.dt))
         try:
-            prediction = predictor_for(simulation).predict(scene.integrator, scene.dt,
-                                                           scene.duration)
+            predictor = predictor_for_scene(scene.model, scene.initial_positions,
+                                            scene.initial_velocities, compiled=False)
+            prediction = predictor.predict(scene.integrator, scene.dt, scene.duration)
             accuracy = f"predicted energy-balance error {100 * prediction.energy_error:+.2g} %"
             steps = prediction.steps
         except ModelError:  # driven, absorbing or coupled x and y: no free-mode prediction

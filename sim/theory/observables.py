@@ -178,6 +178,15 @@ def energy(model: Model, state: State) -> Energy:
     )
 
 
+def numpy_energy(model: Model, state: State) -> Energy:
+    """``energy`` from the numpy functions above, without a compiled kernel: what a listing that
+    must answer at once uses (numba's first call in a process costs a few tenths of a second)."""
+    return Energy(kinetic=kinetic_energy(model, state.velocities),
+                  spring=spring_energy(model, state.positions),
+                  gravity=gravity_energy(model, state.positions),
+                  dissipated=state.dissipated, driven=state.driven)
+
+
 def _compiled_energy_terms(model: Model, state: State) -> tuple[float, float]:
     from sim.forces.energy import energy_terms
 

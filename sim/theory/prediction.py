@@ -224,11 +224,14 @@ def predictor_for(simulation: object) -> Predictor:
     )
 
 
-def predictor_for_scene(model: Model, positions: np.ndarray, velocities: np.ndarray) -> Predictor:
+def predictor_for_scene(model: Model, positions: np.ndarray, velocities: np.ndarray,
+                        compiled: bool = True) -> Predictor:
     """A ``Predictor`` for ``model`` started from (positions, velocities) ((n, dim) m, m/s), e.g.
-    a scene's initial state with the parameters a user has changed since."""
+    a scene's initial state with the parameters a user has changed since; ``compiled`` False:
+    its energy from numpy (``observables.numpy_energy``), no kernel called."""
     from sim.model.state import State
-    from sim.theory.observables import energy
+    from sim.theory.observables import energy, numpy_energy
 
     state = State.from_particle_arrays(model, positions, velocities)
-    return Predictor(model, positions, velocities, energy_in_play(model, energy(model, state)))
+    account = (energy if compiled else numpy_energy)(model, state)
+    return Predictor(model, positions, velocities, energy_in_play(model, account))
