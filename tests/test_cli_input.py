@@ -416,7 +416,8 @@ print(json.dumps(sorted(name for name in ("numba", "rerun", "viser", "sim", "mat
 
 @pytest.mark.parametrize("argv, loaded", [
     (["--help"], []), (["warm", "--help"], []), (["run", "--help"], ["numba", "sim"]),
-    (["serve", "--help"], ["numba", "sim"]),
+    (["serve", "--help"], ["numba", "sim"]), (["record", "--help"], ["numba", "sim"]),
+    (["movie", "--help"], ["numba", "sim"]),
 ])
 def test_help_loads_only_what_the_command_needs(argv, loaded):
     """``oscillators --help`` lists the commands without importing them (it answers in tens of

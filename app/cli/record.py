@@ -39,7 +39,6 @@ from app.recording.destination import RecordingError
 from app.recording.explain import RunInfo
 from app.recording.field import FIELD_MODES, video_available
 from app.recording.options import DETAIL_LIMIT, RecordingOptions
-from app.recording.recorder import Recorder
 from app.recording.scales import QUANTITIES
 from sim.storage.files import PARTIAL_SUFFIX, default_output
 
@@ -357,6 +356,8 @@ def command_record(arguments: argparse.Namespace) -> int:
     trees = compare if compare else [None]
     for simulation in simulations.values():  # before the file is opened
         kernels.prepare(simulation, arguments.every, sys.stdout)
+    from app.recording.recorder import Recorder  # rerun's writer: not needed for --help
+
     try:
         recorder = Recorder(
             output, scene, options=options, trees=trees, expected_frames=frames,

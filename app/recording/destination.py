@@ -21,8 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import rerun as rr
-
+from app.recording.rerun_lazy import rr
 from sim.storage.files import AtomicFile, OutputError, partial_path
 
 __all__ = ["AtomicFile", "RecordingError", "partial_path"]

@@ -39,9 +39,9 @@ from fractions import Fraction
 from typing import Any, Protocol
 
 import numpy as np
-import rerun as rr
 
 from app.colours import ColourScale, colour_fractions, make_scale, scheme
+from app.recording.rerun_lazy import rr
 from app.recording.scales import SIGNED, field_values
 from sim.model.lattice import Model
 from sim.runtime.runner import Frame

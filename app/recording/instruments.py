@@ -28,10 +28,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import rerun as rr
 
 from app.colours import MAGNITUDE, Colour, map_values
 from app.recording.layout import COMPONENT_NAMES, TreePaths, probe_label
+from app.recording.rerun_lazy import rr
 from app.recording.style import legend_png
 from sim.instruments.mode_shares import ModeShares
 from sim.model import boundaries

@@ -10,7 +10,7 @@ import dataclasses
 from collections.abc import Sequence
 from typing import overload
 
-import rerun.blueprint as rrb
+from app.recording.rerun_lazy import rrb
 
 SCENE_ENTITY = "/scene"
 LEGEND_ENTITY = "/legend"
@@ -113,9 +113,10 @@ class TreePaths:
         return self.below(f"energy/{term}")
 
 
-WHOLE_RUN = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
-                                                   end=rrb.TimeRangeBoundary.infinite()))
-"""A time series' x axis over the whole recording (a long run's lines whole, not a window)."""
+def whole_run() -> object:
+    """A time series' x axis over the whole recording (a long run's lines whole, not a window)."""
+    return rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                 end=rrb.TimeRangeBoundary.infinite()))
 
 
 def tree_paths(name: str | None) -> TreePaths:
@@ -141,7 +142,7 @@ def instrument_views(
         if shares:
             views.append(rrb.TimeSeriesView(
                 origin=paths.mode_shares, name=f"{label}share of energy in modes 1-4",
-                axis_y=rrb.ScalarAxis(range=(0.0, 1.0)), axis_x=WHOLE_RUN))
+                axis_y=rrb.ScalarAxis(range=(0.0, 1.0)), axis_x=whole_run()))
         for polarisation in modes:
             views.append(rrb.Spatial2DView(
                 origin=paths.mode_image(polarisation),
@@ -185,10 +186,10 @@ def blueprint(
     if len(trees) == 1:
         paths = tree_paths(trees[0])
         energy: rrb.View | rrb.Container = rrb.TimeSeriesView(
-            origin=paths.energy, name="energy (J)", axis_x=WHOLE_RUN
+            origin=paths.energy, name="energy (J)", axis_x=whole_run()
         )
         drift: rrb.View | rrb.Container = rrb.TimeSeriesView(
-            origin=paths.drift, name="energy-balance error (%)", axis_x=WHOLE_RUN)
+            origin=paths.drift, name="energy-balance error (%)", axis_x=whole_run())
         settings_plot = rrb.TimeSeriesView(origin=paths.settings, name="dt (s)")
         logs = rrb.TextLogView(origin=paths.log, name="events")
     else:

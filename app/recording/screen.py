@@ -14,9 +14,8 @@ Scenes without a slit barrier get the profile alone (the rows series follow the 
 
 from __future__ import annotations
 
-import rerun as rr
-
 from app.recording.layout import TreePaths
+from app.recording.rerun_lazy import rr
 from sim.instruments.screen import IntensityScreen
 from sim.model.lattice import Model
 from sim.runtime.runner import Frame
