@@ -155,9 +155,16 @@ def _rehearse_all(unique: list[Combination], workers: int, bar: Any) -> Iterator
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(rehearse_combination, combination) for combination in unique]
+        futures = {pool.submit(rehearse_combination, combination): combination
+                   for combination in unique}
         for future in as_completed(futures):
-            result = future.result()
+            try:
+                result = future.result()
+            except Exception as error:  # a worker that failed or ended: the others go on
+                label = futures[future].label
+                print(f"  failed    {label}: {type(error).__name__}: {error}"[:300],
+                      file=sys.stderr, flush=True)
+                result = (label, 0.0, False)
             bar.set_postfix_str(result[0])
             yield result
 
