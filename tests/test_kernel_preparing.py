@@ -201,3 +201,17 @@ def test_warm_compiles_side_by_side_and_the_page_then_reads_them(capsys):
         before = warming.compiles_started()
         simulation.step(runner_pacing(simulation)[0])
         assert warming.compiles_started() == before, changes
+
+
+@pytest.mark.slow  # spawns two worker processes
+def test_warm_says_which_combination_failed_and_goes_on(capsys):
+    from app.cli import warm
+
+    class Bar:
+        def set_postfix_str(self, text: str) -> None:
+            pass
+
+    unique = [warm.Combination("no-such-preset"), warm.Combination("single")]
+    results = {label: did for label, _, did in warm._rehearse_all(unique, 2, Bar())}
+    assert results["no-such-preset"] is None and results["single"] is not None
+    assert "failed    no-such-preset" in capsys.readouterr().err

@@ -164,7 +164,7 @@ def _rehearse_all(unique: list[Combination], workers: int, bar: Any) -> Iterator
                 label = futures[future].label
                 print(f"  failed    {label}: {type(error).__name__}: {error}"[:300],
                       file=sys.stderr, flush=True)
-                result = (label, 0.0, False)
+                result = (label, 0.0, None)
             bar.set_postfix_str(result[0])
             yield result
 
@@ -200,18 +200,22 @@ def command_warm(arguments: argparse.Namespace) -> int:
     workers = worker_count(len(unique))
     bar = tqdm(total=len(unique), unit="scene", file=sys.stderr,
                desc=f"warming kernels ({workers} process{'es' if workers > 1 else ''})")
+    failed: list[str] = []
     for label, seconds, did_compile in _rehearse_all(unique, workers, bar):
-        (compiled if did_compile else cached).append((label, seconds))
+        if did_compile is None:
+            failed.append(label)
+        else:
+            (compiled if did_compile else cached).append((label, seconds))
         bar.update(1)
     bar.close()
     total = time.perf_counter() - started
     print(f"{len(unique)} kernel combinations for {len(names)} preset(s) in {total:.0f} s on "
           f"{workers} process{'es' if workers > 1 else ''}: {len(compiled)} compiled "
           f"({sum(s for _, s in compiled):.0f} s), {len(cached)} already in numba's cache "
-          f"({sum(s for _, s in cached):.1f} s)")
+          f"({sum(s for _, s in cached):.1f} s)" + (f", {len(failed)} failed" if failed else ""))
     for label, seconds in compiled:
         print(f"  compiled  {label:<34} {seconds:6.1f} s")
-    return 0
+    return 1 if failed else 0
 
 
 NO_WARM_VARIABLE = "OSCILLATORS_NO_WARM"
