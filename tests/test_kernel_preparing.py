@@ -215,3 +215,28 @@ def test_warm_says_which_combination_failed_and_goes_on(capsys):
     results = {label: did for label, _, did in warm._rehearse_all(unique, 2, Bar())}
     assert results["no-such-preset"] is None and results["single"] is not None
     assert "failed    no-such-preset" in capsys.readouterr().err
+
+
+def test_the_step_loop_can_be_compiled_apart_from_verlets_first_force_pass(monkeypatch):
+    """``assume_forces_of`` lets a second child compile Verlet's step loop while the first
+    compiles its force pass (``warming.rehearse_loop``): the next advance starts with the loop."""
+    from sim.integrators import steppers
+
+    simulation = sim.Simulation(sim.scenes.build("grid"), integrator="verlet")
+    stepper = simulation._integrator
+    calls = []
+    original = steppers.stepping.accelerations
+    monkeypatch.setattr(steppers.stepping, "accelerations",
+                        lambda *arguments: calls.append(1) or original(*arguments))
+    stepper.advance(simulation.state, 3, simulation.dt)
+    before = len(calls)
+    simulation.state.revision += 1  # a change from outside: the forces are computed first
+    stepper.advance(simulation.state, 3, simulation.dt)
+    first_pass = len(calls) - before
+    assert stepper.assume_forces_of(simulation.state)
+    before = len(calls)
+    stepper.advance(simulation.state, 3, simulation.dt)
+    assert first_pass >= 1 and len(calls) - before == first_pass - 1
+    rk4 = sim.Simulation(sim.scenes.build("grid"), integrator="rk4")
+    assert not rk4._integrator.assume_forces_of(rk4.state)
+    warming.rehearse_loop(sim.scenes.build("grid"), "verlet", 0.01, "float64", 1, 65)

@@ -131,6 +131,13 @@ class Integrator:
     def invalidate(self) -> None:
         """The state was changed from outside (a drag, a reset): drop any cached forces."""
 
+    def assume_forces_of(self, state: State) -> bool:
+        """Take the cached forces as those of ``state`` (whatever they hold), so that the next
+        ``advance`` starts with the step loop, not with a force pass of its own: for compiling
+        the two apart, side by side (``sim.runtime.warming``).  Returns whether this stepper
+        has such a first force pass."""
+        return False
+
     @property
     def in_step(self) -> frozenset[str]:
         """The instruments this stepper applies inside its steps ("drive", "sponge"); the
@@ -198,6 +205,10 @@ class Verlet(Integrator):
 
     def invalidate(self) -> None:
         self._cached_for = None
+
+    def assume_forces_of(self, state: State) -> bool:
+        self._cached_for = (state.revision, state.time)
+        return True
 
     @property
     def in_step(self) -> frozenset[str]:
@@ -318,6 +329,10 @@ class Splitting(Integrator):
 
     def invalidate(self) -> None:
         self._cached_for = None
+
+    def assume_forces_of(self, state: State) -> bool:
+        self._cached_for = (state.revision, state.time)
+        return True
 
     def _accelerations(self, state: State) -> None:
         if self.parallel:

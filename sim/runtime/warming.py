@@ -49,11 +49,11 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Hashable, Iterator
-from pathlib import Path
+from collections.abc import Callable, Hashable, Iterator, Sequence
 from typing import Any
 
 from sim.forces import registry
+from sim.runtime.children import CHILD_TIMEOUT, ROOT, call_in_child  # noqa: F401
 
 LOGGER = logging.getLogger("oscillators.warming")
 
@@ -62,12 +62,7 @@ def step_shapes(steps: int, chunk: int) -> str:
     """How ``Simulation.step(steps)`` calls the stepper: "one" step at a time, "many" at a
     time, or "both" (a chunked run whose last chunk is a single step).  Some loops (Verlet's
     leapfrog) compile a different kernel for a single step."""
-    steps = max(1, int(steps))
-    chunk = max(1, int(chunk))
-    sizes = {chunk} if steps >= chunk else set()
-    if steps % chunk:
-        sizes.add(steps % chunk)
-    ones = {size == 1 for size in sizes}
+    ones = {size == 1 for size in _chunk_sizes(steps, chunk)}
     return "both" if len(ones) == 2 else ("one" if True in ones else "many")
 
 
@@ -109,6 +104,29 @@ def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: in
     copy.strains()
 
 
+def rehearse_loop(scene: Any, integrator: str, dt: float, precision: str, threads: int,
+                  steps: int) -> None:
+    """What ``rehearse`` compiles of the step loop, without the stepper's first force pass
+    (``Stepper.assume_forces_of``): run beside ``rehearse`` in a second child, the two compile
+    side by side on two cores.  Nothing where the stepper has no such pass."""
+    from sim.runtime.simulation import BlowUpError, Simulation
+
+    copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
+    for size in sorted(_chunk_sizes(steps, copy.chunk_steps), reverse=True):
+        if not copy._integrator.assume_forces_of(copy.state):
+            return
+        try:
+            copy._advance(size)
+        except BlowUpError:
+            return
+
+
+def _chunk_sizes(steps: int, chunk: int) -> set[int]:
+    """The numbers of steps ``Simulation.step(steps)`` advances at a time (``step_shapes``)."""
+    steps, chunk = max(1, int(steps)), max(1, int(chunk))
+    return ({chunk} if steps >= chunk else set()) | ({steps % chunk} if steps % chunk else set())
+
+
 REHEARSED_STEPS = 65
 """Steps a rehearsal runs to meet every way a run calls the stepper: whole chunks of 64 and a
 single step (``step_shapes``)."""
@@ -130,35 +148,9 @@ def rehearse_simulation(simulation: Any, steps: int) -> None:
     rehearse(scene, *settings)
 
 
-ROOT = Path(__file__).resolve().parents[2]
-"""The folder holding the ``sim`` package, put first on the child's import path."""
-
-
-CHILD_TIMEOUT = 3600.0
-"""Seconds a child compiling kernels may take before this process compiles them itself (the
-slowest compile seen, double-slit on a loaded machine, took 625 s)."""
-
-
-def call_in_child(function: Callable[..., Any], *arguments: Any,
-                  timeout: float | None = CHILD_TIMEOUT, **keywords: Any) -> None:
-    """``function(*arguments, **keywords)`` in a child process (the same interpreter,
-    environment and numba cache; ``function`` a module-level function, the arguments
-    picklable); its result is dropped.  Raises RuntimeError with the end of its error output if
-    it fails."""
-    environment = dict(os.environ)
-    environment["PYTHONPATH"] = os.pathsep.join(
-        [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
-    result = subprocess.run([sys.executable, "-m", "sim.runtime.warming"],
-                            input=pickle.dumps((function, arguments, keywords)),
-                            capture_output=True, env=environment, timeout=timeout, check=False)
-    if result.returncode != 0:
-        tail = result.stderr.decode(errors="replace").strip()[-400:]
-        raise RuntimeError(f"the child process compiling the kernels exited with "
-                           f"{result.returncode}: {tail}")
-
-
 def call_reading(function: Callable[..., Any], *arguments: Any,
                  child: dict | None = None, announce: Callable[[], None] | None = None,
+                 beside: Sequence[tuple[Callable[..., Any], tuple]] = (),
                  **keywords: Any) -> tuple[Any, bool]:
     """``function(*arguments, **keywords)`` with every kernel it calls read from numba's cache:
     tried with compiles refused; if a kernel is missing, ``announce()`` is called, a child
@@ -173,7 +165,7 @@ def call_reading(function: Callable[..., Any], *arguments: Any,
     if announce is not None:
         announce()
     try:
-        call_in_child(function, *arguments, **{**keywords, **(child or {})})
+        call_in_child(function, *arguments, beside=beside, **{**keywords, **(child or {})})
     except (OSError, RuntimeError, subprocess.SubprocessError, pickle.PicklingError,
             AttributeError, TypeError) as error:  # not picklable: compiled here
         LOGGER.warning("compiling the kernels in a child process failed (%s); compiling here",
@@ -183,9 +175,11 @@ def call_reading(function: Callable[..., Any], *arguments: Any,
 
 def rehearse_reading(scene: Any, settings: tuple,
                      announce: Callable[[], None] | None = None) -> bool:
-    """``rehearse(scene, *settings)`` reading every kernel from numba's cache (``call_reading``).
-    Returns whether a child compiled."""
-    return call_reading(rehearse, scene, *settings, announce=announce)[1]
+    """``rehearse(scene, *settings)`` reading every kernel from numba's cache (``call_reading``);
+    on a machine with two cores or more a second child compiles the step loop
+    (``rehearse_loop``) beside the first.  Returns whether a child compiled."""
+    beside = [(rehearse_loop, (scene, *settings))] if (os.cpu_count() or 1) > 1 else []
+    return call_reading(rehearse, scene, *settings, announce=announce, beside=beside)[1]
 
 
 _READ: set[Hashable] = set()

@@ -1,0 +1,75 @@
+"""Child processes that compile kernels: ``call_in_child`` runs a module-level function in a
+fresh interpreter (``python -m sim.runtime.warming``, the same environment and numba cache),
+optionally with other calls beside it in children of their own, and waits for them.
+``sim.runtime.warming`` says why kernels are compiled apart and read back from the cache.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The folder holding the ``sim`` package, put first on the child's import path."""
+
+
+CHILD_TIMEOUT = 3600.0
+"""Seconds a child compiling kernels may take before this process compiles them itself (the
+slowest compile seen, double-slit on a loaded machine, took 625 s)."""
+
+
+def _child(function: Callable[..., Any], arguments: tuple, keywords: dict) -> tuple[Any, Any]:
+    """A child process (``main``) started on ``function(*arguments, **keywords)``, and the
+    file its error output goes to."""
+    environment = dict(os.environ)
+    environment["PYTHONPATH"] = os.pathsep.join(
+        [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
+    errors = tempfile.TemporaryFile()
+    child = subprocess.Popen([sys.executable, "-m", "sim.runtime.warming"],
+                             stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                             stderr=errors, env=environment)
+    child.data = pickle.dumps((function, arguments, keywords))  # type: ignore[attr-defined]
+    return child, errors
+
+
+def _finish(child: Any, errors: Any, timeout: float | None) -> str:
+    """Wait for ``child`` (killed after ``timeout`` s); the end of its error output."""
+    try:
+        child.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.wait()
+    errors.seek(0)
+    tail = errors.read().decode(errors="replace").strip()[-400:]
+    errors.close()
+    return tail
+
+
+def call_in_child(function: Callable[..., Any], *arguments: Any,
+                  timeout: float | None = CHILD_TIMEOUT,
+                  beside: Sequence[tuple[Callable[..., Any], tuple]] = (),
+                  **keywords: Any) -> None:
+    """``function(*arguments, **keywords)`` in a child process (the same interpreter,
+    environment and numba cache; ``function`` a module-level function, the arguments
+    picklable); its result is dropped.  ``beside``: (function, arguments) run at the same time
+    in children of their own (kernels compiled side by side on other cores; their failures
+    only cost time).  Raises RuntimeError with the end of its error output if it fails."""
+    children = [_child(function, arguments, keywords)]
+    children += [_child(other, tuple(other_arguments), {}) for other, other_arguments in beside]
+    for child, _ in children:  # each reads its call as soon as it has started
+        try:
+            child.stdin.write(child.data)
+            child.stdin.close()
+        except OSError:  # it ended early: its exit status says why
+            pass
+    tails = [_finish(child, errors, timeout) for child, errors in children]
+    main = children[0][0]
+    if main.returncode != 0:
+        raise RuntimeError(f"the child process compiling the kernels exited with "
+                           f"{main.returncode}: {tails[0]}")
