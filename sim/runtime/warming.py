@@ -176,9 +176,12 @@ def call_reading(function: Callable[..., Any], *arguments: Any,
 def rehearse_reading(scene: Any, settings: tuple,
                      announce: Callable[[], None] | None = None) -> bool:
     """``rehearse(scene, *settings)`` reading every kernel from numba's cache (``call_reading``);
-    on a machine with two cores or more a second child compiles the step loop
-    (``rehearse_loop``) beside the first.  Returns whether a child compiled."""
-    beside = [(rehearse_loop, (scene, *settings))] if (os.cpu_count() or 1) > 1 else []
+    on a machine with two cores or more, for a scene without a driver or an absorbing layer, a
+    second child compiles the step loop (``rehearse_loop``) beside the first.  Returns whether
+    a child compiled."""
+    # with a driver or an absorbing layer both children would meet its kernels first
+    apart = (os.cpu_count() or 1) > 1 and not scene.model.has_forcing
+    beside = [(rehearse_loop, (scene, *settings))] if apart else []
     return call_reading(rehearse, scene, *settings, announce=announce, beside=beside)[1]
 
 
