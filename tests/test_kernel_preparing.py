@@ -240,3 +240,43 @@ def test_the_step_loop_can_be_compiled_apart_from_verlets_first_force_pass(monke
     rk4 = sim.Simulation(sim.scenes.build("grid"), integrator="rk4")
     assert not rk4._integrator.assume_forces_of(rk4.state)
     warming.rehearse_loop(sim.scenes.build("grid"), "verlet", 0.01, "float64", 1, 65)
+
+
+def test_a_stopped_server_leaves_no_compiling_child_behind(tmp_path):
+    """A server stopped while a child process compiles its kernels ends that child too (on
+    Linux), instead of leaving it compiling at full speed on the teacher's laptop."""
+    import signal
+    import subprocess
+    import sys
+
+    import psutil
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the child ends with its parent on Linux")
+    cache = str(tmp_path / "numba")
+    env = {**os.environ, "OSCILLATORS_NO_WARM": "1", "NUMBA_CACHE_DIR": cache}
+
+    def compiling() -> list:
+        found = []
+        for process in psutil.process_iter(["cmdline"]):
+            try:
+                if "sim.runtime.warming" in " ".join(process.info["cmdline"] or ()) and \
+                        process.environ().get("NUMBA_CACHE_DIR") == cache:
+                    found.append(process)
+            except (psutil.NoSuchProcess, psutil.AccessDenied):
+                pass
+        return found
+
+    server = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "double-slit", "--port",
+                               str(free_port())], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True)
+    try:
+        for line in server.stdout:  # serving, its own scene's kernels being prepared
+            if "serving on" in line:
+                break
+        assert wait_for(lambda: any(sum(process.cpu_times()[:2]) > 1.0  # compiling by now
+                                    for process in compiling()), timeout=60)
+    finally:
+        server.send_signal(signal.SIGTERM)
+        server.wait(30)
+    assert wait_for(lambda: not compiling(), timeout=5), compiling()

@@ -33,9 +33,22 @@ def _child(function: Callable[..., Any], arguments: tuple, keywords: dict) -> tu
     errors = tempfile.TemporaryFile()
     child = subprocess.Popen([sys.executable, "-m", "sim.runtime.warming"],
                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                             stderr=errors, env=environment)
+                             stderr=errors, env=environment, preexec_fn=_end_with_parent)
     child.data = pickle.dumps((function, arguments, keywords))  # type: ignore[attr-defined]
     return child, errors
+
+
+def _end_with_parent() -> None:
+    """In the child before it starts (Linux): end it when the thread that started it ends, so a
+    server stopped while a kernel compiles leaves no compiling process behind."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
 
 
 def _finish(child: Any, errors: Any, timeout: float | None) -> str:
