@@ -107,10 +107,17 @@ def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: in
 def rehearse_loop(scene: Any, integrator: str, dt: float, precision: str, threads: int,
                   steps: int) -> None:
     """What ``rehearse`` compiles of the step loop, without the stepper's first force pass
-    (``Stepper.assume_forces_of``): run beside ``rehearse`` in a second child, the two compile
-    side by side on two cores.  Nothing where the stepper has no such pass."""
+    (``Stepper.assume_forces_of``) and the absorbing layer's action: run beside ``rehearse`` in a
+    second child (only there: it stubs the layer's action out), the two compile side by side on
+    two cores.  Nothing where the stepper has no such pass."""
+    from sim.forces.absorbing_layer import MatchedLayer
+    from sim.model.forcing import Forcing
     from sim.runtime.simulation import BlowUpError, Simulation
 
+    # the absorbing layer's own action is the first child's: this one goes straight to the loop
+    # (a throwaway process: nothing else runs here)
+    MatchedLayer.act = lambda self, state, span: None  # type: ignore[method-assign]
+    Forcing.sponge = lambda self, state, span: None  # type: ignore[method-assign]
     copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
     for size in sorted(_chunk_sizes(steps, copy.chunk_steps), reverse=True):
         if not copy._integrator.assume_forces_of(copy.state):
@@ -176,12 +183,9 @@ def call_reading(function: Callable[..., Any], *arguments: Any,
 def rehearse_reading(scene: Any, settings: tuple,
                      announce: Callable[[], None] | None = None) -> bool:
     """``rehearse(scene, *settings)`` reading every kernel from numba's cache (``call_reading``);
-    on a machine with two cores or more, for a scene without a driver or an absorbing layer, a
-    second child compiles the step loop (``rehearse_loop``) beside the first.  Returns whether
-    a child compiled."""
-    # with a driver or an absorbing layer both children would meet its kernels first
-    apart = (os.cpu_count() or 1) > 1 and not scene.model.has_forcing
-    beside = [(rehearse_loop, (scene, *settings))] if apart else []
+    on a machine with two cores or more a second child compiles the step loop
+    (``rehearse_loop``) beside the first.  Returns whether a child compiled."""
+    beside = [(rehearse_loop, (scene, *settings))] if (os.cpu_count() or 1) > 1 else []
     return call_reading(rehearse, scene, *settings, announce=announce, beside=beside)[1]
 
 
