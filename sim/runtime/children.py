@@ -24,9 +24,10 @@ CHILD_TIMEOUT = 3600.0
 slowest compile seen, double-slit on a loaded machine, took 625 s)."""
 
 
-def _child(function: Callable[..., Any], arguments: tuple, keywords: dict) -> tuple[Any, Any]:
-    """A child process (``main``) started on ``function(*arguments, **keywords)``, and the
-    file its error output goes to."""
+def _child(function: Callable[..., Any], arguments: tuple, keywords: dict
+           ) -> tuple[Any, Any, bytes]:
+    """A child process (``main``) started for ``function(*arguments, **keywords)``, the file its
+    error output goes to, and the call it is to read on its standard input."""
     environment = dict(os.environ)
     environment["PYTHONPATH"] = os.pathsep.join(
         [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
@@ -34,8 +35,7 @@ def _child(function: Callable[..., Any], arguments: tuple, keywords: dict) -> tu
     child = subprocess.Popen([sys.executable, "-m", "sim.runtime.warming"],
                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
                              stderr=errors, env=environment, preexec_fn=_end_with_parent)
-    child.data = pickle.dumps((function, arguments, keywords))  # type: ignore[attr-defined]
-    return child, errors
+    return child, errors, pickle.dumps((function, arguments, keywords))
 
 
 def _end_with_parent() -> None:
@@ -75,13 +75,13 @@ def call_in_child(function: Callable[..., Any], *arguments: Any,
     only cost time).  Raises RuntimeError with the end of its error output if it fails."""
     children = [_child(function, arguments, keywords)]
     children += [_child(other, tuple(other_arguments), {}) for other, other_arguments in beside]
-    for child, _ in children:  # each reads its call as soon as it has started
+    for child, _, call in children:  # each reads its call as soon as it has started
         try:
-            child.stdin.write(child.data)
+            child.stdin.write(call)
             child.stdin.close()
         except OSError:  # it ended early: its exit status says why
             pass
-    tails = [_finish(child, errors, timeout) for child, errors in children]
+    tails = [_finish(child, errors, timeout) for child, errors, _ in children]
     main = children[0][0]
     if main.returncode != 0:
         raise RuntimeError(f"the child process compiling the kernels exited with "

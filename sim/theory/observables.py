@@ -165,10 +165,16 @@ def gravity_energy(model: Model, positions: np.ndarray) -> float:
     return total
 
 
-def energy(model: Model, state: State) -> Energy:
+def energy(model: Model, state: State, compiled: bool = True) -> Energy:
     """Full energy account of ``state`` (kinetic and spring terms from one compiled pass; the
-    numpy functions above compute the same terms and serve as its independent check)."""
-    kinetic, spring = _compiled_energy_terms(model, state)
+    numpy functions above compute the same terms and serve as its independent check).
+    ``compiled`` False: those numpy functions instead, no kernel called (what a listing that must
+    answer at once uses: numba's first call in a process costs a few tenths of a second)."""
+    if compiled:
+        kinetic, spring = _compiled_energy_terms(model, state)
+    else:
+        kinetic = kinetic_energy(model, state.velocities)
+        spring = spring_energy(model, state.positions)
     return Energy(
         kinetic=kinetic,
         spring=spring,
@@ -176,15 +182,6 @@ def energy(model: Model, state: State) -> Energy:
         dissipated=state.dissipated,
         driven=state.driven,
     )
-
-
-def numpy_energy(model: Model, state: State) -> Energy:
-    """``energy`` from the numpy functions above, without a compiled kernel: what a listing that
-    must answer at once uses (numba's first call in a process costs a few tenths of a second)."""
-    return Energy(kinetic=kinetic_energy(model, state.velocities),
-                  spring=spring_energy(model, state.positions),
-                  gravity=gravity_energy(model, state.positions),
-                  dissipated=state.dissipated, driven=state.driven)
 
 
 def _compiled_energy_terms(model: Model, state: State) -> tuple[float, float]:

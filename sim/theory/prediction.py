@@ -228,10 +228,10 @@ def predictor_for_scene(model: Model, positions: np.ndarray, velocities: np.ndar
                         compiled: bool = True) -> Predictor:
     """A ``Predictor`` for ``model`` started from (positions, velocities) ((n, dim) m, m/s), e.g.
     a scene's initial state with the parameters a user has changed since; ``compiled`` False:
-    its energy from numpy (``observables.numpy_energy``), no kernel called."""
+    its energy from numpy (``observables.energy``), no kernel called."""
     from sim.model.state import State
-    from sim.theory.observables import energy, numpy_energy
+    from sim.theory.observables import energy
 
     state = State.from_particle_arrays(model, positions, velocities)
-    account = (energy if compiled else numpy_energy)(model, state)
+    account = energy(model, state, compiled)
     return Predictor(model, positions, velocities, energy_in_play(model, account))
