@@ -30,9 +30,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def command_scenes(arguments: argparse.Namespace) -> int:
-    from app.cli.choose import format_choice
-    from app.study.choose import choose
-    from app.study.choose_runs import RunTask, run_setting
     from sim import ModelError
     from sim.scenes import building as scenes
     from sim.theory.prediction import predictor_for_scene
@@ -41,6 +38,10 @@ def command_scenes(arguments: argparse.Namespace) -> int:
     unknown = [name for name in names if name not in scenes.names()]
     if unknown:
         raise ValueError(f"unknown preset {unknown[0]!r}; choose from: {', '.join(scenes.names())}")
+    if arguments.measure:
+        from app.cli.choose import format_choice
+        from app.study.choose import choose
+        from app.study.choose_runs import RunTask, run_setting
     for name in names:
         scene = scenes.build(name)
         steps = int(round(scene.duration / scene.dt))

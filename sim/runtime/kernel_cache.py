@@ -21,9 +21,11 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import math
 import os
 import pickle
 import sys
+import time
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent
@@ -64,9 +66,17 @@ def _stamp(sources: tuple[tuple[str, float, int], ...]) -> str:
     return digest.hexdigest()
 
 
+_SOURCES_CHECKED: list = [-math.inf, ()]
+"""When the kernel sources were last looked at (``time.monotonic``) and what was seen."""
+
+
 def package_stamp() -> str:
-    """A hash of the package's kernel sources (recomputed when one changes on disk)."""
-    return _stamp(_kernel_sources())
+    """A hash of the package's kernel sources (recomputed when one changes on disk; looked at
+    once a second at most: importing ``sim`` asks for it once per kernel)."""
+    now = time.monotonic()
+    if now - _SOURCES_CHECKED[0] > 1.0:
+        _SOURCES_CHECKED[:] = [now, _kernel_sources()]
+    return _stamp(_SOURCES_CHECKED[1])
 
 
 def optimisation_folder() -> str:
@@ -103,6 +113,7 @@ def follow_level() -> int:
     return count
 
 
+@functools.lru_cache(maxsize=256)
 def _inside_package(py_file: str) -> bool:
     try:
         return PACKAGE in Path(py_file).resolve().parents

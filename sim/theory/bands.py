@@ -48,6 +48,7 @@ import numpy as np
 from sim.forces import registry
 from sim.integrators.registry import describe
 from sim.model.lattice import Model, ModelError
+from sim.theory import small_matrices
 from sim.theory.lattice_waves import COMPONENTS, dynamical_matrix, polarisation
 from sim.theory.modes import ModalBasis, polarisations
 
@@ -302,7 +303,7 @@ def numerical_omegas(integrator: str, omega, dt: float) -> NumericalDispersion |
         return None
     flat = omega.ravel()
     matrices = description.amplification(flat**2, np.zeros_like(flat), float(dt))
-    values = np.linalg.eigvals(matrices)
+    values = small_matrices.eigenvalues(matrices)
     sizes = np.abs(values)
     growth = sizes.max(axis=-1)
     # a method carrying more than (u, u') (Verlet's cached acceleration) has eigenvalues near 0

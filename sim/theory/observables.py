@@ -21,6 +21,7 @@ import numpy as np
 from sim.forces import registry
 from sim.model.lattice import Model, read_only
 from sim.model.state import State
+from sim.theory import small_matrices
 from sim.theory.lattice_waves import diagonal_mode_sample
 from sim.theory.modes import polarisations, second_difference_eigenvalues, stiffness_matrix
 
@@ -366,7 +367,7 @@ def _all_stable(integrator: str, mode_set: ModeSet, dt: float) -> bool:
     matrices = amplification_matrices(
         integrator, mode_set.omega_squared, mode_set.damping_rate, dt
     )
-    radius = np.abs(np.linalg.eigvals(matrices)).max()
+    radius = np.abs(small_matrices.eigenvalues(matrices)).max()
     return bool(radius <= 1.0 + 1e-12)
 
 

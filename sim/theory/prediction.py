@@ -18,10 +18,10 @@ from the initial state's modal content without stepping it.  From it:
 
 Cost: the modal transform of the initial state (a few sine transforms for equal masses, one
 eigen-decomposition otherwise, ``sim.theory.modes.DENSE_PARTICLE_LIMIT``) and log2(n) products of
-small matrices per mode; the transform is shared by every (integrator, dt) asked of one
-``Predictor``.  Nonlinear scenes are predicted from their linearisation (docs/accuracy.md says how
-far that holds).  ``app.study.choose`` plans its candidates from these predictions and verifies
-the one it picks by running it.
+small matrices per mode (``sim.theory.small_matrices``); the transform is shared by every
+(integrator, dt) asked of one ``Predictor``.  Nonlinear scenes are predicted from their
+linearisation (docs/accuracy.md says how far that holds).  ``app.study.choose`` plans its
+candidates from these predictions and verifies the one it picks by running it.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 
 from sim.integrators.registry import FORCE_EVALUATIONS
 from sim.model.lattice import Model, ModelError
+from sim.theory import small_matrices
 from sim.theory.modes import ModalBasis, static_offset
 from sim.theory.observables import amplification_matrices
 
@@ -122,10 +123,10 @@ class Predictor:
             return Prediction(integrator, dt, duration, steps, 0.0, 0.0, True, cost, 0.0)
         matrices = amplification_matrices(integrator, self.omega_squared, self.damping_rate, dt)
         start = self._start_vectors(matrices.shape[-1])
-        eigenvalues = np.linalg.eigvals(matrices)
+        eigenvalues = small_matrices.eigenvalues(matrices)
         radius = np.abs(eigenvalues).max(axis=1)
         stable = bool(np.all(radius <= 1.0 + 1e-12))
-        end = _matrix_power_apply(matrices, steps, start)
+        end = small_matrices.power_apply(matrices, steps, start)
         q, v = end[:, 0], end[:, 1]
         with np.errstate(over="ignore", invalid="ignore"):
             numerical = float(0.5 * (v**2 + self.omega_squared * q**2).sum())
@@ -182,21 +183,6 @@ def exact_modes(omega_squared: np.ndarray, damping_rate: np.ndarray, q0: np.ndar
     # q' = -half q + decay (q0 c' + (v0 + half q0) s'), s' = c
     v = -half * q + decay * (q0 * derivative_cosine + (v0 + half * q0) * cosine)
     return q, v
-
-
-def _matrix_power_apply(matrices: np.ndarray, power: int, vectors: np.ndarray) -> np.ndarray:
-    """G^power v for a stack of small matrices (m, s, s) and vectors (m, s), by squaring."""
-    result = vectors.copy()
-    base = matrices.copy()
-    while power > 0:
-        if power & 1:
-            result = np.einsum("mij,mj->mi", base, result)
-        power >>= 1
-        if power:
-            base = base @ base
-            # keep the numbers finite for unstable modes (their growth is reported anyway)
-            np.clip(base, -1e150, 1e150, out=base)
-    return result
 
 
 def energy_in_play(model: Model, energy: object) -> float:
