@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from sim.forces.springs import site, spring_force
@@ -26,6 +27,11 @@ from sim.forces.springs import site, spring_force
 _JIT = dict(cache=True, nogil=True, fastmath=True, error_model="numpy")
 
 PARTS = ("left", "right", "bottom", "top")
+
+TWICE = np.bool_(True)
+"""``second_half`` for the action between two steps (both halves), as the step loops pass it: a
+value, not the constant True, which numba would compile as a type of its own (Literal[bool])
+beside the False of the single half before and after the steps, the layer's whole action twice."""
 """The layer's parts, in the order they act (rows of ``geometry``)."""
 LINES, LENGTH, FIRST, AXIS, HELD, SLOT, FACTOR = range(7)
 """Columns of the layer's ``geometry`` (parts, 7) int64: a part's number of lines (0: no such
@@ -116,12 +122,12 @@ def particle_kick(f_low, f_high, h_low, h_high, phi, e_low, e_high, e_node, tau,
     ``h_low``, ``h_high`` (N) relaxed toward the springs' ``f_low``, ``f_high`` by their factors
     ``e_low``, ``e_high`` before the kick (a held force relaxes toward a force that stays put, so
     after n relaxations it is f + (h - f) e^n: the second half reads it after three), phi
-    relaxed by ``e_node`` around it; twice when ``second_half`` is True, once when None.
+    relaxed by ``e_node`` around it; twice when ``second_half`` is True, once when False.
     Returns (phi, kick)."""
     force = f_high - f_low
     phi, kick = half_action(force, relax(f_low, h_low, e_low), relax(f_high, h_high, e_high),
                             phi, e_node, tau, inverse_mass)
-    if second_half is not None:
+    if second_half:
         later_low = e_low * e_low * e_low
         later_high = e_high * e_high * e_high
         phi, more = half_action(force, relax(f_low, h_low, later_low),
@@ -135,6 +141,6 @@ def particle_kick(f_low, f_high, h_low, h_high, phi, e_low, e_high, e_node, tau,
 def held_factor(factor, second_half):
     """What a held force's factor becomes over the whole action: two relaxations per half."""
     total = factor * factor
-    if second_half is not None:
+    if second_half:
         total = total * total
     return total

@@ -181,10 +181,11 @@ def _along(line, before, after, count, axis, linearised, parameters, out):
         force = spring_force(_end(x, y, z, r - one, zero), _end(x, y, z, r, zero), along,
                              linearised, parameters, None)
         _store(out, r, force, 0.0, axis, z)
-    _store(out, 0, spring_force(before, _end(x, y, z, 0, zero), along, linearised, parameters,
-                                None), 0.0, axis, z)
-    _store(out, count, spring_force(_end(x, y, z, count - 1, zero), after, along, linearised,
+    first, last = np.uint64(0), np.uint64(count)  # values of one type: one variant of each
+    _store(out, first, spring_force(before, _end(x, y, z, first, zero), along, linearised,
                                     parameters, None), 0.0, axis, z)
+    _store(out, last, spring_force(_end(x, y, z, last - one, zero), after, along, linearised,
+                                   parameters, None), 0.0, axis, z)
 
 
 # --- the action ---------------------------------------------------------------------------------
@@ -212,9 +213,11 @@ def act_part(part, start, stop, job, tau, lead, second_half, position, velocity,
     pull = gravity_vector(layer.gravity, 0.0)
     count = stop - start
     _gather(part, start, stop, x, y, z, parameters, geometry, block)
-    this_line = _line(part, 1, x, y, z, geometry, block)
-    _across(_line(part, 0, x, y, z, geometry, block), this_line, count, axis, linearised,
-            parameters, tension, across, 0)
+    # indices as values (np.int64), not constants: numba compiles a constant argument as a type
+    # of its own (Literal[int]), one more variant of the callee
+    this_line = _line(part, np.int64(1), x, y, z, geometry, block)
+    _across(_line(part, np.int64(0), x, y, z, geometry, block), this_line, count, axis,
+            linearised, parameters, tension, across, np.int64(0))
     taken = 0.0
     stride = np.uint64(length)
     one = np.uint64(1)
@@ -273,10 +276,15 @@ def act_part(part, start, stop, job, tau, lead, second_half, position, velocity,
     return taken
 
 
-@njit(**_JIT)
+_WRAPPER = dict(_JIT, inline="always")
+"""The layer's entry points: inlined into the loops that call them (each compiled level of a
+call costs a compile of the whole layer again, about 0.7 s)."""
+
+
+@njit(**_WRAPPER)
 def act_on(tau, lead, second_half, position, velocity, layer):
     """The layer's action over ``tau`` seconds at frozen positions (see the module docstring),
-    twice in a row when ``second_half`` is True (None: once; a compile-time choice), from the
+    twice in a row when ``second_half`` is True (False: once; ``absorbing_kicks.TWICE``), from the
     springs computed here: the side strips', then the bands'.
 
     ``layer``: ``MatchedLayer.arguments``.  Returns the kinetic energy taken out (J), counted
@@ -285,12 +293,13 @@ def act_on(tau, lead, second_half, position, velocity, layer):
     return act_with(tau, lead, second_half, position, velocity, layer, layer.parameters)
 
 
-@njit(**_JIT)
+@njit(**_WRAPPER)
 def act_with(tau, lead, second_half, position, velocity, layer, parameters):
     """``act_on`` with the springs' ``parameters`` given apart from the layer's record (the
     record the threaded leapfrog takes has None in their place), on the calling thread."""
-    return _rows_act(0, position.shape[1], 0, True, True, tau, lead, second_half, position,
-                     velocity, layer, parameters)
+    everything = np.bool_(True)  # values, not constants (``absorbing_kicks.TWICE``)
+    return act_rows(np.int64(0), position.shape[1], np.int64(0), everything, everything, tau,
+                    lead, second_half, position, velocity, layer, parameters)
 
 
 @njit(**_JIT)
@@ -307,13 +316,13 @@ def block_act(b, block_starts, tau, lead, second_half, position, velocity, layer
     top_start = geometry[FIRST_BAND + 1, FIRST] if geometry[FIRST_BAND + 1, LINES] > 0 else ny
     start = 0 if b == 0 else min(max(block_starts[b], bottom_end), top_start)
     stop = ny if b == blocks - 1 else min(max(block_starts[b + 1], bottom_end), top_start)
-    return _rows_act(start, stop, b, b == 0, b == blocks - 1, tau, lead, second_half, position,
+    return act_rows(start, stop, b, b == 0, b == blocks - 1, tau, lead, second_half, position,
                      velocity, layer, parameters)
 
 
 @njit(**_JIT)
-def _rows_act(start, stop, job, bottom, top, tau, lead, second_half, position, velocity, layer,
-              parameters):
+def act_rows(start, stop, job, bottom, top, tau, lead, second_half, position, velocity, layer,
+             parameters):
     """The side strips' action over rows start .. stop - 1, then the bottom band's and the top
     band's where ``bottom``, ``top``, on scratch ``job`` (``act_part``).  Returns the kinetic
     energy taken out (J)."""
@@ -326,8 +335,8 @@ def _rows_act(start, stop, job, bottom, top, tau, lead, second_half, position, v
             taken += act_part(part, start, stop, job, tau, lead, second_half, position,
                               velocity, layer, parameters, tension)
         elif (bottom and part == FIRST_BAND) or (top and part == FIRST_BAND + 1):
-            taken += act_part(part, 0, geometry[part, LENGTH], job, tau, lead, second_half,
-                              position, velocity, layer, parameters, tension)
+            taken += act_part(part, np.int64(0), geometry[part, LENGTH], job, tau, lead,
+                              second_half, position, velocity, layer, parameters, tension)
     return taken
 
 
@@ -455,7 +464,10 @@ class MatchedLayer:
             self._revision = state.revision
 
     def act(self, state: Any, span: float) -> None:
-        """The layer's action over ``span`` seconds; its take adds to ``state.dissipated``."""
+        """The layer's action over ``span`` seconds; its take adds to ``state.dissipated``
+        (``act_rows`` over every row, called with the types the step loops give it, so that
+        both share one compiled kernel)."""
         self.follow(state)
-        state.dissipated += act_on(span, 0.0, None, state.positions, state.velocities,
-                                   self.arguments(span, state.positions.dtype.type))
+        layer = self.arguments(span, state.positions.dtype.type)
+        state.dissipated += act_rows(0, state.positions.shape[1], 0, True, True, span, 0.0, False,
+                                     state.positions, state.velocities, layer, layer.parameters)

@@ -31,6 +31,9 @@ ROW, COLUMN, DIRECTION, AMPLITUDE, OMEGA, PHASE, START, RAMP, KIND, INVERSE_MASS
 )
 DRIVE_FIELDS = 15
 """Columns of the drive table (the last three are the rest position x, y, z)."""
+EVERY_KIND = np.int64(-1)
+"""``kinds`` for every drive, as every caller passes it: a value, not the constant -1, which
+numba would compile as a type of its own (Literal[int]) beside a caller's int64."""
 
 
 @njit(**_JIT)
@@ -91,7 +94,7 @@ def drive_row(j, time, table, kinds, row, vx, vy, vz, r, lead=0.0):
     """Apply the drives of the particles of row j at ``time`` to that row's accelerations
     ``row`` (3, nx) (m/s^2), the lattice forces' alone on entry: add a force's F / m, or replace
     the acceleration by a prescribed displacement's.  Only drives whose kind is ``kinds``
-    (``FORCE``, ``DISPLACEMENT``, or -1 for both) act.  ``vx, vy, vz`` are the velocities of the
+    (``FORCE``, ``DISPLACEMENT``, or ``EVERY_KIND``) act.  ``vx, vy, vz`` are the velocities of the
     same input (vz None in a planar scene), row j stored at index r; when they lag ``time`` by
     ``lead`` (s), as a leapfrog's half-step velocities do, the particle's velocity at ``time`` is
     taken as v + lead * a with its new acceleration a.  Returns the drive's power (W)."""

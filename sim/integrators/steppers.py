@@ -133,9 +133,15 @@ class Integrator:
 
     def assume_forces_of(self, state: State) -> bool:
         """Take the cached forces as those of ``state`` (whatever they hold), so that the next
-        ``advance`` starts with the step loop, not with a force pass of its own: for compiling
-        the two apart, side by side (``sim.runtime.warming``).  Returns whether this stepper
-        has such a first force pass."""
+        ``advance`` starts with the step loop, not with a force pass of its own, whatever
+        happens to the state before it: for compiling the two apart, side by side
+        (``sim.runtime.warming``).  Returns whether this stepper has such a first force pass."""
+        return False
+
+    def first_forces(self, state: State) -> bool:
+        """Compute the forces of ``state`` that the next ``advance`` starts from (its first
+        force pass), without stepping: the other half of ``assume_forces_of``.  Returns whether
+        this stepper has such a first force pass."""
         return False
 
     @property
@@ -193,6 +199,7 @@ class Verlet(Integrator):
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
         self._cached_for: tuple[int, float] | None = None
+        self._assumed = False  # assume_forces_of: the next advance starts with its loop
         self._power = 0.0
 
         self._leapfrog = self.loop_family(model) == "leapfrog"
@@ -207,6 +214,13 @@ class Verlet(Integrator):
         self._cached_for = None
 
     def assume_forces_of(self, state: State) -> bool:
+        self._assumed = True
+        return True
+
+    def first_forces(self, state: State) -> bool:
+        if self.parallel:
+            self._start_threads()
+        self._driven_accelerations(state, state.time)
         self._cached_for = (state.revision, state.time)
         return True
 
@@ -231,7 +245,7 @@ class Verlet(Integrator):
         leapfrog's half-step velocities)."""
         self._power = self._accelerations(state)
         if self.drive is not None:
-            self._drive_power = instruments.drive_rows(time, self.drive, -1, self.work[0],
+            self._drive_power = instruments.drive_rows(time, self.drive, instruments.EVERY_KIND, self.work[0],
                                                        state.velocities, lead)
 
     def advance(self, state: State, n: int, dt: float) -> None:
@@ -243,7 +257,7 @@ class Verlet(Integrator):
             layer.act(state, 0.5 * dt)
             if self.kernel.terms.damped is not None:
                 self._cached_for = None  # the forces depend on the velocities it kicked
-        if self._cached_for != stamp:
+        if self._cached_for != stamp and not self._assumed:
             self._driven_accelerations(state, state.time)
         step = self._dt(dt)
         drive = self.drive
@@ -296,6 +310,7 @@ class Verlet(Integrator):
             layer.act(state, 0.5 * dt)
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
+        self._assumed = False
 
 
 class Splitting(Integrator):
@@ -322,6 +337,7 @@ class Splitting(Integrator):
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
         self._cached_for: tuple[int, float] | None = None
+        self._assumed = False  # assume_forces_of: the next advance starts with its loop
         self._leapfrog = self.loop_family(model) == "leapfrog"
         blocks = self._block_starts.size - 1
         self._leapfrog_work = leapfrog_work(model, blocks, self.dtype)
@@ -331,6 +347,13 @@ class Splitting(Integrator):
         self._cached_for = None
 
     def assume_forces_of(self, state: State) -> bool:
+        self._assumed = True
+        return True
+
+    def first_forces(self, state: State) -> bool:
+        if self.parallel:
+            self._start_threads()
+        self._accelerations(state)
         self._cached_for = (state.revision, state.time)
         return True
 
@@ -344,7 +367,7 @@ class Splitting(Integrator):
     def advance(self, state: State, n: int, dt: float) -> None:
         if self.parallel:
             self._start_threads()
-        if self._cached_for != (state.revision, state.time):
+        if self._cached_for != (state.revision, state.time) and not self._assumed:
             self._accelerations(state)
         acceleration = self.work[0]
         sweeps = self._sweeps(self.table, n, dt)
@@ -363,6 +386,7 @@ class Splitting(Integrator):
         stepping.kick_all(self.dtype(self.table.kicks[-1] * dt), state.velocities, acceleration)
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
+        self._assumed = False
 
 
 class RungeKutta(Integrator):

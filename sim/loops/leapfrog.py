@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
+from sim.forces.absorbing_kicks import TWICE
 from sim.forces.absorbing_layer import act_with, block_act
 from sim.forces.drive_table import leapfrog_drive, save_driven
 from sim.forces.springs import (
@@ -136,7 +137,7 @@ def leapfrog_steps(sweeps, terms, parameters, position, velocity, block_starts, 
     for step in range(sweeps.shape[0]):
         kick, drift = sweeps[step, 0], sweeps[step, 1]
         if sponge is not None:
-            totals[0, 1] += act_with(0.5 * float(drift), 0.5 * float(drift), True, position,
+            totals[0, 1] += act_with(0.5 * float(drift), 0.5 * float(drift), TWICE, position,
                                      velocity, sponge, parameters)
         for b in range(blocks + 1):
             _boundary_springs(b, terms, position, velocity, parameters, block_starts,
@@ -165,7 +166,7 @@ def leapfrog_steps_parallel(sweeps, terms, parameters, position, velocity, block
         taken = 0.0
         for b in prange(blocks + 1):  # the layer's part of each block, and the springs below it
             if sponge is not None and b < blocks:
-                taken += block_act(b, block_starts, half, half, True, position, velocity, sponge,
+                taken += block_act(b, block_starts, half, half, TWICE, position, velocity, sponge,
                                    parameters)
             _boundary_springs(b, terms, position, velocity, parameters, block_starts,
                               work.boundary)

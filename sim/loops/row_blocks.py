@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from sim.forces.drive_table import drive_row
+from sim.forces.drive_table import EVERY_KIND, drive_row
 from sim.forces.springs import BUFFER_ROWS, row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
     Fields,
@@ -129,7 +129,7 @@ def _stage_rows(table, stage, j0, j1, dt, terms, parameters, state, source, targ
         power += row_accelerations(j, ny, xs, ys, zs, vxs, vys, vzs, terms, parameters, below,
                                    above, horizontal, row)
         if drive is not None:
-            drive_power[0] += drive_row(j, time, drive, -1, row, vxs, vys, vzs, j)
+            drive_power[0] += drive_row(j, time, drive, EVERY_KIND, row, vxs, vys, vzs, j)
         below, above = above, below
         stage_update(table, stage, j, j, dt, state, row, source.velocity, target, sums, state, j)
     return power

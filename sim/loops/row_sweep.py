@@ -28,8 +28,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from sim.forces.absorbing_kicks import TWICE
 from sim.forces.absorbing_layer import act_on
-from sim.forces.drive_table import drive_row, drive_rows
+from sim.forces.drive_table import EVERY_KIND, drive_row, drive_rows
 from sim.forces.springs import BUFFER_ROWS, row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
     Fields,
@@ -150,11 +151,12 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
         at = time + (step + 1) * float(dt)
         if sponge is not None and step > 0:
             # a step's end and the next one's start, in one pass
-            totals[1] += act_on(0.5 * dt, 0.0, True, position, velocity, sponge)
+            totals[1] += act_on(0.5 * dt, 0.0, TWICE, position, velocity, sponge)
             if damped:  # the forces depend on the velocities the layer kicked
                 power = accelerations(terms, parameters, position, velocity, acceleration)
                 if drive is not None:
-                    drive_rows(time + step * float(dt), drive, -1, acceleration, velocity)
+                    drive_rows(time + step * float(dt), drive, EVERY_KIND, acceleration, velocity,
+                               0.0)
         if first:
             verlet_drift(np.intp(0), dt, position, velocity, acceleration, predicted_velocity,
                          damped)
@@ -168,7 +170,7 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
                                            above, horizontal, row)
             if drive is not None:
                 # undamped, the velocities are the half-step ones: v(t) = v(t - dt/2) + dt/2 a
-                drive_power += drive_row(j, at, drive, -1, row, vx, vy, vz, j,
+                drive_power += drive_row(j, at, drive, EVERY_KIND, row, vx, vy, vz, j,
                                          0.0 if damped else float(half))
             if last:
                 store_acceleration(j, row, acceleration, half, velocity)

@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from sim.forces.drive_table import drive_row
+from sim.forces.drive_table import EVERY_KIND, drive_row
 from sim.forces.springs import row_accelerations, vertical_springs
 from sim.loops.stage_updates import Fields, components, stage_time, stage_update, stages
 
@@ -160,7 +160,7 @@ def wavefront(table, j0, j1, dt, terms, parameters, position, velocity, work, po
                               work.horizontal, work.row, powers, stage)
             if drive is not None:
                 at = time + stage_time(table, stage) * dt
-                q = drive_row(j, at, drive, -1, work.row, ends[3], ends[4], ends[5], slot)
+                q = drive_row(j, at, drive, EVERY_KIND, work.row, ends[3], ends[4], ends[5], slot)
                 if j >= j0 and j < j1:
                     drive_powers[stage] += q
             if j >= j0 and j < j1:

@@ -24,18 +24,32 @@ CHILD_TIMEOUT = 3600.0
 slowest compile seen, double-slit on a loaded machine, took 625 s)."""
 
 
-def _child(function: Callable[..., Any], arguments: tuple, keywords: dict
-           ) -> tuple[Any, Any, bytes]:
+def _child(function: Callable[..., Any], arguments: tuple, keywords: dict,
+           keep: tuple[int, ...] = ()) -> tuple[Any, Any, bytes]:
     """A child process (``main``) started for ``function(*arguments, **keywords)``, the file its
-    error output goes to, and the call it is to read on its standard input."""
+    error output goes to, and the call it is to read on its standard input; ``keep``: file
+    descriptors it inherits (under the same numbers)."""
     environment = dict(os.environ)
     environment["PYTHONPATH"] = os.pathsep.join(
         [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
     errors = tempfile.TemporaryFile()
     child = subprocess.Popen([sys.executable, "-m", "sim.runtime.warming"],
                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                             stderr=errors, env=environment, preexec_fn=_end_with_parent)
+                             stderr=errors, env=environment, preexec_fn=_end_with_parent,
+                             pass_fds=keep)
     return child, errors, pickle.dumps((function, arguments, keywords))
+
+
+def wait_for_end(descriptor: int) -> None:
+    """Block until every process holding the other end of the pipe ``descriptor`` reads from
+    has closed it or ended, however it ended (``call_in_child``'s signals)."""
+    with os.fdopen(descriptor, "rb") as pipe:
+        pipe.read()
+
+
+def signal_ready(descriptor: int) -> None:
+    """Close this end of a ``call_in_child`` signal: those waiting on it go on."""
+    os.close(descriptor)
 
 
 def _end_with_parent() -> None:
@@ -67,14 +81,43 @@ def _finish(child: Any, errors: Any, timeout: float | None) -> str:
 def call_in_child(function: Callable[..., Any], *arguments: Any,
                   timeout: float | None = CHILD_TIMEOUT,
                   beside: Sequence[tuple[Callable[..., Any], tuple]] = (),
+                  beside_done: str | None = None, main_ready: str | None = None,
                   **keywords: Any) -> None:
     """``function(*arguments, **keywords)`` in a child process (the same interpreter,
     environment and numba cache; ``function`` a module-level function, the arguments
     picklable); its result is dropped.  ``beside``: (function, arguments) run at the same time
     in children of their own (kernels compiled side by side on other cores; their failures
-    only cost time).  Raises RuntimeError with the end of its error output if it fails."""
-    children = [_child(function, arguments, keywords)]
-    children += [_child(other, tuple(other_arguments), {}) for other, other_arguments in beside]
+    only cost time).  Two signals order them, each a pipe that reaches its end when the side
+    that holds it closes it or ends, however it ends: ``beside_done``, the keyword under which
+    ``function`` gets a descriptor for ``wait_for_end`` that returns once every ``beside``
+    child has ended (so that it reads their kernels from the cache instead of compiling them
+    too); ``main_ready``, the keyword under which ``function`` gets a descriptor to close
+    (``signal_ready``) and each ``beside`` function one to wait on (``wait_for_end``).  Raises
+    RuntimeError with the end of its error output if ``function`` fails."""
+    main_keeps: list[int] = []
+    beside_keeps: list[int] = []
+    beside_keywords: dict[str, int] = {}
+    opened: list[int] = []
+    if beside and beside_done:
+        reading, writing = os.pipe()
+        opened += [reading, writing]
+        keywords = {**keywords, beside_done: reading}
+        main_keeps.append(reading)
+        beside_keeps.append(writing)
+    if beside and main_ready:
+        reading, writing = os.pipe()
+        opened += [reading, writing]
+        keywords = {**keywords, main_ready: writing}
+        main_keeps.append(writing)
+        beside_keywords[main_ready] = reading
+        beside_keeps.append(reading)
+    try:
+        others = [_child(other, tuple(other_arguments), beside_keywords, tuple(beside_keeps))
+                  for other, other_arguments in beside]
+        children = [_child(function, arguments, keywords, tuple(main_keeps)), *others]
+    finally:
+        for descriptor in opened:  # the children hold them: each ends with its holders
+            os.close(descriptor)
     for child, _, call in children:  # each reads its call as soon as it has started
         try:
             child.stdin.write(call)

@@ -53,7 +53,13 @@ from collections.abc import Callable, Hashable, Iterator, Sequence
 from typing import Any
 
 from sim.forces import registry
-from sim.runtime.children import CHILD_TIMEOUT, ROOT, call_in_child  # noqa: F401
+from sim.runtime.children import (  # noqa: F401
+    CHILD_TIMEOUT,
+    ROOT,
+    call_in_child,
+    signal_ready,
+    wait_for_end,
+)
 
 LOGGER = logging.getLogger("oscillators.warming")
 
@@ -88,13 +94,29 @@ def kernel_key(simulation: Any, steps: int = 1) -> tuple:
 
 
 def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: int,
-             steps: int) -> None:
+             steps: int, loop_done: int | None = None, forces_ready: int | None = None) -> None:
     """Run a copy of a simulation of ``scene`` as a run would: energy, ``steps`` steps, the
     energy balance and the strains.  A blow-up of the copy is no error here (the kernels were
-    compiled on the way)."""
+    compiled on the way).
+
+    Beside ``rehearse_loop`` (``rehearse_reading``, two children, the signals of
+    ``sim.runtime.children.call_in_child``): first the stepper's first force pass (what the
+    loop's own forces are made of), then ``forces_ready`` is signalled; then the same pass with
+    the drive, the energy, the blow-up rule's measures and the strains; then this waits for
+    ``loop_done`` (the loop's child has ended) and runs as above, reading the loop from the
+    cache."""
     from sim.runtime.simulation import BlowUpError, Simulation
 
     copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
+    if loop_done is not None:
+        copy._integrator.first_forces(copy.state)
+        if forces_ready is not None:
+            signal_ready(forces_ready)
+        _first_forces_driven(copy)
+        copy.step(0)  # the energy and the balance's reference
+        copy._problem()  # the blow-up rule's measures
+        copy.strains()
+        wait_for_end(loop_done)
     copy.energy()
     try:
         copy.step(max(1, int(steps)))
@@ -104,24 +126,41 @@ def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: in
     copy.strains()
 
 
+def _first_forces_driven(simulation: Any) -> None:
+    """The stepper's first force pass as ``Simulation._advance`` runs it before the loop, with
+    the drive table armed (``Stepper.first_forces``)."""
+    forcing, stepper = simulation._forcing, simulation._integrator
+    if forcing is not None and forcing.drives and "drive" in stepper.in_step:
+        stepper.drive = forcing.drive_table()
+        stepper.first_forces(simulation.state)
+
+
+def _place(simulation: Any) -> None:
+    """A prescribed particle placed, as ``Simulation._advance`` places it before the loop."""
+    if simulation._forcing is not None:
+        simulation._forcing.place(simulation.state)
+
+
 def rehearse_loop(scene: Any, integrator: str, dt: float, precision: str, threads: int,
-                  steps: int) -> None:
+                  steps: int, forces_ready: int | None = None) -> None:
     """What ``rehearse`` compiles of the step loop, without the stepper's first force pass
-    (``Stepper.assume_forces_of``) and the absorbing layer's action: run beside ``rehearse`` in a
-    second child (only there: it stubs the layer's action out), the two compile side by side on
-    two cores.  Nothing where the stepper has no such pass."""
-    from sim.forces.absorbing_layer import MatchedLayer
-    from sim.model.forcing import Forcing
+    (``Stepper.assume_forces_of``), in a second child beside it: first a prescribed particle's
+    placing, the absorbing layer's action (the loop calls the same kernel between steps) and the
+    energy, then, once the first child has compiled the force pass the loop is made of
+    (``forces_ready``), the loop.  Nothing where the stepper has no such pass."""
     from sim.runtime.simulation import BlowUpError, Simulation
 
-    # the absorbing layer's own action is the first child's: this one goes straight to the loop
-    # (a throwaway process: nothing else runs here)
-    MatchedLayer.act = lambda self, state, span: None  # type: ignore[method-assign]
-    Forcing.sponge = lambda self, state, span: None  # type: ignore[method-assign]
     copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
+    if not copy._integrator.assume_forces_of(copy.state):
+        return
+    _place(copy)
+    if copy._forcing is not None:
+        copy._forcing.sponge(copy.state, 0.0)
+    copy.energy()
+    if forces_ready is not None:
+        wait_for_end(forces_ready)
     for size in sorted(_chunk_sizes(steps, copy.chunk_steps), reverse=True):
-        if not copy._integrator.assume_forces_of(copy.state):
-            return
+        copy._integrator.assume_forces_of(copy.state)
         try:
             copy._advance(size)
         except BlowUpError:
@@ -158,6 +197,7 @@ def rehearse_simulation(simulation: Any, steps: int) -> None:
 def call_reading(function: Callable[..., Any], *arguments: Any,
                  child: dict | None = None, announce: Callable[[], None] | None = None,
                  beside: Sequence[tuple[Callable[..., Any], tuple]] = (),
+                 beside_done: str | None = None, main_ready: str | None = None,
                  **keywords: Any) -> tuple[Any, bool]:
     """``function(*arguments, **keywords)`` with every kernel it calls read from numba's cache:
     tried with compiles refused; if a kernel is missing, ``announce()`` is called, a child
@@ -172,7 +212,8 @@ def call_reading(function: Callable[..., Any], *arguments: Any,
     if announce is not None:
         announce()
     try:
-        call_in_child(function, *arguments, beside=beside, **{**keywords, **(child or {})})
+        call_in_child(function, *arguments, beside=beside, beside_done=beside_done,
+                      main_ready=main_ready, **{**keywords, **(child or {})})
     except (OSError, RuntimeError, subprocess.SubprocessError, pickle.PicklingError,
             AttributeError, TypeError) as error:  # not picklable: compiled here
         LOGGER.warning("compiling the kernels in a child process failed (%s); compiling here",
@@ -186,7 +227,9 @@ def rehearse_reading(scene: Any, settings: tuple,
     on a machine with two cores or more a second child compiles the step loop
     (``rehearse_loop``) beside the first.  Returns whether a child compiled."""
     beside = [(rehearse_loop, (scene, *settings))] if (os.cpu_count() or 1) > 1 else []
-    return call_reading(rehearse, scene, *settings, announce=announce, beside=beside)[1]
+    return call_reading(rehearse, scene, *settings, announce=announce, beside=beside,
+                        beside_done="loop_done" if beside else None,
+                        main_ready="forces_ready" if beside else None)[1]
 
 
 _READ: set[Hashable] = set()
