@@ -136,10 +136,12 @@ def measure_in_process(case: str, cache: str, uptime: float, timeout: float) -> 
     import sim
     from app.cli.warm import start_background, stop_background
     from app.web.app import WebApp
+    from sim.runtime.optimisation import use_numba_default
     from tests.helpers import wait_for
     from tests.test_web_safety import press
 
     scene, toggle = CASES[case]
+    use_numba_default()  # as ``oscillators serve`` does: the level its kernels are compiled at
     started = time.monotonic()
     app = WebApp(sim.Simulation(sim.scenes.build(scene)), port=free_port(),
                  scenes_dir=tempfile.mkdtemp(), recordings_dir=tempfile.mkdtemp())

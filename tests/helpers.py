@@ -139,7 +139,15 @@ def wait_for_reload(page, url: str, timeout_ms: int = 60_000) -> None:
     until it has."""
     import re
 
-    if "fixedDpr" not in url and draws_in_software(page):
+    from playwright.sync_api import Error
+
+    if "fixedDpr" in url:
+        return
+    try:
+        software = draws_in_software(page)
+    except Error:  # the page navigated while it was asked: that reload is under way
+        software = True
+    if software:
         page.wait_for_url(re.compile(r"[?&]fixedDpr="), timeout=timeout_ms)
 
 

@@ -144,6 +144,11 @@ class Integrator:
         this stepper has such a first force pass."""
         return False
 
+    def loop_shares_force_pass(self, n: int) -> bool:
+        """Whether the loop of ``advance(n)`` is made of the first force pass's compiled parts
+        (compiled after it, it reads them from the cache instead of compiling them too)."""
+        return True
+
     @property
     def in_step(self) -> frozenset[str]:
         """The instruments this stepper applies inside its steps ("drive", "sponge"); the
@@ -223,6 +228,9 @@ class Verlet(Integrator):
         self._driven_accelerations(state, state.time)
         self._cached_for = (state.revision, state.time)
         return True
+
+    def loop_shares_force_pass(self, n: int) -> bool:
+        return not (self._leapfrog and n >= 2)  # the leapfrog fuses its own
 
     @property
     def in_step(self) -> frozenset[str]:
@@ -356,6 +364,9 @@ class Splitting(Integrator):
         self._accelerations(state)
         self._cached_for = (state.revision, state.time)
         return True
+
+    def loop_shares_force_pass(self, n: int) -> bool:
+        return not self._leapfrog
 
     def _accelerations(self, state: State) -> None:
         if self.parallel:

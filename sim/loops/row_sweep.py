@@ -67,7 +67,7 @@ def euler_steps(n, dt, terms, parameters, position, velocity):
     row_as_array = row.reshape((3, 1, nx))
     dissipated = 0.0
     for _ in range(n):
-        power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms, parameters, below)
+        power = vertical_springs(np.intp(0), ny, x, y, z, vx, vy, vz, terms, parameters, below)
         for j in range(ny):
             power += row_accelerations(j, ny, x, y, z, vx, vy, vz, terms, parameters, below,
                                        above, horizontal, row)
@@ -160,7 +160,7 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
         if first:
             verlet_drift(np.intp(0), dt, position, velocity, acceleration, predicted_velocity,
                          damped)
-        new_power = vertical_springs(0, ny, x, y, z, vx, vy, vz, terms, parameters, below)
+        new_power = vertical_springs(np.intp(0), ny, x, y, z, vx, vy, vz, terms, parameters, below)
         drive_power = 0.0
         for j in range(ny):
             if first and j + 1 < ny:

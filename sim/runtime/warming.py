@@ -53,13 +53,8 @@ from collections.abc import Callable, Hashable, Iterator, Sequence
 from typing import Any
 
 from sim.forces import registry
-from sim.runtime.children import (  # noqa: F401
-    CHILD_TIMEOUT,
-    ROOT,
-    call_in_child,
-    signal_ready,
-    wait_for_end,
-)
+from sim.runtime.children import CHILD_TIMEOUT, ROOT, call_in_child  # noqa: F401
+from sim.runtime.rehearsal import chunk_sizes, rehearse, rehearse_loop  # noqa: F401
 
 LOGGER = logging.getLogger("oscillators.warming")
 
@@ -68,7 +63,7 @@ def step_shapes(steps: int, chunk: int) -> str:
     """How ``Simulation.step(steps)`` calls the stepper: "one" step at a time, "many" at a
     time, or "both" (a chunked run whose last chunk is a single step).  Some loops (Verlet's
     leapfrog) compile a different kernel for a single step."""
-    ones = {size == 1 for size in _chunk_sizes(steps, chunk)}
+    ones = {size == 1 for size in chunk_sizes(steps, chunk)}
     return "both" if len(ones) == 2 else ("one" if True in ones else "many")
 
 
@@ -91,86 +86,6 @@ def kernel_key(simulation: Any, steps: int = 1) -> tuple:
         bool(model.barriers),
         step_shapes(steps, getattr(simulation, "chunk_steps", 64)),
     )
-
-
-def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: int,
-             steps: int, loop_done: int | None = None, forces_ready: int | None = None) -> None:
-    """Run a copy of a simulation of ``scene`` as a run would: energy, ``steps`` steps, the
-    energy balance and the strains.  A blow-up of the copy is no error here (the kernels were
-    compiled on the way).
-
-    Beside ``rehearse_loop`` (``rehearse_reading``, two children, the signals of
-    ``sim.runtime.children.call_in_child``): first the stepper's first force pass (what the
-    loop's own forces are made of), then ``forces_ready`` is signalled; then the same pass with
-    the drive, the energy, the blow-up rule's measures and the strains; then this waits for
-    ``loop_done`` (the loop's child has ended) and runs as above, reading the loop from the
-    cache."""
-    from sim.runtime.simulation import BlowUpError, Simulation
-
-    copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
-    if loop_done is not None:
-        copy._integrator.first_forces(copy.state)
-        if forces_ready is not None:
-            signal_ready(forces_ready)
-        _first_forces_driven(copy)
-        copy.step(0)  # the energy and the balance's reference
-        copy._problem()  # the blow-up rule's measures
-        copy.strains()
-        wait_for_end(loop_done)
-    copy.energy()
-    try:
-        copy.step(max(1, int(steps)))
-    except BlowUpError:
-        pass
-    copy.energy_balance_error()
-    copy.strains()
-
-
-def _first_forces_driven(simulation: Any) -> None:
-    """The stepper's first force pass as ``Simulation._advance`` runs it before the loop, with
-    the drive table armed (``Stepper.first_forces``)."""
-    forcing, stepper = simulation._forcing, simulation._integrator
-    if forcing is not None and forcing.drives and "drive" in stepper.in_step:
-        stepper.drive = forcing.drive_table()
-        stepper.first_forces(simulation.state)
-
-
-def _place(simulation: Any) -> None:
-    """A prescribed particle placed, as ``Simulation._advance`` places it before the loop."""
-    if simulation._forcing is not None:
-        simulation._forcing.place(simulation.state)
-
-
-def rehearse_loop(scene: Any, integrator: str, dt: float, precision: str, threads: int,
-                  steps: int, forces_ready: int | None = None) -> None:
-    """What ``rehearse`` compiles of the step loop, without the stepper's first force pass
-    (``Stepper.assume_forces_of``), in a second child beside it: first a prescribed particle's
-    placing, the absorbing layer's action (the loop calls the same kernel between steps) and the
-    energy, then, once the first child has compiled the force pass the loop is made of
-    (``forces_ready``), the loop.  Nothing where the stepper has no such pass."""
-    from sim.runtime.simulation import BlowUpError, Simulation
-
-    copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
-    if not copy._integrator.assume_forces_of(copy.state):
-        return
-    _place(copy)
-    if copy._forcing is not None:
-        copy._forcing.sponge(copy.state, 0.0)
-    copy.energy()
-    if forces_ready is not None:
-        wait_for_end(forces_ready)
-    for size in sorted(_chunk_sizes(steps, copy.chunk_steps), reverse=True):
-        copy._integrator.assume_forces_of(copy.state)
-        try:
-            copy._advance(size)
-        except BlowUpError:
-            return
-
-
-def _chunk_sizes(steps: int, chunk: int) -> set[int]:
-    """The numbers of steps ``Simulation.step(steps)`` advances at a time (``step_shapes``)."""
-    steps, chunk = max(1, int(steps)), max(1, int(chunk))
-    return ({chunk} if steps >= chunk else set()) | ({steps % chunk} if steps % chunk else set())
 
 
 REHEARSED_STEPS = 65
