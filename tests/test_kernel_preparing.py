@@ -9,6 +9,7 @@ import os
 import re
 import threading
 
+import numpy as np
 import pytest
 
 import sim
@@ -234,18 +235,35 @@ def test_the_step_loop_can_be_compiled_apart_from_verlets_first_force_pass(monke
     stepper.advance(simulation.state, 3, simulation.dt)
     first_pass = len(calls) - before
     assert stepper.assume_forces_of(simulation.state)
+    simulation.state.revision += 1  # a particle placed before the loop (a driver) changes none
+    stepper.invalidate()
     before = len(calls)
     stepper.advance(simulation.state, 3, simulation.dt)
     assert first_pass >= 1 and len(calls) - before == first_pass - 1
+    simulation.state.revision += 1  # only the next advance: then the forces are computed again
+    before = len(calls)
+    stepper.advance(simulation.state, 3, simulation.dt)
+    assert len(calls) - before == first_pass
     rk4 = sim.Simulation(sim.scenes.build("grid"), integrator="rk4")
     assert not rk4._integrator.assume_forces_of(rk4.state)
-    from sim.forces.absorbing_layer import MatchedLayer
-    from sim.model.forcing import Forcing
-
-    # rehearse_loop stubs the layer's action out (it runs in a throwaway child): put it back
-    monkeypatch.setattr(MatchedLayer, "act", MatchedLayer.act)
-    monkeypatch.setattr(Forcing, "sponge", Forcing.sponge)
+    assert not rk4._integrator.first_forces(rk4.state)
     warming.rehearse_loop(sim.scenes.build("grid"), "verlet", 0.01, "float64", 1, 65)
+
+
+@pytest.mark.parametrize("integrator, name", [("verlet", "grid"), ("verlet", "catenary"),
+                                               ("verlet", "bandgap"), ("yoshida4", "grid")])
+def test_the_first_force_pass_alone_leaves_the_run_as_it_was(integrator, name):
+    """``first_forces`` (the other child's half of a rehearsal) computes the forces the next
+    advance starts from: a run after it is the run without it, bit for bit (damped, driven and
+    with an absorbing layer too)."""
+    scene = sim.scenes.build(name)
+    plain = sim.Simulation(scene, integrator=integrator)
+    prepared = sim.Simulation(scene, integrator=integrator)
+    assert prepared._integrator.first_forces(prepared.state)
+    plain.step(70)
+    prepared.step(70)
+    assert np.array_equal(plain.state.positions, prepared.state.positions)
+    assert np.array_equal(plain.state.velocities, prepared.state.velocities)
 
 
 def test_a_stopped_server_leaves_no_compiling_child_behind(tmp_path):
@@ -286,3 +304,30 @@ def test_a_stopped_server_leaves_no_compiling_child_behind(tmp_path):
         server.send_signal(signal.SIGTERM)
         server.wait(30)
     assert wait_for(lambda: not compiling(), timeout=5), compiling()
+
+
+@pytest.mark.parametrize("fails", ["none", "beside", "main"])
+def test_the_two_compiling_children_wait_for_each_other_and_for_no_dead_one(tmp_path, fails):
+    """The loop's child starts its loop once the other has compiled the force pass, and the
+    other steps once the loop's child has ended; either side ending early, however it ends,
+    releases the other (no child waits for ever)."""
+    from sim.runtime.children import call_in_child
+    from tests import child_calls
+
+    log = tmp_path / "order.txt"
+
+    def call() -> None:
+        call_in_child(child_calls.main_side, str(log), fails == "main",
+                      beside=[(child_calls.beside_side, (str(log), fails == "beside"))],
+                      beside_done="loop_done", main_ready="forces_ready", timeout=60)
+
+    if fails == "main":
+        with pytest.raises(RuntimeError, match="exited with 5"):
+            call()
+    else:
+        call()
+    order = log.read_text().splitlines()
+    expected = {"none": ["main: forces", "beside: loop", "main: after the loop"],
+                "beside": ["main: forces", "main: after the loop"],
+                "main": ["main: forces", "beside: loop"]}[fails]
+    assert order == expected
