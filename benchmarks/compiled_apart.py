@@ -4,6 +4,7 @@ compiled and it read from numba's cache (``sim.runtime.warming``, ``sim.runtime.
 
     .venv/bin/python benchmarks/compiled_apart.py                   # interference, Verlet
     .venv/bin/python benchmarks/compiled_apart.py --integrator rk4 --precision float32
+    .venv/bin/python benchmarks/compiled_apart.py --threads 2
     .venv/bin/python benchmarks/compiled_apart.py --scene grid --steps 5000 --fresh-host
 
 Each case runs in a process of its own with an empty numba cache (a new temporary folder): it
@@ -29,10 +30,11 @@ CASE = """
 import json, sys, time
 import sim
 from sim.runtime.warming import KernelPreparer, compiles_started, kernel_key, rehearse_simulation
-mode, scene, steps, integrator, precision = sys.argv[1:6]
-steps = int(steps)
+mode, scene, steps, integrator, precision, threads = sys.argv[1:7]
+steps, threads = int(steps), int(threads)
 started = time.perf_counter()
-simulation = sim.Simulation(sim.scenes.build(scene), integrator=integrator, precision=precision)
+simulation = sim.Simulation(sim.scenes.build(scene), integrator=integrator, precision=precision,
+                            threads=threads)
 built = time.perf_counter() - started
 preparer = KernelPreparer(rehearse_simulation if mode == "here" else None)
 key = kernel_key(simulation, 64)
@@ -51,7 +53,8 @@ print(json.dumps({"built": built, "ready": ready, "steps_per_second": rate,
 
 def run(mode: str, arguments: argparse.Namespace, environment: dict) -> dict:
     result = subprocess.run([sys.executable, "-c", CASE, mode, arguments.scene,
-                             str(arguments.steps), arguments.integrator, arguments.precision],
+                             str(arguments.steps), arguments.integrator, arguments.precision,
+                             str(arguments.threads)],
                             capture_output=True, text=True, env=environment, check=True,
                             cwd=Path(__file__).resolve().parent.parent)
     return json.loads(result.stdout.strip().splitlines()[-1])
@@ -64,6 +67,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--integrator", default="verlet")
     parser.add_argument("--precision", default="float64")
+    parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--fresh-host", action="store_true",
                         help="also measure the 1/sqrt choice anew (an empty user cache)")
     arguments = parser.parse_args()
