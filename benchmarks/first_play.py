@@ -46,6 +46,7 @@ CASES = {
     "interference": ("interference", False),
     "grid+gravity+damping": ("grid", True),
 }
+"""The cases by name; any other preset's name (``oscillators scenes``) is a case as it is."""
 STATUS = re.compile(r"t = ([0-9.]+) s, step (\d+)")
 PREPARING = "Preparing the kernel"
 
@@ -78,7 +79,7 @@ def start_server(scene: str, cache: str, port: int, log) -> tuple[subprocess.Pop
 
 
 def measure(browser, case: str, cache: str, uptime: float, timeout: float) -> dict:
-    scene, toggle = CASES[case]
+    scene, toggle = CASES.get(case, (case, False))
     port = free_port()
     with tempfile.TemporaryFile("w+") as log:
         server, started = start_server(scene, cache, port, log)
@@ -140,7 +141,7 @@ def measure_in_process(case: str, cache: str, uptime: float, timeout: float) -> 
     from tests.helpers import wait_for
     from tests.test_web_safety import press
 
-    scene, toggle = CASES[case]
+    scene, toggle = CASES.get(case, (case, False))
     use_numba_default()  # as ``oscillators serve`` does: the level its kernels are compiled at
     started = time.monotonic()
     app = WebApp(sim.Simulation(sim.scenes.build(scene)), port=free_port(),
@@ -175,8 +176,9 @@ def measure_in_process(case: str, cache: str, uptime: float, timeout: float) -> 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("cases", nargs="*", default=list(CASES)[:4], choices=list(CASES),
-                        metavar="CASE", help=f"of {', '.join(CASES)} (default: the first four)")
+    parser.add_argument("cases", nargs="*", default=list(CASES)[:4], metavar="CASE",
+                        help=f"of {', '.join(CASES)}, or any other preset "
+                        "(default: the first four)")
     parser.add_argument("--cache", help="numba's cache folder (default: a new empty one; "
                         "'default': numba's cache beside the sources)")
     parser.add_argument("--uptime", type=float, default=60.0,

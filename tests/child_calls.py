@@ -12,19 +12,20 @@ def _note(path: str, text: str) -> None:
 
 
 def main_side(path: str, fail: bool = False, loop_done: int | None = None,
-              forces_ready: int | None = None) -> None:
-    time.sleep(0.3)
-    _note(path, "main: forces")
+              layer_ready: int | None = None) -> None:
     if fail:
         raise SystemExit(5)
-    signal_ready(forces_ready)
+    wait_for_end(layer_ready)
+    _note(path, "main: after the other's first part")
     wait_for_end(loop_done)
-    _note(path, "main: after the loop")
+    _note(path, "main: after the other ended")
 
 
-def beside_side(path: str, fail: bool = False, forces_ready: int | None = None) -> None:
+def beside_side(path: str, fail: bool = False, layer_ready: int | None = None) -> None:
     if fail:
         raise SystemExit(3)
-    wait_for_end(forces_ready)
     time.sleep(0.3)
-    _note(path, "beside: loop")
+    _note(path, "beside: first part")
+    signal_ready(layer_ready)
+    time.sleep(0.3)
+    _note(path, "beside: the rest")

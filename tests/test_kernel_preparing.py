@@ -308,8 +308,8 @@ def test_a_stopped_server_leaves_no_compiling_child_behind(tmp_path):
 
 @pytest.mark.parametrize("fails", ["none", "beside", "main"])
 def test_the_two_compiling_children_wait_for_each_other_and_for_no_dead_one(tmp_path, fails):
-    """The loop's child starts its loop once the other has compiled the force pass, and the
-    other steps once the loop's child has ended; either side ending early, however it ends,
+    """The first child goes on once the other has done its first part (the absorbing layer's
+    action) and steps once the other has ended; either side ending early, however it ends,
     releases the other (no child waits for ever)."""
     from sim.runtime.children import call_in_child
     from tests import child_calls
@@ -319,7 +319,7 @@ def test_the_two_compiling_children_wait_for_each_other_and_for_no_dead_one(tmp_
     def call() -> None:
         call_in_child(child_calls.main_side, str(log), fails == "main",
                       beside=[(child_calls.beside_side, (str(log), fails == "beside"))],
-                      beside_done="loop_done", main_ready="forces_ready", timeout=60)
+                      beside_done="loop_done", beside_ready="layer_ready", timeout=60)
 
     if fails == "main":
         with pytest.raises(RuntimeError, match="exited with 5"):
@@ -327,7 +327,8 @@ def test_the_two_compiling_children_wait_for_each_other_and_for_no_dead_one(tmp_
     else:
         call()
     order = log.read_text().splitlines()
-    expected = {"none": ["main: forces", "beside: loop", "main: after the loop"],
-                "beside": ["main: forces", "main: after the loop"],
-                "main": ["main: forces", "beside: loop"]}[fails]
+    expected = {"none": ["beside: first part", "main: after the other's first part",
+                         "beside: the rest", "main: after the other ended"],
+                "beside": ["main: after the other's first part", "main: after the other ended"],
+                "main": ["beside: first part", "beside: the rest"]}[fails]
     assert order == expected

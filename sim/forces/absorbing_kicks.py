@@ -48,8 +48,9 @@ class LayerArguments(NamedTuple):
     line after line (N), ``relaxed`` (dim, particles) phi (N); ``factors`` (2, sum of lines + 1)
     exp(-sigma tau / 2) of the springs across the lines and of the lines' particles; ``mass``,
     ``inverse_mass`` (particles,) kg, 1/kg.  ``out_of_plane``, ``linearised`` compile-time flags
-    (None or True); ``parameters`` the springs' ``SpringParameters`` (None on threads, where the
-    sweep passes its own); ``gravity`` (3,) or None.  Scratch, one per thread: ``block`` (jobs,
+    (None or True); ``gravity`` (3,) or None.  The springs' ``SpringParameters`` are not in it:
+    the layer's kernels take the step loop's own (its 1/sqrt variant), so that the loop and the
+    half actions around it share one compiled kernel.  Scratch, one per thread: ``block`` (jobs,
     3, lines + 2, length) in the state's precision, a strip's positions and its neighbours',
     column by column (``sim.forces.absorbing_layer``); ``across`` (jobs, 2, 3, length) two lines
     of springs across, ``along`` (jobs, 3, length + 1) one along a line, ``kicks`` (jobs, dim,
@@ -64,7 +65,6 @@ class LayerArguments(NamedTuple):
     inverse_mass: object
     out_of_plane: object
     linearised: object
-    parameters: object
     gravity: object
     block: object
     across: object

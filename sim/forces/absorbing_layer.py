@@ -282,21 +282,15 @@ call costs a compile of the whole layer again, about 0.7 s)."""
 
 
 @njit(**_WRAPPER)
-def act_on(tau, lead, second_half, position, velocity, layer):
+def act_with(tau, lead, second_half, position, velocity, layer, parameters):
     """The layer's action over ``tau`` seconds at frozen positions (see the module docstring),
     twice in a row when ``second_half`` is True (False: once; ``absorbing_kicks.TWICE``), from the
-    springs computed here: the side strips', then the bands'.
+    springs computed here with ``parameters`` (the step loop's): the side strips', then the
+    bands', on the calling thread.
 
     ``layer``: ``MatchedLayer.arguments``.  Returns the kinetic energy taken out (J), counted
     on the velocities ``lead`` seconds later under the lattice's forces (dt / 2 for a
     leapfrog's half-step velocities before its kick, else 0)."""
-    return act_with(tau, lead, second_half, position, velocity, layer, layer.parameters)
-
-
-@njit(**_WRAPPER)
-def act_with(tau, lead, second_half, position, velocity, layer, parameters):
-    """``act_on`` with the springs' ``parameters`` given apart from the layer's record (the
-    record the threaded leapfrog takes has None in their place), on the calling thread."""
     everything = np.bool_(True)  # values, not constants (``absorbing_kicks.TWICE``)
     return act_rows(np.int64(0), position.shape[1], np.int64(0), everything, everything, tau,
                     lead, second_half, position, velocity, layer, parameters)
@@ -439,11 +433,9 @@ class MatchedLayer:
                                   np.zeros((jobs, self._model.dim, longest)))
         return self._scratch[key]
 
-    def arguments(self, span: float, dtype: type = np.float64, threads: bool = False,
-                  jobs: int = 1) -> LayerArguments:
-        """The layer's record for spans of ``span`` on a state in ``dtype``, as ``act_on`` and
-        the leapfrog steps take it; for the steps on threads (``jobs`` of them) without the
-        springs' parameters (None in their place)."""
+    def arguments(self, span: float, dtype: type = np.float64, jobs: int = 1) -> LayerArguments:
+        """The layer's record for spans of ``span`` on a state in ``dtype``, as ``act_with`` and
+        the step loops take it, with scratch for ``jobs`` threads."""
         model = self._model
         gravity = np.array(model.gravity, dtype=dtype) if model.has_gravity else None
         held, relaxed = self.fields
@@ -453,7 +445,6 @@ class MatchedLayer:
             mass=self._mass, inverse_mass=self._inverse_mass,
             out_of_plane=True if model.dim == 3 else None,
             linearised=True if model.linear else None,
-            parameters=None if threads else model.kernel_parameters.as_type(dtype),
             gravity=gravity, block=block, across=across, along=along, kicks=kicks)
 
     def follow(self, state: Any) -> None:
@@ -463,11 +454,15 @@ class MatchedLayer:
                 field[...] = 0.0
             self._revision = state.revision
 
-    def act(self, state: Any, span: float) -> None:
-        """The layer's action over ``span`` seconds; its take adds to ``state.dissipated``
-        (``act_rows`` over every row, called with the types the step loops give it, so that
-        both share one compiled kernel)."""
+    def act(self, state: Any, span: float, parameters: Any = None) -> None:
+        """The layer's action over ``span`` seconds; its take adds to ``state.dissipated``.
+        ``parameters``: the springs' as the step loop takes them (``act_rows`` is then called
+        with the types the loop gives it, and the two share one compiled kernel); by default
+        the model's."""
         self.follow(state)
-        layer = self.arguments(span, state.positions.dtype.type)
+        dtype = state.positions.dtype.type
+        if parameters is None:
+            parameters = self._model.kernel_parameters.as_type(dtype)
         state.dissipated += act_rows(0, state.positions.shape[1], 0, True, True, span, 0.0, False,
-                                     state.positions, state.velocities, layer, layer.parameters)
+                                     state.positions, state.velocities,
+                                     self.arguments(span, dtype), parameters)

@@ -262,7 +262,7 @@ class Verlet(Integrator):
             self._start_threads()
         layer = self.sponge
         if layer is not None:  # half the layer's action before the steps, half after them
-            layer.act(state, 0.5 * dt)
+            layer.act(state, 0.5 * dt, self.kernel.parameters)
             if self.kernel.terms.damped is not None:
                 self._cached_for = None  # the forces depend on the velocities it kicked
         if self._cached_for != stamp and not self._assumed:
@@ -271,9 +271,7 @@ class Verlet(Integrator):
         drive = self.drive
         sponge = None
         if layer is not None:
-            threaded_sweep = self.parallel and self._leapfrog and n >= 2
-            sponge = layer.arguments(0.5 * dt, self.dtype, threaded_sweep,
-                                     self._block_starts.size - 1)
+            sponge = layer.arguments(0.5 * dt, self.dtype, self._block_starts.size - 1)
         if drive is not None and self._saved.shape[0] < drive.shape[0]:
             self._saved = np.zeros((drive.shape[0], 3))
         instrumented = drive is not None or sponge is not None
@@ -315,7 +313,7 @@ class Verlet(Integrator):
             state.driven += totals[0]
             self._drive_power = float(totals[2])
         if layer is not None:
-            layer.act(state, 0.5 * dt)
+            layer.act(state, 0.5 * dt, self.kernel.parameters)
         state.advance_clock(n, dt)
         self._cached_for = (state.revision, state.time)
         self._assumed = False

@@ -153,12 +153,11 @@ def leapfrog_steps_parallel(sweeps, terms, parameters, position, velocity, block
     """``leapfrog_steps`` with the boundary springs and the row blocks spread over numba's
     threads (``prange``; ``numba.set_num_threads`` sets how many), and the layer's action too,
     in the same parallel loop as the boundary springs (nothing moves while it acts): each
-    block's side strips, the bands in the first and last blocks (``block_act``).  The
-    layer's record comes without its springs' parameters (``MatchedLayer.arguments(threads=True,
-    jobs=blocks)``: numba's parallel loops do not take them inside a record; ``parameters`` are
-    the same).  The loop bodies are functions of their own: numba's parallel transformation of
-    the inlined 3-D body read stale out-of-plane components (runs differed from one thread and
-    blew up)."""
+    block's side strips, the bands in the first and last blocks (``block_act``; the layer's
+    record with scratch for every block, ``MatchedLayer.arguments(jobs=blocks)``, the springs'
+    ``parameters`` given apart as everywhere).  The loop bodies are functions of their own:
+    numba's parallel transformation of the inlined 3-D body read stale out-of-plane components
+    (runs differed from one thread and blew up)."""
     blocks = block_starts.size - 1
     for step in range(sweeps.shape[0]):
         kick, drift = sweeps[step, 0], sweeps[step, 1]
@@ -191,7 +190,10 @@ def _boundary_springs(b, terms, position, velocity, parameters, block_starts, bo
 def _leapfrog_block(b, kick, drift, terms, parameters, position, velocity, block_starts, work,
                     time, drive, saved, totals):
     """Leapfrog kick and drift of row block b (``leapfrog_steps``)."""
-    work.below[b, :, :] = work.boundary[b]
+    below, boundary = work.below[b], work.boundary[b]
+    for c in range(below.shape[0]):  # a copy written out: an array assignment compiles numba's
+        for i in range(below.shape[1]):  # shape-mismatch error message, 2 s of compiling
+            below[c, i] = boundary[c, i]
     x, y, z = components(terms.out_of_plane, position)
     vx, vy, vz = components(terms.out_of_plane, velocity)
     leapfrog_rows(block_starts[b], block_starts[b + 1], kick, drift, x, y, z, vx, vy, vz, terms,

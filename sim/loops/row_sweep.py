@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from sim.forces.absorbing_kicks import TWICE
-from sim.forces.absorbing_layer import act_on
+from sim.forces.absorbing_layer import act_with
 from sim.forces.drive_table import EVERY_KIND, drive_row, drive_rows
 from sim.forces.springs import BUFFER_ROWS, row_accelerations, vertical_springs
 from sim.loops.stage_updates import (
@@ -125,7 +125,7 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
     forces use the predicted velocity v + dt a, which keeps it explicit and second order.
     Instruments (None compiles them out): a drive table (``sim.forces.drive_table``) acts on the new
     forces of each step at its end time (``time`` is the start, s); the absorbing layer
-    (``sponge``: the arguments of ``sim.forces.absorbing_layer.act_on``, frequency-shifted
+    (``sponge``: the arguments of ``sim.forces.absorbing_layer.act_with``, frequency-shifted
     relaxations included) acts over dt / 2 at the end of
     each step and the start of the next, the caller before the first and after the last.  ``totals`` (2,)
     receives the drive's work and the layer's take (J), the accelerations of the driven rows
@@ -151,7 +151,7 @@ def verlet_steps(n, dt, terms, parameters, position, velocity, acceleration, pre
         at = time + (step + 1) * float(dt)
         if sponge is not None and step > 0:
             # a step's end and the next one's start, in one pass
-            totals[1] += act_on(0.5 * dt, 0.0, TWICE, position, velocity, sponge)
+            totals[1] += act_with(0.5 * dt, 0.0, TWICE, position, velocity, sponge, parameters)
             if damped:  # the forces depend on the velocities the layer kicked
                 power = accelerations(terms, parameters, position, velocity, acceleration)
                 if drive is not None:

@@ -81,7 +81,7 @@ def _finish(child: Any, errors: Any, timeout: float | None) -> str:
 def call_in_child(function: Callable[..., Any], *arguments: Any,
                   timeout: float | None = CHILD_TIMEOUT,
                   beside: Sequence[tuple[Callable[..., Any], tuple]] = (),
-                  beside_done: str | None = None, main_ready: str | None = None,
+                  beside_done: str | None = None, beside_ready: str | None = None,
                   **keywords: Any) -> None:
     """``function(*arguments, **keywords)`` in a child process (the same interpreter,
     environment and numba cache; ``function`` a module-level function, the arguments
@@ -91,9 +91,10 @@ def call_in_child(function: Callable[..., Any], *arguments: Any,
     that holds it closes it or ends, however it ends: ``beside_done``, the keyword under which
     ``function`` gets a descriptor for ``wait_for_end`` that returns once every ``beside``
     child has ended (so that it reads their kernels from the cache instead of compiling them
-    too); ``main_ready``, the keyword under which ``function`` gets a descriptor to close
-    (``signal_ready``) and each ``beside`` function one to wait on (``wait_for_end``).  Raises
-    RuntimeError with the end of its error output if ``function`` fails."""
+    too); ``beside_ready``, the keyword under which each ``beside`` function gets a descriptor
+    to close when a first part of its work is done (``signal_ready``) and ``function`` one to
+    wait on for all of them (``wait_for_end``).  Raises RuntimeError with the end of its error
+    output if ``function`` fails."""
     main_keeps: list[int] = []
     beside_keeps: list[int] = []
     beside_keywords: dict[str, int] = {}
@@ -104,13 +105,13 @@ def call_in_child(function: Callable[..., Any], *arguments: Any,
         keywords = {**keywords, beside_done: reading}
         main_keeps.append(reading)
         beside_keeps.append(writing)
-    if beside and main_ready:
+    if beside and beside_ready:
         reading, writing = os.pipe()
         opened += [reading, writing]
-        keywords = {**keywords, main_ready: writing}
-        main_keeps.append(writing)
-        beside_keywords[main_ready] = reading
-        beside_keeps.append(reading)
+        keywords = {**keywords, beside_ready: reading}
+        main_keeps.append(reading)
+        beside_keywords[beside_ready] = writing
+        beside_keeps.append(writing)
     try:
         others = [_child(other, tuple(other_arguments), beside_keywords, tuple(beside_keeps))
                   for other, other_arguments in beside]

@@ -12,36 +12,61 @@ from sim.runtime.children import signal_ready, wait_for_end
 
 
 def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: int,
-             steps: int, loop_done: int | None = None, forces_ready: int | None = None) -> None:
+             steps: int, loop_done: int | None = None, layer_ready: int | None = None) -> None:
     """Run a copy of a simulation of ``scene`` as a run would: energy, ``steps`` steps, the
     energy balance and the strains.  A blow-up of the copy is no error here (the kernels were
     compiled on the way).
 
     Beside ``rehearse_loop`` (``rehearse_reading``, two children, the signals of
-    ``sim.runtime.children.call_in_child``): first the stepper's first force pass (what the
-    loop's own forces are made of), then ``forces_ready`` is signalled; then the same pass with
-    the drive, the energy, the blow-up rule's measures and the strains; then this waits for
-    ``loop_done`` (the loop's child has ended) and runs as above, reading the loop from the
-    cache."""
-    from sim.runtime.simulation import BlowUpError, Simulation
+    ``sim.runtime.children.call_in_child``): first the stepper's first force pass, without and
+    with the drive; then, once the other child has compiled the absorbing layer's action
+    (``layer_ready``), the step loops made of that force pass (``Stepper.loop_shares_force_pass``:
+    compiled here, they reuse its parts); then the energy, the blow-up rule's measures and the
+    strains; then this waits for the other child to end (``loop_done``) and runs as above,
+    reading everything from the cache."""
+    from sim.runtime.simulation import Simulation
 
     copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
     if loop_done is not None:
         copy._integrator.first_forces(copy.state)
-        if forces_ready is not None:
-            signal_ready(forces_ready)
         _first_forces_driven(copy)
+        if layer_ready is not None:
+            wait_for_end(layer_ready)
+        _loops(copy, steps, made_of_the_force_pass=True)
         copy.step(0)  # the energy and the balance's reference
         copy._problem()  # the blow-up rule's measures
         copy.strains()
         wait_for_end(loop_done)
     copy.energy()
-    try:
-        copy.step(max(1, int(steps)))
-    except BlowUpError:
-        pass
+    _steps(copy, max(1, int(steps)))
     copy.energy_balance_error()
     copy.strains()
+
+
+def _steps(simulation: Any, steps: int) -> None:
+    from sim.runtime.simulation import BlowUpError
+
+    try:
+        simulation.step(steps)
+    except BlowUpError:
+        pass
+
+
+def _loops(simulation: Any, steps: int, made_of_the_force_pass: bool) -> None:
+    """The stepper's loops for each chunk a run of ``steps`` steps advances at a time, those
+    made of the first force pass or the others, each started as if after that pass
+    (``Stepper.assume_forces_of``)."""
+    from sim.runtime.simulation import BlowUpError
+
+    stepper = simulation._integrator
+    for size in sorted(chunk_sizes(steps, simulation.chunk_steps), reverse=True):
+        if stepper.loop_shares_force_pass(size) != made_of_the_force_pass:
+            continue
+        stepper.assume_forces_of(simulation.state)
+        try:
+            simulation._advance(size)
+        except BlowUpError:
+            return
 
 
 def _first_forces_driven(simulation: Any) -> None:
@@ -53,6 +78,15 @@ def _first_forces_driven(simulation: Any) -> None:
         stepper.first_forces(simulation.state)
 
 
+def _layer(simulation: Any) -> None:
+    """The absorbing layer's action as the stepper's loop calls it (with the loop's springs'
+    parameters), so that the loop finds it compiled."""
+    forcing, stepper = simulation._forcing, simulation._integrator
+    if forcing is not None and forcing.has_sponge and "sponge" in stepper.in_step:
+        layer = forcing.sponge_arrays(simulation.dt, stepper.dtype)
+        layer.act(simulation.state, 0.0, stepper.kernel.parameters)
+
+
 def _place(simulation: Any) -> None:
     """A prescribed particle placed, as ``Simulation._advance`` places it before the loop."""
     if simulation._forcing is not None:
@@ -60,31 +94,23 @@ def _place(simulation: Any) -> None:
 
 
 def rehearse_loop(scene: Any, integrator: str, dt: float, precision: str, threads: int,
-                  steps: int, forces_ready: int | None = None) -> None:
-    """What ``rehearse`` compiles of the step loop, without the stepper's first force pass
-    (``Stepper.assume_forces_of``), in a second child beside it: first a prescribed particle's
-    placing, the absorbing layer's action (the loop calls the same kernel between steps) and the
-    energy, then the loop: a loop made of the force pass (``Stepper.loop_shares_force_pass``)
-    once the first child has compiled that (``forces_ready``).  Nothing where the stepper has no
-    such pass."""
-    from sim.runtime.simulation import BlowUpError, Simulation
+                  steps: int, layer_ready: int | None = None) -> None:
+    """The other half of ``rehearse`` for a stepper with a first force pass of its own
+    (``Stepper.assume_forces_of``), in a second child beside it: a prescribed particle's
+    placing, the absorbing layer's action (the loops call the same kernel between steps), then
+    ``layer_ready`` is signalled; then the energy and the step loops not made of the force pass
+    (the leapfrog's fused sweep).  Nothing where the stepper has no such pass."""
+    from sim.runtime.simulation import Simulation
 
     copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
     if not copy._integrator.assume_forces_of(copy.state):
         return
     _place(copy)
-    if copy._forcing is not None:
-        copy._forcing.sponge(copy.state, 0.0)
+    _layer(copy)
+    if layer_ready is not None:
+        signal_ready(layer_ready)
     copy.energy()
-    for size in sorted(chunk_sizes(steps, copy.chunk_steps), reverse=True):
-        if forces_ready is not None and copy._integrator.loop_shares_force_pass(size):
-            wait_for_end(forces_ready)
-            forces_ready = None
-        copy._integrator.assume_forces_of(copy.state)
-        try:
-            copy._advance(size)
-        except BlowUpError:
-            return
+    _loops(copy, steps, made_of_the_force_pass=False)
 
 
 def chunk_sizes(steps: int, chunk: int) -> set[int]:

@@ -112,7 +112,7 @@ def rehearse_simulation(simulation: Any, steps: int) -> None:
 def call_reading(function: Callable[..., Any], *arguments: Any,
                  child: dict | None = None, announce: Callable[[], None] | None = None,
                  beside: Sequence[tuple[Callable[..., Any], tuple]] = (),
-                 beside_done: str | None = None, main_ready: str | None = None,
+                 beside_done: str | None = None, beside_ready: str | None = None,
                  **keywords: Any) -> tuple[Any, bool]:
     """``function(*arguments, **keywords)`` with every kernel it calls read from numba's cache:
     tried with compiles refused; if a kernel is missing, ``announce()`` is called, a child
@@ -128,7 +128,7 @@ def call_reading(function: Callable[..., Any], *arguments: Any,
         announce()
     try:
         call_in_child(function, *arguments, beside=beside, beside_done=beside_done,
-                      main_ready=main_ready, **{**keywords, **(child or {})})
+                      beside_ready=beside_ready, **{**keywords, **(child or {})})
     except (OSError, RuntimeError, subprocess.SubprocessError, pickle.PicklingError,
             AttributeError, TypeError) as error:  # not picklable: compiled here
         LOGGER.warning("compiling the kernels in a child process failed (%s); compiling here",
@@ -144,7 +144,7 @@ def rehearse_reading(scene: Any, settings: tuple,
     beside = [(rehearse_loop, (scene, *settings))] if (os.cpu_count() or 1) > 1 else []
     return call_reading(rehearse, scene, *settings, announce=announce, beside=beside,
                         beside_done="loop_done" if beside else None,
-                        main_ready="forces_ready" if beside else None)[1]
+                        beside_ready="layer_ready" if beside else None)[1]
 
 
 _READ: set[Hashable] = set()
