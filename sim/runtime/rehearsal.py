@@ -1,7 +1,8 @@
 """Rehearsals: a copy of a simulation run as a run would run it, to compile (or read from numba's
 cache) every kernel the run calls, exactly as it calls them; the running simulation is not
-touched.  ``rehearse`` runs the whole of it; ``rehearse_loop`` the step loop alone, in a second
-child beside it, the two ordered by the signals of ``sim.runtime.children.call_in_child`` so that
+touched.  ``rehearse`` runs the whole of it; on two cores or more ``rehearse_loop`` takes a share
+in a second child beside it (the absorbing layer's action and the loops not made of the first
+force pass), the two ordered by the signals of ``sim.runtime.children.call_in_child`` so that
 neither compiles what the other does (``sim.runtime.warming.rehearse_reading``)."""
 
 from __future__ import annotations

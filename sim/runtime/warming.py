@@ -11,7 +11,8 @@ tens of seconds on first use on a machine (numba's on-disk cache keeps it for la
 * ``rehearse(scene, ...)`` builds a copy of a simulation from a snapshot (``sim.scenes.building.
   scene_from_simulation``) and runs what a run needs: the energy, ``steps`` steps, the energy
   balance, the strains.  That compiles (or loads from the cache) every kernel the run calls,
-  exactly as it calls them; the running simulation is not touched.
+  exactly as it calls them; the running simulation is not touched (``sim.runtime.rehearsal``,
+  where two children split the work on two cores or more, ``rehearse_reading``).
 * ``KernelPreparer`` rehearses in one background thread, the most recently asked combination
   first, and tells whether a key is ready, or how long its preparation has been running and
   whether it compiles (rather than only reading numba's cache).  ``shared_preparer()`` is the
