@@ -214,7 +214,8 @@ def test_a_page_gets_the_next_picture_when_it_has_drawn_the_last():
             requests += [first["request_uuid"], again["request_uuid"], second["request_uuid"]]
             await connection.send(acknowledgement(second))
             confirm = await next_request()
-            assert pacer.wanted()  # it has the newest: the next is encoded while it draws a frame
+            # it has the newest: the next is encoded while it draws a frame (once its rate allows)
+            assert await asyncio.to_thread(wait_for, pacer.wanted, 5)
             pacer.budget = 1.0  # one byte a second: the next picture waits for the budget
             assert not pacer.wanted()
             await connection.send(acknowledgement(confirm))
