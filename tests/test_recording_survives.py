@@ -202,3 +202,27 @@ def test_recordings_on_a_small_real_filesystem_that_another_writer_fills_all_rea
             assert "full" in errors[-1][1] and "full" in results[k][1]
     finally:
         subprocess.run(["umount", "-l", str(disk)], capture_output=True)
+
+
+def test_a_flush_stuck_on_a_full_disk_stops_with_the_reason(tmp_path, monkeypatch):
+    """Once rerun's file sink has failed to write (another program filled the disk), its flush
+    waits out its whole timeout: the recording checks the disk between seconds of waiting and
+    stops with the reason at once instead of seeming to hang."""
+    from app.recording import destination
+
+    class StuckStream:
+        calls = 0
+
+        def flush(self, timeout_sec: float) -> None:
+            StuckStream.calls += 1
+            raise RuntimeError(f"flush timed out after {timeout_sec} s")
+
+    monkeypatch.setattr(destination, "free_bytes", lambda directory: 10_000)
+    started = time.monotonic()
+    with pytest.raises(destination.RecordingError, match="disk nearly full"):
+        destination.flush(StuckStream(), tmp_path)
+    assert StuckStream.calls == 1 and time.monotonic() - started < 1.0
+    monkeypatch.setattr(destination, "free_bytes", lambda directory: 10**12)
+    with pytest.raises(destination.RecordingError, match="did not finish writing in 2 s"):
+        destination.flush(StuckStream(), tmp_path, timeout=2.0)
+    assert StuckStream.calls >= 3

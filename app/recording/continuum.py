@@ -135,7 +135,7 @@ def record_continuum(body: Body, particles: Sequence[int], path: str | Path, fra
                 run.log(stream, time, exaggeration, curve)
             if progress is not None:
                 progress(f"frame {frame} of {frames}")
-        stream.flush(timeout_sec=120.0)
+        destination.flush(stream, path.parent)
         stream.disconnect()
         output.commit()
     except BaseException:

@@ -19,6 +19,7 @@ import struct
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from time import monotonic
 from typing import Any
 
 from app.recording.rerun_lazy import rr
@@ -95,6 +96,28 @@ def check_space(directory: Path, bytes_per_interval: float = 0.0) -> None:
     free = free_bytes(directory)
     if free < max(RESERVE_BYTES, 3 * bytes_per_interval):
         raise RecordingError(f"disk nearly full in {directory} ({free / 1e6:.1f} MB free)")
+
+
+FLUSH_SECONDS = 120.0
+"""How long a flush may take before the recording fails (a slow or network disk)."""
+
+
+def flush(stream: Any, directory: Path, bytes_per_interval: float = 0.0,
+          timeout: float = FLUSH_SECONDS) -> None:
+    """rerun's ``flush`` of ``stream`` into a file in ``directory``, waited for a second at a
+    time with the disk's room checked in between (``check_space``): once rerun's file sink has
+    failed to write (a disk another program filled), its flush waits out its whole timeout, and
+    the recording would seem to hang for it instead of stopping with the reason."""
+    deadline = monotonic() + timeout
+    while True:
+        try:
+            stream.flush(timeout_sec=1.0)
+            return
+        except Exception as error:  # noqa: BLE001 - rerun raises on its timeout
+            check_space(directory, bytes_per_interval)
+            if monotonic() > deadline:
+                raise RecordingError(f"rerun did not finish writing in {timeout:g} s "
+                                     f"({error})") from error
 
 
 @dataclass(frozen=True)

@@ -318,7 +318,7 @@ class Recorder:
             self._since_flush += 1
             if self._since_flush >= self.options.flush_every:
                 self._since_flush = 0
-                self.stream.flush(timeout_sec=120.0)
+                destination.flush(self.stream, self.path.parent, self._bytes_per_flush)
                 destination.check_space(self.path.parent, self._bytes_per_flush)
         except Exception as error:  # reported to the producer; Ctrl-C passes through
             self._failure = error
@@ -377,7 +377,7 @@ class Recorder:
             self._failure = destination.explain_failure(self._failure, self.path.parent)
             self._log_failure()
         try:
-            self.stream.flush(timeout_sec=120.0)
+            destination.flush(self.stream, self.path.parent)
         except Exception as error:  # noqa: BLE001 - a write failed: the file is ended below
             if self._failure is None:
                 self._failure = error
