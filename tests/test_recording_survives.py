@@ -226,3 +226,21 @@ def test_a_flush_stuck_on_a_full_disk_stops_with_the_reason(tmp_path, monkeypatc
     with pytest.raises(destination.RecordingError, match="did not finish writing in 2 s"):
         destination.flush(StuckStream(), tmp_path, timeout=2.0)
     assert StuckStream.calls >= 3
+
+
+def test_a_close_stuck_in_rerun_is_given_up_after_its_time(monkeypatch):
+    """rerun's disconnect after its file sink failed may wait for ever: it is given its time,
+    then left behind (the file is ended by the recorder's own repair)."""
+    from app.recording import destination
+
+    class Stream:
+        def __init__(self, seconds: float) -> None:
+            self.seconds = seconds
+
+        def disconnect(self) -> None:
+            time.sleep(self.seconds)
+
+    assert destination.disconnect(Stream(0.0), timeout=5.0)
+    started = time.monotonic()
+    assert not destination.disconnect(Stream(60.0), timeout=0.5)
+    assert time.monotonic() - started < 2.0

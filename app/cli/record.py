@@ -13,6 +13,7 @@ import argparse
 import contextlib
 import logging
 import math
+import os
 import signal
 import sys
 import time
@@ -417,6 +418,10 @@ def command_record(arguments: argparse.Namespace) -> int:
                     None if stop.signal_name in (None, "SIGINT") else stop.signal_name))
             except RecordingError as error:  # writing failed: the file is kept, readable
                 print(f"error: {error}", file=sys.stderr)
+                if recorder.writer_stuck:  # rerun's exit handlers would wait for its writer
+                    sys.stdout.flush()
+                    sys.stderr.flush()
+                    os._exit(2)
                 return 2
     elapsed = time.perf_counter() - started
     size = path.stat().st_size

@@ -16,6 +16,7 @@ import fcntl
 import os
 import shutil
 import struct
+import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -118,6 +119,28 @@ def flush(stream: Any, directory: Path, bytes_per_interval: float = 0.0,
             if monotonic() > deadline:
                 raise RecordingError(f"rerun did not finish writing in {timeout:g} s "
                                      f"({error})") from error
+
+
+DISCONNECT_SECONDS = 30.0
+"""How long rerun may take to close a recording's file."""
+
+
+def disconnect(stream: Any, timeout: float = DISCONNECT_SECONDS) -> bool:
+    """rerun's ``disconnect`` of ``stream``, given ``timeout`` seconds: once its file sink has
+    failed to write (a full disk), it may wait for ever.  Returns whether it ended; if not,
+    rerun's writer is left behind and the file is ended by ``end_readably``, and a command
+    should then end its process without rerun's exit handlers, which would wait for that
+    writer too (``os._exit``)."""
+    done = threading.Event()
+
+    def close() -> None:
+        try:
+            stream.disconnect()
+        finally:
+            done.set()
+
+    threading.Thread(target=close, name="rerun-disconnect", daemon=True).start()
+    return done.wait(timeout)
 
 
 @dataclass(frozen=True)

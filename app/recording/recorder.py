@@ -170,6 +170,8 @@ class Recorder:
         self._lock = threading.Lock()
         self._closed = False
         self._failure: BaseException | None = None
+        self.writer_stuck = False
+        """rerun's writer did not end when the file was closed (``destination.disconnect``)."""
         self.frames_logged = 0
         self.logging_seconds = 0.0
         """Wall time spent logging frames (colour mapping, encoding, rerun calls; not flushes)."""
@@ -382,7 +384,9 @@ class Recorder:
             if self._failure is None:
                 self._failure = error
         finally:
-            self.stream.disconnect()
+            self.writer_stuck = not destination.disconnect(self.stream)
+            if self.writer_stuck and self._failure is None:
+                self._failure = RecordingError("rerun did not finish writing the file")
         if self._failure is not None:
             self._failure = destination.explain_failure(self._failure, self.path.parent)
             self._end_readably()
