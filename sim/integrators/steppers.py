@@ -190,9 +190,10 @@ class Euler(Integrator):
         state.advance_clock(n, dt)
 
 
-class Verlet(Integrator):
-    name = "verlet"
-    work_arrays = 2
+class CarriedForces(Integrator):
+    """A stepper that keeps the last forces of a call for the next (velocity Verlet and the
+    splitting methods: the first kick of a step uses the forces of the last drift), recomputed
+    whenever the state may have changed since (``invalidate``, a new revision or time)."""
 
     @classmethod
     def loop_family(cls, model: Model) -> str:
@@ -205,15 +206,8 @@ class Verlet(Integrator):
         super().__init__(model, dtype, threads)
         self._cached_for: tuple[int, float] | None = None
         self._assumed = False  # assume_forces_of: the next advance starts with its loop
-        self._power = 0.0
-
         self._leapfrog = self.loop_family(model) == "leapfrog"
-        blocks = self._block_starts.size - 1
-        self._leapfrog_work = leapfrog_work(model, blocks, self.dtype)
-        self._drive_power = 0.0
-        self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
-        self._block_totals = np.zeros((blocks, 2))
-        self._saved = np.zeros((1, 3))  # velocities of driven particles (m/s)
+        self._leapfrog_work = leapfrog_work(model, self._block_starts.size - 1, self.dtype)
 
     def invalidate(self) -> None:
         self._cached_for = None
@@ -225,18 +219,22 @@ class Verlet(Integrator):
     def first_forces(self, state: State) -> bool:
         if self.parallel:
             self._start_threads()
-        self._driven_accelerations(state, state.time)
+        self._first_pass(state)
         self._cached_for = (state.revision, state.time)
         return True
 
-    def loop_shares_force_pass(self, n: int) -> bool:
-        return not (self._leapfrog and n >= 2)  # the leapfrog fuses its own
+    def _first_pass(self, state: State) -> None:
+        """The forces an ``advance`` starts from, into ``work[0]``."""
+        self._accelerations(state)
 
-    @property
-    def in_step(self) -> frozenset[str]:
-        if self.parallel and not self._leapfrog:
-            return frozenset()
-        return frozenset(("drive", "sponge"))
+    def _forces_stale(self, state: State) -> bool:
+        """Whether ``advance`` must compute its first forces (not assumed, not kept)."""
+        return self._cached_for != (state.revision, state.time) and not self._assumed
+
+    def _keep_forces(self, state: State) -> None:
+        """The forces in ``work[0]`` are those of ``state`` now (the end of an ``advance``)."""
+        self._cached_for = (state.revision, state.time)
+        self._assumed = False
 
     def _accelerations(self, state: State) -> float:
         """a(x, v) of the state into ``work[0]`` (on the row blocks' threads when parallel);
@@ -247,25 +245,50 @@ class Verlet(Integrator):
             )
         return stepping.accelerations(*self._common(state), self.work[0])
 
+
+class Verlet(CarriedForces):
+    name = "verlet"
+    work_arrays = 2
+
+    def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
+        super().__init__(model, dtype, threads)
+        self._power = 0.0
+        blocks = self._block_starts.size - 1
+        self._drive_power = 0.0
+        self._totals = np.zeros(3)  # drive work (J), layer take (J), drive power (W)
+        self._block_totals = np.zeros((blocks, 2))
+        self._saved = np.zeros((1, 3))  # velocities of driven particles (m/s)
+
+    def _first_pass(self, state: State) -> None:
+        self._driven_accelerations(state, state.time)
+
+    def loop_shares_force_pass(self, n: int) -> bool:
+        return not (self._leapfrog and n >= 2)  # the leapfrog fuses its own
+
+    @property
+    def in_step(self) -> frozenset[str]:
+        if self.parallel and not self._leapfrog:
+            return frozenset()
+        return frozenset(("drive", "sponge"))
+
     def _driven_accelerations(self, state: State, time: float, lead: float = 0.0) -> None:
         """Lattice accelerations into ``work[0]`` and the drive at ``time`` added to them; the
         drive's power is taken at the velocities ``lead`` (s) later (half a step for a
         leapfrog's half-step velocities)."""
         self._power = self._accelerations(state)
         if self.drive is not None:
-            self._drive_power = instruments.drive_rows(time, self.drive, instruments.EVERY_KIND, self.work[0],
-                                                       state.velocities, lead)
+            self._drive_power = instruments.drive_rows(
+                time, self.drive, instruments.EVERY_KIND, self.work[0], state.velocities, lead)
 
     def advance(self, state: State, n: int, dt: float) -> None:
-        stamp = (state.revision, state.time)
         if self.parallel:
             self._start_threads()
         layer = self.sponge
         if layer is not None:  # half the layer's action before the steps, half after them
             layer.act(state, 0.5 * dt, self.kernel.parameters)
             if self.kernel.terms.damped is not None:
-                self._cached_for = None  # the forces depend on the velocities it kicked
-        if self._cached_for != stamp and not self._assumed:
+                self.invalidate()  # the forces depend on the velocities it kicked
+        if self._forces_stale(state):
             self._driven_accelerations(state, state.time)
         step = self._dt(dt)
         drive = self.drive
@@ -315,11 +338,10 @@ class Verlet(Integrator):
         if layer is not None:
             layer.act(state, 0.5 * dt, self.kernel.parameters)
         state.advance_clock(n, dt)
-        self._cached_for = (state.revision, state.time)
-        self._assumed = False
+        self._keep_forces(state)
 
 
-class Splitting(Integrator):
+class Splitting(CarriedForces):
     """A splitting method given by its table (``sim.integrators.splitting``): kick and drift
     sweeps with the table's weights.  Undamped nonlinear springs run the fused leapfrog sweeps
     (``sim.loops.leapfrog``, row blocks on threads); other lattices a force sweep and a kick and
@@ -336,47 +358,17 @@ class Splitting(Integrator):
         return type(f"Splitting[{table.label}]", (cls,), {
             "table": table, "name": name, "__doc__": f"{table.label}: {cls.__doc__}"})
 
-    @classmethod
-    def loop_family(cls, model: Model) -> str:
-        return leapfrog_family(model)
-
     def __init__(self, model: Model, dtype: type[np.floating] = np.float64, threads: int = 1) -> None:
         super().__init__(model, dtype, threads)
-        self._cached_for: tuple[int, float] | None = None
-        self._assumed = False  # assume_forces_of: the next advance starts with its loop
-        self._leapfrog = self.loop_family(model) == "leapfrog"
-        blocks = self._block_starts.size - 1
-        self._leapfrog_work = leapfrog_work(model, blocks, self.dtype)
-        self._totals = np.zeros((blocks, 2))
-
-    def invalidate(self) -> None:
-        self._cached_for = None
-
-    def assume_forces_of(self, state: State) -> bool:
-        self._assumed = True
-        return True
-
-    def first_forces(self, state: State) -> bool:
-        if self.parallel:
-            self._start_threads()
-        self._accelerations(state)
-        self._cached_for = (state.revision, state.time)
-        return True
+        self._totals = np.zeros((self._block_starts.size - 1, 2))
 
     def loop_shares_force_pass(self, n: int) -> bool:
         return not self._leapfrog
 
-    def _accelerations(self, state: State) -> None:
-        if self.parallel:
-            row_blocks.accelerations_parallel(*self._common(state), self.work[0],
-                                              self._block_starts)
-        else:
-            stepping.accelerations(*self._common(state), self.work[0])
-
     def advance(self, state: State, n: int, dt: float) -> None:
         if self.parallel:
             self._start_threads()
-        if self._cached_for != (state.revision, state.time) and not self._assumed:
+        if self._forces_stale(state):
             self._accelerations(state)
         acceleration = self.work[0]
         sweeps = self._sweeps(self.table, n, dt)
@@ -394,8 +386,7 @@ class Splitting(Integrator):
         self._accelerations(state)
         stepping.kick_all(self.dtype(self.table.kicks[-1] * dt), state.velocities, acceleration)
         state.advance_clock(n, dt)
-        self._cached_for = (state.revision, state.time)
-        self._assumed = False
+        self._keep_forces(state)
 
 
 class RungeKutta(Integrator):

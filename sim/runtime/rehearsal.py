@@ -25,7 +25,7 @@ def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: in
     compiled here, they reuse its parts); then the energy, the blow-up rule's measures and the
     strains; then this waits for the other child to end (``loop_done``) and runs as above,
     reading everything from the cache."""
-    from sim.runtime.simulation import Simulation
+    from sim.runtime.simulation import BlowUpError, Simulation
 
     copy = Simulation(scene, integrator=integrator, dt=dt, precision=precision, threads=threads)
     if loop_done is not None:
@@ -39,18 +39,12 @@ def rehearse(scene: Any, integrator: str, dt: float, precision: str, threads: in
         copy.strains()
         wait_for_end(loop_done)
     copy.energy()
-    _steps(copy, max(1, int(steps)))
-    copy.energy_balance_error()
-    copy.strains()
-
-
-def _steps(simulation: Any, steps: int) -> None:
-    from sim.runtime.simulation import BlowUpError
-
     try:
-        simulation.step(steps)
+        copy.step(max(1, int(steps)))
     except BlowUpError:
         pass
+    copy.energy_balance_error()
+    copy.strains()
 
 
 def _loops(simulation: Any, steps: int, made_of_the_force_pass: bool) -> None:
