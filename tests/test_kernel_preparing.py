@@ -332,3 +332,26 @@ def test_the_two_compiling_children_wait_for_each_other_and_for_no_dead_one(tmp_
                 "beside": ["main: after the other's first part", "main: after the other ended"],
                 "main": ["beside: first part", "beside: the rest"]}[fails]
     assert order == expected
+
+
+def test_a_child_whose_starter_is_gone_ends_at_once():
+    """A compiling child asks to end with the process that started it; if that process is not
+    its parent any more when it asks (it ended in between), the child ends at once."""
+    import subprocess
+    import sys
+
+    from sim.runtime.children import PARENT_VARIABLE, ROOT
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the child ends with its parent on Linux")
+    code = "from sim.runtime.children import end_with_parent; end_with_parent(); print('went on')"
+
+    def child(parent: int) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              cwd=ROOT, env={**os.environ, PARENT_VARIABLE: str(parent)},
+                              timeout=60)
+
+    gone = child(2**22 + 1)  # above Linux's largest process id: no process's
+    assert gone.returncode == 1 and gone.stdout == ""
+    alive = child(os.getpid())
+    assert alive.returncode == 0 and alive.stdout.strip() == "went on"

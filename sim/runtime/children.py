@@ -32,11 +32,11 @@ def _child(function: Callable[..., Any], arguments: tuple, keywords: dict,
     environment = dict(os.environ)
     environment["PYTHONPATH"] = os.pathsep.join(
         [str(ROOT), *filter(None, [environment.get("PYTHONPATH")])])
+    environment[PARENT_VARIABLE] = str(os.getpid())
     errors = tempfile.TemporaryFile()
     child = subprocess.Popen([sys.executable, "-m", "sim.runtime.warming"],
                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                             stderr=errors, env=environment, preexec_fn=_end_with_parent,
-                             pass_fds=keep)
+                             stderr=errors, env=environment, pass_fds=keep)
     return child, errors, pickle.dumps((function, arguments, keywords))
 
 
@@ -52,17 +52,30 @@ def signal_ready(descriptor: int) -> None:
     os.close(descriptor)
 
 
-def _end_with_parent() -> None:
-    """In the child before it starts (Linux): end it when the thread that started it ends, so a
-    server stopped while a kernel compiles leaves no compiling process behind."""
-    if sys.platform.startswith("linux"):
-        import ctypes
-        import signal
+PARENT_VARIABLE = "OSCILLATORS_CHILD_OF"
+"""The environment variable that gives a child the process id of the process that started it
+(``end_with_parent``)."""
 
-        try:
-            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
-        except (OSError, AttributeError):
-            pass
+
+def end_with_parent() -> None:
+    """In a child, first thing (Linux): be ended (SIGTERM) when the thread that started it
+    ends, so a server stopped while a kernel compiles leaves no compiling process behind; and
+    end at once if that process is gone already.  Done here, after the child started, rather
+    than between fork and exec: Python code run there (``preexec_fn``) can deadlock the child
+    and with it the thread waiting for the start, when another thread of the server held a
+    lock (an import, a ``dlopen``) at the fork."""
+    parent = os.environ.pop(PARENT_VARIABLE, None)
+    if parent is None or not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != int(parent):  # it ended before the signal was asked for
+        os._exit(1)
 
 
 def _finish(child: Any, errors: Any, timeout: float | None) -> str:

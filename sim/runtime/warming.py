@@ -54,7 +54,7 @@ from collections.abc import Callable, Hashable, Iterator, Sequence
 from typing import Any
 
 from sim.forces import registry
-from sim.runtime.children import CHILD_TIMEOUT, ROOT, call_in_child  # noqa: F401
+from sim.runtime.children import CHILD_TIMEOUT, ROOT, call_in_child, end_with_parent  # noqa: F401
 from sim.runtime.rehearsal import chunk_sizes, rehearse, rehearse_loop  # noqa: F401
 
 LOGGER = logging.getLogger("oscillators.warming")
@@ -172,6 +172,7 @@ def prepare_reading(simulation: Any, steps: int = REHEARSED_STEPS,
 
 def main() -> None:
     """The child: read (function, arguments, keywords) pickled on standard input, call it."""
+    end_with_parent()
     function, arguments, keywords = pickle.load(sys.stdin.buffer)
     function(*arguments, **keywords)
 
