@@ -33,12 +33,48 @@ def test_a_refused_compile_raises_before_it_starts_in_that_thread_only():
         thread = threading.Thread(target=lambda: elsewhere.append(twice(values)))
         thread.start()
         thread.join()
-        warming.forget_thread(thread.ident)  # its identity may go to a later thread
         assert np.array_equal(elsewhere[0], [0.0, 2.0, 4.0])  # another thread compiles
         assert np.array_equal(twice(values), [0.0, 2.0, 4.0])  # compiled: nothing refused
         with pytest.raises(warming.WouldCompile):
             twice(np.arange(3))  # a new type is a new compile
     assert np.array_equal(twice(np.arange(3)), [0, 2, 4])  # refused no longer
+
+
+def test_a_new_thread_does_not_inherit_what_an_ended_one_with_its_identity_loaded():
+    """Thread identities are given again once a thread ends: what the watch says of a thread
+    is said of that thread, not of a later one that happens to get its identity."""
+    @njit
+    def thrice(values):
+        return values * 3.0
+
+    warming.compiles_started()  # watching from here on
+    said = []
+
+    def load() -> None:
+        thrice(np.arange(3.0))
+        said.append(warming.loaded_in_thread(threading.get_ident()))
+
+    first = threading.Thread(target=load)
+    first.start()
+    first.join()
+    assert said == [True]
+    release = threading.Event()
+    for _ in range(50):  # an ended thread's identity is usually the next thread's
+        later = threading.Thread(target=release.wait)
+        later.start()
+        if later.ident == first.ident:
+            break
+        release.set()
+        later.join()
+        release.clear()
+    else:
+        pytest.skip("no new thread got the ended thread's identity")
+    try:
+        assert not warming.loaded_in_thread(later.ident)
+        assert not warming.compiled_in_thread(later.ident)
+    finally:
+        release.set()
+        later.join()
 
 
 CHILD = """

@@ -50,6 +50,7 @@ import subprocess
 import sys
 import threading
 import time
+import weakref
 from collections.abc import Callable, Hashable, Iterator, Sequence
 from typing import Any
 
@@ -193,13 +194,16 @@ class WouldCompile(RuntimeError):
 
 class _CompileWatch:
     """Which threads are inside a numba compile now (numba's "numba:compile" events), and which
-    refuse to compile (``refusing``)."""
+    refuse to compile (``refusing``).  ``seen`` and ``locked`` hold the threads themselves, not
+    their identities: a finished thread's identity is soon given to a new one, which must not
+    inherit what the old one did."""
 
     def __init__(self) -> None:
         self.threads: dict[int, int] = {}
         self.refusing: set[int] = set()
-        self.seen: set[int] = set()
-        self.locked: set[int] = set()
+        self.seen: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
+        """Threads that started a compile."""
+        self.locked: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
         """Threads that took numba's compiler lock: compiled or read a kernel from the cache."""
         self.started = 0
         self._lock = threading.Lock()
@@ -219,10 +223,10 @@ class _CompileWatch:
                 ident = threading.get_ident()
                 with watch._lock:
                     if ident in watch.refusing:  # before the compile: nothing is half made
-                        watch.seen.add(ident)  # compiling is what comes next
+                        watch.seen.add(threading.current_thread())  # compiling comes next
                         raise WouldCompile("a kernel is not in numba's cache")
                     watch.threads[ident] = watch.threads.get(ident, 0) + 1
-                    watch.seen.add(ident)
+                    watch.seen.add(threading.current_thread())
                     watch.started += 1
 
             def on_end(self, _: Any) -> None:
@@ -233,7 +237,7 @@ class _CompileWatch:
         class LockListener(event.Listener):
             def on_start(self, _: Any) -> None:
                 with watch._lock:
-                    watch.locked.add(threading.get_ident())
+                    watch.locked.add(threading.current_thread())
 
             def on_end(self, _: Any) -> None:
                 pass
@@ -243,13 +247,23 @@ class _CompileWatch:
         self.installed = True
 
     def compiled_in(self, ident: int | None) -> bool:
-        """Whether the thread ``ident`` started a compile since ``forget(ident)``."""
+        """Whether the running thread ``ident`` started a compile since ``forget(ident)``."""
         with self._lock:
-            return ident in self.seen
+            return _running(self.seen, ident)
 
     def forget(self, ident: int) -> None:
         with self._lock:
-            self.seen.discard(ident)
+            _discard(self.seen, ident)
+
+
+def _running(threads: weakref.WeakSet, ident: int | None) -> bool:
+    """Whether a running thread of ``threads`` has the identity ``ident``."""
+    return any(thread.ident == ident and thread.is_alive() for thread in list(threads))
+
+
+def _discard(threads: weakref.WeakSet, ident: int) -> None:
+    for thread in [thread for thread in list(threads) if thread.ident == ident]:
+        threads.discard(thread)
 
 
 _WATCH = _CompileWatch()
@@ -282,7 +296,7 @@ def loaded_in_thread(ident: int) -> bool:
     numba's compiler lock) since the process began watching."""
     _WATCH.install()
     with _WATCH._lock:
-        return ident in _WATCH.locked
+        return _running(_WATCH.locked, ident)
 
 
 def forget_thread(ident: int) -> None:
@@ -290,8 +304,8 @@ def forget_thread(ident: int) -> None:
     given to a new one)."""
     _WATCH.install()
     with _WATCH._lock:
-        _WATCH.seen.discard(ident)
-        _WATCH.locked.discard(ident)
+        _discard(_WATCH.seen, ident)
+        _discard(_WATCH.locked, ident)
 
 
 def compiles_started() -> int:
