@@ -48,5 +48,7 @@ def browser():
         chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         try:
             yield chromium
-        finally:
+        finally:  # the pages' contexts first: Chromium closed with a download under way may
+            for context in chromium.contexts:  # never answer (Playwright's issue 22185)
+                context.close()
             chromium.close()

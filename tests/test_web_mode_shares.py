@@ -37,6 +37,9 @@ def test_the_folder_plots_the_shares_and_marks_the_return(fput_app):
     from sim.runtime.runner import Frame
 
     view, runner = fput_app.panel.spectrum.mode_shares, fput_app.runner
+    # the app's own first frame (at t = 0) reaches the folder first: arriving among the frames
+    # below, it would read as a reset
+    assert wait_for(lambda: view.shares is not None and view.shares.times.size >= 1)
     speed = SPEEDS[fput_app.panel.run.speed.value]
     assert runner.simulation.scene.duration / speed <= 90.0 and speed > 1
     assert runner.max_fps * runner.steps_per_frame * runner.simulation.dt == pytest.approx(speed)

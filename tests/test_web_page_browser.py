@@ -106,16 +106,19 @@ def test_page_before_play_shows_the_lattice_and_a_recording_downloads(web_app, b
     downloads = []
     page.on("download", lambda download: downloads.append(download))
     page.get_by_role("button", name="Download recording").click()
-    for _ in range(600):  # the recording and its read-me arrive in either order
-        if any(d.suggested_filename.endswith(".rrd") for d in downloads):
+    for _ in range(600):  # the recording and its read-me, in either order
+        if len(downloads) == 2:
             break
         page.wait_for_timeout(100)
-    download = next(d for d in downloads if d.suggested_filename.endswith(".rrd"))
-    path = tmp_path / download.suggested_filename
-    download.save_as(path)
-    assert path.suffix == ".rrd"
-    chunks = RrdReader(path).stream().to_chunks()
+    names = sorted((d.suggested_filename for d in downloads), key=lambda n: n.endswith(".md"))
+    assert len(names) == 2 and names[0].endswith(".rrd"), names
+    assert names[1] == names[0].removesuffix(".rrd") + "-readme.md", names
+    for download in downloads:  # both finished before the page goes (a browser closed
+        download.save_as(tmp_path / download.suggested_filename)  # mid-download may hang)
+    page.context.close()
+    chunks = RrdReader(tmp_path / names[0]).stream().to_chunks()
     assert any(c.entity_path == "/lattice/particles" and not c.is_static for c in chunks)
+    assert "grid" in (tmp_path / names[1]).read_text()  # the read-me names the scene
 
 
 @pytest.mark.slow
