@@ -15,6 +15,7 @@ import viser
 
 import sim
 from app.web.scene_files import MAX_PAGE_PARTICLES, SceneDirectory
+from tests.helpers import wait_for
 from tests.lying_zip import many_member_zip, write_lying_zip
 from tests.test_web_safety import send
 
@@ -118,9 +119,10 @@ def test_the_page_refuses_a_listed_file_larger_than_its_particle_limit(tmp_path)
 
 
 def test_quick_preset_and_build_presses_end_on_the_last_preset_whole(web_app, monkeypatch):
-    """40 Preset + Build presses at 10 a second, each handled on its own thread as viser does,
-    with builds that take 0-0.4 s (as large lattices do): one build at a time, the last press
-    wins, and the scene is the preset at its own size."""
+    """40 Preset + Build presses at 10 a second, each value stored in the order it arrives and
+    each press handled on its own thread, as viser does, with builds that take 0-0.4 s (as large
+    lattices do): one build at a time, the last press wins, and the scene is the preset at its
+    own size."""
     import random
     import threading
     import time
@@ -134,13 +136,14 @@ def test_quick_preset_and_build_presses_end_on_the_last_preset_whole(web_app, mo
         time.sleep(0.4 * delays.random())
         return build(*arguments, **overrides)
 
-    monkeypatch.setattr(sim.scenes.building, "build", slow_build)
+    monkeypatch.setattr(sim.scenes, "build", slow_build)  # as the folder calls it
     panel = web_app.panel.scene
     names = ["chain", "square", "grid", "single"]
     threads = []
     for index in range(40):
         name = names[index % len(names)]
-        for action in (lambda name=name: send(panel.preset, name),
+        panel.preset._impl.value = name  # viser stores a value in its event loop, in order,
+        for action in (lambda: send(panel.preset),  # then runs the callbacks on its threads
                        lambda: press(panel.build_button)):
             thread = threading.Thread(target=action)
             thread.start()
@@ -150,9 +153,47 @@ def test_quick_preset_and_build_presses_end_on_the_last_preset_whole(web_app, mo
         thread.join(timeout=120)
     settle(web_app)
     last = names[39 % len(names)]
-    expected = sim.scenes.build(last)
+    expected = build(last)
     model = web_app.runner.simulation.model
     assert web_app.runner.simulation.scene.name == last
     assert (model.nx, model.ny) == (expected.model.nx, expected.model.ny)
     assert (panel.nx.value, panel.ny.value) == (model.nx, model.ny)
     assert panel.preset.value == last
+
+
+def test_a_press_made_while_a_build_runs_builds_what_the_page_showed(web_app, monkeypatch):
+    """Chain is building; the page picks single and presses Build: the press waits, and once
+    chain is shown it builds single, not the chain that the finished build put in the
+    widgets."""
+    import threading
+
+    from tests.test_web_safety import press, settle
+
+    build = sim.scenes.build
+    building, release = threading.Event(), threading.Event()
+
+    def held_build(name, **overrides):
+        if name == "chain":
+            building.set()
+            assert release.wait(60)
+        return build(name, **overrides)
+
+    monkeypatch.setattr(sim.scenes, "build", held_build)
+    panel = web_app.panel.scene
+    panel.preset._impl.value = "chain"
+    send(panel.preset)
+    first = threading.Thread(target=press, args=(panel.build_button,))
+    first.start()
+    assert building.wait(60)
+    panel.preset._impl.value = "single"  # viser stores the page's value at once
+    send(panel.preset)
+    second = threading.Thread(target=press, args=(panel.build_button,))
+    second.start()
+    assert wait_for(lambda: panel._presses == 2)
+    release.set()
+    first.join(60)
+    second.join(60)
+    settle(web_app)
+    assert web_app.runner.simulation.scene.name == "single"
+    assert panel.preset.value == "single"
+    assert (panel.nx.value, panel.ny.value) == (1, 1)

@@ -13,6 +13,7 @@ folder's message line.
 from __future__ import annotations
 
 import threading
+from typing import NamedTuple
 
 import viser
 
@@ -24,6 +25,17 @@ from app.web.host import Folder, PanelHost
 from app.web.inputs import InputRefused, as_html, choice, from_user, ok_html, whole_number
 from app.web.scene_files import MAX_PAGE_PARTICLES
 from app.web.widgets import ERRORS, say
+
+
+class BuildChoice(NamedTuple):
+    """What the page showed when *Build scene* was pressed: the preset, the size, and the preset
+    that size was shown for."""
+
+    preset: str
+    nx: float
+    ny: float
+    sized_for: str
+
 
 MAX_SIDE = 2_000
 """Largest nx or ny the page builds (and deepest sponge layer it accepts)."""
@@ -40,6 +52,9 @@ class SceneFolder(Folder):
         self._press_lock = threading.Lock()
         self._presses = 0
         """Build presses so far (a build runs only if no later press came while it waited)."""
+        self._building = 0
+        """The press whose build runs or ran last (``show_scene`` leaves the preset and size
+        alone while a later one waits)."""
         self._sized_for = ""
         """The preset whose size the nx and ny controls show (or the running scene's size)."""
         gui = host.server.gui
@@ -78,24 +93,27 @@ class SceneFolder(Folder):
         @self.build_button.on_click
         @from_user
         def _(_: viser.GuiEvent) -> None:
-            with self._press_lock:
-                self._presses += 1
-                press = self._presses
+            with self._press_lock:  # what the page showed when pressed: a build finishing
+                self._presses += 1  # meanwhile shows its own scene in these widgets
+                press, chosen = self._presses, self._chosen()
             with self._build_lock:
                 if press == self._presses:  # else a later press builds
-                    self._build()
+                    self._building = press
+                    self._build(chosen)
 
-    def _build(self) -> None:
+    def _chosen(self) -> BuildChoice:
+        return BuildChoice(self.preset.value, self.nx.value, self.ny.value, self._sized_for)
+
+    def _build(self, chosen: BuildChoice) -> None:
         host = self.host
         try:
-            name = choice(self.preset.value, "preset", sim.scenes.names())
+            name = choice(chosen.preset, "preset", sim.scenes.names())
             parameters = sim.scenes.presets.PRESETS[name].parameters
-            if self._sized_for != name:  # the size shown is another preset's
-                self.nx.value = int(parameters.get("nx", 1))
-                self.ny.value = int(parameters.get("ny", 1))
-                self._sized_for = name
-            nx = whole_number(self.nx.value, "nx", 1, MAX_SIDE)
-            ny = whole_number(self.ny.value, "ny", 1, MAX_SIDE)
+            nx, ny = chosen.nx, chosen.ny
+            if chosen.sized_for != name:  # the size shown was another preset's
+                nx, ny = int(parameters.get("nx", 1)), int(parameters.get("ny", 1))
+            nx = whole_number(nx, "nx", 1, MAX_SIDE)
+            ny = whole_number(ny, "ny", 1, MAX_SIDE)
             if nx * ny > MAX_PAGE_PARTICLES:
                 raise InputRefused(
                     f"{nx}x{ny} = {nx * ny:,} particles; the page builds up to "
@@ -117,10 +135,13 @@ class SceneFolder(Folder):
 
     def show_scene(self, simulation: sim.Simulation) -> None:
         model = simulation.model
-        if simulation.scene.name in sim.scenes.names():
-            self.preset.value = simulation.scene.name
-        self.nx.value, self.ny.value = model.nx, model.ny
-        self._sized_for = self.preset.value
+        with self._press_lock:
+            waiting = self._presses > self._building  # a later press builds what it was shown
+        if not waiting:
+            if simulation.scene.name in sim.scenes.names():
+                self.preset.value = simulation.scene.name
+            self.nx.value, self.ny.value = model.nx, model.ny
+            self._sized_for = self.preset.value
         self.show_info(simulation)
         self.walls.show(model)
 
