@@ -81,3 +81,33 @@ def test_the_fput_chain_plays_fast_and_its_modes_are_plotted(fput_app):
 def test_a_grid_has_no_mode_share_plot(web_app):
     view = web_app.panel.spectrum.mode_shares
     assert view.shares is None and not view.plot.visible
+
+
+@pytest.mark.parametrize(("preset", "sizes", "particles"),
+                         [("single", {}, 1), ("chain", {"nx": 3}, 3)])
+def test_a_chain_of_fewer_particles_than_plotted_modes_is_plotted(preset, sizes, particles):
+    """One particle between two walls has one mode, three have three: the folder plots those
+    (the others left empty) instead of failing."""
+    from sim.runtime.runner import Frame
+
+    app = WebApp(sim.Simulation(sim.scenes.build(preset, **sizes)), port=free_port())
+    app.start()
+    try:
+        view = app.panel.spectrum.mode_shares
+        assert wait_for(lambda: view.shares is not None and view.shares.times.size >= 1)
+        simulation = sim.Simulation(sim.scenes.build(preset, **sizes))
+        assert simulation.model.nx == particles
+        for _ in range(40):
+            simulation.step(20)
+            view._sample(Frame(simulation.step_count, simulation.time, "verlet", simulation.dt,
+                               app.runner.simulation.model,
+                               simulation.state.particle_positions().copy(), simulation.energy(),
+                               simulation.state.particle_velocities().copy()))
+        view.update(now=1e9)
+        times, *modes, marks = view.plot.data
+        assert len(modes) == 4 and times.size >= 3
+        assert np.allclose(np.sum([m for m in modes if np.isfinite(m).all()], axis=0), 1.0)
+        assert sum(np.isfinite(m).all() for m in modes) == particles
+        assert "mode 1" in view.text.content
+    finally:
+        app.stop()

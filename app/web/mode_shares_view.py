@@ -108,7 +108,9 @@ class ModeSharesView:
             for back in returns:
                 marks[int(np.argmin(np.abs(times - back.periods)))] = back.share
             # in the lock: a reset's new plot never gets the old run's data
-            self.plot.data = (times, *(values[:, k] for k in range(SHOWN_MODES)), marks)
+            absent = np.full(times.size, np.nan)  # a chain of fewer particles has fewer modes
+            self.plot.data = (times, *(values[:, k] if k < values.shape[1] else absent
+                                       for k in range(SHOWN_MODES)), marks)
             self.text.content = as_html(_words(shares, returns))
 
 
