@@ -299,15 +299,6 @@ def loaded_in_thread(ident: int) -> bool:
         return _running(_WATCH.locked, ident)
 
 
-def forget_thread(ident: int) -> None:
-    """Forget what the thread ``ident`` compiled or read (a finished thread's identity may be
-    given to a new one)."""
-    _WATCH.install()
-    with _WATCH._lock:
-        _discard(_WATCH.seen, ident)
-        _discard(_WATCH.locked, ident)
-
-
 def compiles_started() -> int:
     """How many numba compiles (not cache reads) started in this process since it began
     watching (the first call, or the first ``KernelPreparer``)."""
